@@ -1,0 +1,1 @@
+"""Bundled state machines (YAML), found by name."""

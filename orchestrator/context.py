@@ -1,0 +1,134 @@
+"""Context: what a skill or a guard sees of the running episode."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .blackboard import Blackboard
+from .pose import Pose
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from .robots import Controller, Robot
+    from .scenario import Scenario
+    from .world import World
+
+__all__ = ["Context", "Event"]
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something that happened at simulated time `t` [s]."""
+
+    t: float
+    kind: str
+    message: str
+    level: str = "INFO"
+    data: dict[str, Any] | None = None
+
+
+class Context:
+    """The running episode as seen from a skill (every control tick) or a guard (every step).
+
+    Sensing goes through the accessors below: they read the simulated sensors and encoders,
+    the way a robot's own software would.
+    """
+
+    def __init__(
+        self,
+        world: World,
+        controller: Controller,
+        blackboard: Blackboard,
+        rng: np.random.Generator,
+        dt_control: float,
+    ) -> None:
+        self.world = world
+        self.model: mujoco.MjModel = world.model
+        self.data: mujoco.MjData = world.data
+        self.robot: Robot = world.robot
+        self.scenario: Scenario = world.scenario
+        self.controller = controller
+        self.blackboard = blackboard
+        self.rng = rng
+        self.dt_control = dt_control
+        self.dt_physics = float(world.model.opt.timestep)
+        self.tick = 0
+        self.gripper_target = world.robot.gripper_open_m
+        self.events: list[Event] = []
+        self.listeners: list[Callable[[Event], None]] = []
+        self.ik: Any = None
+        """The IK solver motion skills share (`orchestrator.skills.ik.IKSolver`)."""
+        self.ik_target: Pose | None = None
+        """The pose the active motion skill is driving the TCP to (for guards and recording)."""
+
+    # -- time ---------------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        """Simulated time [s]."""
+        return float(self.data.time)
+
+    # -- proprioception -----------------------------------------------------------------
+    @property
+    def q(self) -> np.ndarray:
+        """Arm joint angles [rad]. Shape (n_arm,)."""
+        return self.data.qpos[self.world.arm_qpos]
+
+    @property
+    def qd(self) -> np.ndarray:
+        """Arm joint velocities [rad/s]. Shape (n_arm,)."""
+        return self.data.qvel[self.world.arm_dof]
+
+    def robot_q(self) -> tuple[np.ndarray, np.ndarray]:
+        """Positions and velocities of all robot joints (arm, then fingers)."""
+        return self.data.qpos[self.world.robot_qpos], self.data.qvel[self.world.robot_dof]
+
+    @property
+    def tcp_pos(self) -> np.ndarray:
+        """TCP position in the world [m]. Shape (3,)."""
+        return self.data.site_xpos[self.world.tcp_site]
+
+    @property
+    def tcp_rot(self) -> np.ndarray:
+        """TCP orientation in the world. Shape (3, 3)."""
+        return self.data.site_xmat[self.world.tcp_site].reshape(3, 3)
+
+    @property
+    def gripper_width(self) -> float:
+        """Distance between the fingers [m]."""
+        return float(self.data.qpos[self.world.finger_qpos].sum())
+
+    def wrist_force(self) -> np.ndarray:
+        """External force on the hand in the world frame [N], hand weight removed. Shape (3,)."""
+        d, w = self.data, self.world
+        f_site = d.sensordata[w.force_adr : w.force_adr + 3]
+        rot = d.site_xmat[w.wrist_site].reshape(3, 3)
+        return w.wrist_bias_world - rot @ f_site
+
+    # -- commands -----------------------------------------------------------------------
+    def set_gripper(self, opening_m: float) -> None:
+        """Command each finger's opening [m] (0 closes with the gripper's full force)."""
+        self.gripper_target = float(opening_m)
+        self.data.ctrl[self.world.gripper_act] = self.gripper_target
+
+    # -- world knowledge (ground truth; perception skills add noise) ---------------------
+    def object_pose(self, name: str) -> Pose:
+        """True pose of a scene object."""
+        h = self.world.objects[name]
+        q = self.data.qpos
+        return Pose(
+            pos=q[h.qpos_adr : h.qpos_adr + 3].tolist(),
+            quat=q[h.qpos_adr + 3 : h.qpos_adr + 7].tolist(),
+        )
+
+    # -- events -------------------------------------------------------------------------
+    def log(self, kind: str, message: str, level: str = "INFO", **data: Any) -> None:
+        """Record an event at the current simulated time."""
+        event = Event(self.t, kind, message, level, data or None)
+        self.events.append(event)
+        for listener in self.listeners:
+            listener(event)

@@ -1,0 +1,28 @@
+"""Built-in guards, by name."""
+
+from __future__ import annotations
+
+from ..exceptions import OrchestratorError
+from ..guard import Guard
+from .contact_force import ContactForce
+from .joint_limits import JointLimits
+from .workspace import Workspace
+
+GUARDS: dict[str, type[Guard]] = {g.name: g for g in (JointLimits, Workspace, ContactForce)}
+
+
+class UnknownGuardError(OrchestratorError):
+    """No guard of that name."""
+
+
+def get_guard(name: str) -> type[Guard]:
+    """The guard class registered as `name`."""
+    try:
+        return GUARDS[name]
+    except KeyError:
+        raise UnknownGuardError(
+            f"unknown guard {name!r} (valid: {', '.join(sorted(GUARDS))})"
+        ) from None
+
+
+__all__ = ["GUARDS", "ContactForce", "JointLimits", "UnknownGuardError", "Workspace", "get_guard"]

@@ -1,0 +1,57 @@
+"""`joint_limits`: every arm joint inside its range (minus a margin)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+from pydantic import Field, NonNegativeFloat
+
+from ..guard import Guard, GuardParams, Violation
+
+if TYPE_CHECKING:
+    from ..context import Context
+
+__all__ = ["JointLimits"]
+
+
+class JointLimitsParams(GuardParams):
+    margin_rad: NonNegativeFloat = Field(
+        default=0.0, description="Fire this far inside the model's joint range [rad]."
+    )
+
+
+class JointLimits(Guard):
+    """Fires when an arm joint leaves [lower + margin, upper - margin]."""
+
+    name: ClassVar[str] = "joint_limits"
+    Params: ClassVar[type[GuardParams]] = JointLimitsParams
+
+    params: JointLimitsParams
+
+    def bind(self, ctx: Context) -> None:
+        m, w = ctx.model, ctx.world
+        jids = [m.joint(j).id for j in ctx.robot.arm_joints]
+        self.lower = m.jnt_range[jids, 0] + self.params.margin_rad
+        self.upper = m.jnt_range[jids, 1] - self.params.margin_rad
+        self.mid = (self.lower + self.upper) / 2.0
+        self.half = (self.upper - self.lower) / 2.0
+        self.idx = w.arm_qpos
+        self.names = ctx.robot.arm_joints
+
+    def check(self, ctx: Context) -> Violation | None:
+        q = ctx.data.qpos[self.idx]
+        if not (np.abs(q - self.mid) > self.half).any():
+            return None
+        i = int(np.argmax(np.maximum(self.lower - q, q - self.upper)))
+        bound = self.lower[i] if q[i] < self.lower[i] else self.upper[i]
+        return Violation(
+            self.name,
+            f"{self.names[i]} at {q[i]:.4f} rad is outside its range",
+            round(float(q[i]), 6),
+            round(float(bound), 6),
+        )
+
+    def monitored(self, ctx: Context) -> tuple[float, float]:
+        q = ctx.data.qpos[self.idx]
+        return float(np.min(np.minimum(q - self.lower, self.upper - q))), 0.0

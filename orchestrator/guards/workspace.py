@@ -1,0 +1,64 @@
+"""`workspace`: the TCP stays inside an axis-aligned box."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Annotated, ClassVar
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from ..guard import Guard, GuardParams, Violation
+
+if TYPE_CHECKING:
+    from ..context import Context
+
+__all__ = ["Workspace"]
+
+Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+
+
+class WorkspaceParams(GuardParams):
+    min: Vec3 = Field(default_factory=lambda: [-1.0, -1.0, 0.0], description="Lower corner [m].")
+    max: Vec3 = Field(default_factory=lambda: [1.0, 1.0, 1.5], description="Upper corner [m].")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> WorkspaceParams:
+        for axis, lo, hi in zip("xyz", self.min, self.max, strict=True):
+            if lo >= hi:
+                raise ValueError(f"min.{axis} = {lo} must be below max.{axis} = {hi}")
+        return self
+
+
+class Workspace(Guard):
+    """Fires when the TCP leaves the box [min, max] (world frame)."""
+
+    name: ClassVar[str] = "workspace"
+    Params: ClassVar[type[GuardParams]] = WorkspaceParams
+
+    params: WorkspaceParams
+
+    def bind(self, ctx: Context) -> None:
+        self.lo = np.asarray(self.params.min, float)
+        self.hi = np.asarray(self.params.max, float)
+        self.mid = (self.lo + self.hi) / 2.0
+        self.half = (self.hi - self.lo) / 2.0
+        self.site = ctx.world.tcp_site
+
+    def check(self, ctx: Context) -> Violation | None:
+        p = ctx.data.site_xpos[self.site]
+        if not (np.abs(p - self.mid) > self.half).any():
+            return None
+        i = int(np.argmax(np.maximum(self.lo - p, p - self.hi)))
+        bound = self.lo[i] if p[i] < self.lo[i] else self.hi[i]
+        axis = "xyz"[i]
+        return Violation(
+            self.name,
+            f"TCP {axis} = {p[i]:.4f} m is outside the workspace "
+            f"[{self.lo[i]:.3f}, {self.hi[i]:.3f}]",
+            [round(float(v), 6) for v in p],
+            {"axis": axis, "bound": round(float(bound), 6)},
+        )
+
+    def monitored(self, ctx: Context) -> tuple[float, float]:
+        p = ctx.data.site_xpos[self.site]
+        return float(np.min(np.minimum(p - self.lo, self.hi - p))), 0.0

@@ -1,0 +1,127 @@
+"""The machine language as pydantic models (the YAML keys are a contract: see DESIGN.md)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, NonNegativeInt, PositiveFloat, model_validator
+
+__all__ = ["GuardRef", "MachineSpec", "StateSpec", "guard_entries"]
+
+GuardRef = str | dict[str, dict[str, Any] | None]
+"""A guard by name (`joint_limits`) or with parameters (`{contact_force: {max_n: 40}}`)."""
+
+
+def guard_entries(refs: list[GuardRef] | dict[str, Any]) -> list[tuple[int | str, str, dict]]:
+    """Normalize guard references to `(position, name, params)`.
+
+    Accepts the list form of machines and the mapping form (`{name: params}`) of scenarios.
+    """
+    out: list[tuple[int | str, str, dict]] = []
+    if isinstance(refs, dict):
+        for name, params in refs.items():
+            out.append((name, name, dict(params or {})))
+        return out
+    for i, ref in enumerate(refs):
+        if isinstance(ref, str):
+            out.append((i, ref, {}))
+        else:
+            for name, params in ref.items():
+                out.append((i, name, dict(params or {})))
+    return out
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", populate_by_name=True)
+
+
+class StateSpec(_Strict):
+    """One state. It runs exactly one of: a `skill`, a nested `machine` file, inline `states`,
+    or it is `final`.
+    """
+
+    description: str | None = None
+    skill: str | None = Field(default=None, description="Skill to run, by its registered name.")
+    with_: dict[str, Any] = Field(
+        default_factory=dict,
+        alias="with",
+        description="Skill parameters; `$key` reads the blackboard.",
+    )
+    machine: str | None = Field(
+        default=None,
+        description="Nested machine file (relative to this file, then a bundled name).",
+    )
+    initial: str | None = Field(default=None, description="Initial state of inline `states`.")
+    states: dict[str, StateSpec] | None = Field(default=None, description="Inline nested machine.")
+    final: str | None = Field(
+        default=None, description="Final state: the outcome this machine ends with."
+    )
+    timeout: PositiveFloat | None = Field(
+        default=None, description="Simulated seconds before the state ends with outcome `timeout`."
+    )
+    retry: NonNegativeInt = Field(
+        default=0, description="Re-enter the state up to N times on a failure outcome."
+    )
+    retry_on: list[str] | None = Field(
+        default=None,
+        description="Outcomes that count as failures for `retry` (default: all but the first).",
+    )
+    transitions: dict[str, str] = Field(
+        default_factory=dict, description="Outcome -> next state."
+    )
+    guards: list[GuardRef] = Field(
+        default_factory=list, description="Guards active only while this state is active."
+    )
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> StateSpec:
+        kinds = [
+            k
+            for k, v in (
+                ("skill", self.skill),
+                ("machine", self.machine),
+                ("states", self.states),
+                ("final", self.final),
+            )
+            if v is not None
+        ]
+        if len(kinds) != 1:
+            got = ", ".join(kinds) if kinds else "none of them"
+            raise ValueError(
+                "a state needs exactly one of `skill`, `machine`, `states` or `final`"
+                f" (got {got})"
+            )
+        if self.states is not None and self.initial is None:
+            raise ValueError("inline `states` need an `initial` state")
+        if self.final is not None and self.transitions:
+            raise ValueError("a `final` state has no `transitions`")
+        return self
+
+    @property
+    def kind(self) -> str:
+        if self.skill is not None:
+            return "skill"
+        if self.machine is not None:
+            return "machine"
+        if self.states is not None:
+            return "states"
+        return "final"
+
+
+class MachineSpec(_Strict):
+    """A state machine: states, the initial one, blackboard defaults and guards."""
+
+    name: str
+    description: str | None = None
+    initial: str
+    blackboard: dict[str, Any] = Field(
+        default_factory=dict, description="Blackboard keys and their defaults."
+    )
+    guards: list[GuardRef] = Field(
+        default_factory=list, description="Guards active while this machine runs."
+    )
+    on_abort: str | None = Field(
+        default=None,
+        description="State entered when a guard fires (default: the built-in safe stop).",
+    )
+    states: dict[str, StateSpec] = Field(min_length=1)

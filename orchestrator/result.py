@@ -1,0 +1,38 @@
+"""RunResult: the JSON a run prints (the contract in DESIGN.md)."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, Field
+
+__all__ = ["Outcome", "RunResult"]
+
+Outcome = Literal["succeeded", "failed", "aborted"]
+
+EXIT_CODES: dict[str, int] = {"succeeded": 0, "failed": 1, "aborted": 3}
+
+
+class RunResult(BaseModel):
+    """What happened in one episode."""
+
+    scenario: str
+    seed: int
+    outcome: Outcome
+    final_state: str | None
+    reason: dict[str, Any] | None = Field(
+        default=None, description="The guard violation that aborted the run, else null."
+    )
+    sim_time: float = Field(description="Simulated time [s].")
+    wall_time: float = Field(description="Wall time of the episode [s] (build + simulate).")
+    transitions: list[dict[str, Any]]
+    metrics: dict[str, Any]
+    success: dict[str, bool]
+    retries: dict[str, int] = Field(default_factory=dict)
+
+    @property
+    def exit_code(self) -> int:
+        return EXIT_CODES[self.outcome]
+
+    def to_json_dict(self) -> dict[str, Any]:
+        return self.model_dump(mode="json")

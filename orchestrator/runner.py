@@ -1,0 +1,167 @@
+"""The runner: one episode on simulated time — control ticks, physics steps, guards."""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any, Protocol
+
+import mujoco
+import numpy as np
+
+from .blackboard import Blackboard
+from .context import Context
+from .executor import Executor
+from .guard import Guard
+from .guards import get_guard
+from .loading import MachineNode
+from .machine import guard_entries
+from .result import RunResult
+from .robots import Controller
+from .scenario_loading import LoadedScenario
+from .skills.ik import IKSolver
+from .success import evaluate
+from .world import World, robot_only_model
+
+__all__ = ["Observer", "run_episode"]
+
+SETTLE_S = 0.2
+"""Simulated time kept running after the machine finishes, before success is judged [s]."""
+
+
+class Observer(Protocol):
+    """Watches a run (the Rerun recorder is one). Called on simulated time only."""
+
+    def on_start(self, ctx: Context, executor: Executor) -> None: ...
+    def on_tick(self, ctx: Context, executor: Executor) -> None: ...
+    def on_end(self, ctx: Context, executor: Executor, result: RunResult) -> None: ...
+
+
+def _as_index(idx: np.ndarray) -> slice | np.ndarray:
+    """A slice when the indices are contiguous (cheaper on the hot path)."""
+    if len(idx) and np.all(np.diff(idx) == 1):
+        return slice(int(idx[0]), int(idx[-1]) + 1)
+    return idx
+
+
+def initial_blackboard(machine: MachineNode, overrides: dict[str, Any]) -> Blackboard:
+    """Defaults declared in the machine tree (outer levels win), then the scenario's values."""
+    values: dict[str, Any] = {}
+
+    def collect(node: MachineNode) -> None:
+        for child in node.children.values():
+            collect(child)
+        values.update(node.blackboard)
+
+    collect(machine)
+    values.update(overrides)
+    return Blackboard(values)
+
+
+def make_guards(refs, ctx: Context) -> list[Guard]:
+    out = []
+    for _, name, params in guard_entries(refs):
+        cls = get_guard(name)
+        guard = cls(cls.Params.model_validate(params))
+        guard.bind(ctx)
+        out.append(guard)
+    return out
+
+
+def run_episode(
+    loaded: LoadedScenario, seed: int, observers: list[Observer] | None = None
+) -> RunResult:
+    """Run one episode of `loaded` with `seed`: same inputs, same result, bit for bit."""
+    observers = observers or []
+    wall0 = time.perf_counter()
+    scn = loaded.scenario
+    world = World.build(scn, seed)
+    model, data = world.model, world.data
+    controller = Controller(world.robot)
+    controller.hold(world.home)
+    dt = float(model.opt.timestep)
+    n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
+    dt_control = n_sub * dt
+    ctx = Context(
+        world, controller, initial_blackboard(loaded.machine, scn.blackboard),
+        np.random.default_rng([seed, 1]), dt_control,
+    )
+    ctx.ik = IKSolver(world.robot, robot_only_model(world.robot.name), dt_control, scn.robot.base_pos)
+    executor = Executor(loaded.machine, ctx, make_guards(scn.guards, ctx), scn.physics.safe_stop_s)
+
+    q_idx, v_idx = _as_index(world.robot_qpos), _as_index(world.robot_dof)
+    act_idx = _as_index(world.arm_act)
+    time_limit = scn.physics.time_limit_s
+    max_force = 0.0
+    timed_out = False
+    diverged: str | None = None
+    for obs in observers:
+        obs.on_start(ctx, executor)
+    executor.start()
+    settle_until: float | None = None
+    while True:
+        if not executor.done:
+            executor.tick()
+        for obs in observers:
+            obs.on_tick(ctx, executor)
+        if executor.done:
+            if executor.outcome == "aborted":
+                break
+            if settle_until is None:
+                settle_until = ctx.t + SETTLE_S
+                controller.hold(controller.q_d.copy())
+            if ctx.t >= settle_until - 1e-9:
+                break
+        for _ in range(n_sub):
+            data.ctrl[act_idx] = controller.compute(data.qpos[q_idx], data.qvel[v_idx])
+            mujoco.mj_step(model, data)
+            for guard in executor.active_guards:
+                violation = guard.check(ctx)
+                if violation is not None:
+                    executor.abort(violation)
+                    break
+        ctx.tick += 1
+        f = ctx.wrist_force()
+        max_force = max(max_force, math.sqrt(float(f @ f)))
+        if not np.all(np.isfinite(data.qpos)) or data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
+            diverged = f"physics diverged at t={ctx.t:.3f} s (state {executor.leaf})"
+            break
+        if ctx.t >= time_limit and not executor.done:
+            timed_out = True
+            break
+
+    if executor.done:
+        outcome = executor.outcome
+        final_state = executor.final_state
+    else:
+        outcome = "failed"
+        final_state = executor.leaf
+    success = evaluate(ctx, scn.success) if not diverged else dict.fromkeys(scn.success, False)
+    if outcome == "succeeded" and not all(success.values()):
+        outcome = "failed"
+    metrics: dict[str, Any] = {
+        "cycle_time": round(executor.final_t, 6) if executor.final_t is not None else None,
+        "max_wrist_force_n": round(max_force, 4),
+        "control_ticks": ctx.tick,
+    }
+    if timed_out:
+        metrics["time_limit_reached"] = True
+    if diverged:
+        metrics["error"] = diverged
+    wall = time.perf_counter() - wall0
+    result = RunResult(
+        scenario=scn.name,
+        seed=seed,
+        outcome=outcome,  # type: ignore[arg-type]
+        final_state=final_state,
+        reason=executor.violation.to_dict() if executor.violation else None,
+        sim_time=round(ctx.t, 6),
+        wall_time=round(wall, 4),
+        transitions=executor.transitions,
+        metrics=metrics,
+        success=success,
+        retries=executor.retries,
+    )
+    for obs in observers:
+        obs.on_end(ctx, executor, result)
+    return result

@@ -1,0 +1,112 @@
+"""Load a scenario, apply `--set` overrides, load and validate its machine."""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+from pathlib import Path
+
+from pydantic import ValidationError
+
+from .bundled import bundled_names, resolve_file
+from .diagnostics import Diagnostic
+from .exceptions import ConfigError
+from .loading import MachineNode, load_machine_file
+from .overrides import apply_override, parse_override
+from .pydantic_errors import diagnostics_from_validation
+from .scenario import Scenario
+from .validation import blackboard_keys, validate_guards, validate_machine
+from .yamlio import SourceMap, load_yaml
+
+__all__ = ["LoadedScenario", "load_scenario"]
+
+
+@dataclass
+class LoadedScenario:
+    """A validated scenario, its machine tree, and where it came from."""
+
+    scenario: Scenario
+    machine: MachineNode
+    path: Path
+    source: SourceMap
+
+    @property
+    def name(self) -> str:
+        return self.scenario.name
+
+
+def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenario:
+    """Load and validate a scenario by path or bundled name.
+
+    Raises:
+        ConfigError: With every problem found in the scenario, its machine and the overrides.
+    """
+    path = resolve_file(ref, "scenarios")
+    if path is None:
+        raise ConfigError(
+            [Diagnostic(ref, 0, 0, "<scenario>", "no such scenario file or bundled scenario",
+                        tuple(bundled_names("scenarios")))]
+        )
+    doc = load_yaml(path)
+    problems = list(doc.problems)
+    data = doc.data
+    if not isinstance(data, dict):
+        problems.append(doc.source.diag((), "a scenario file must be a mapping (name, machine, scene, ...)"))
+        raise ConfigError(problems)
+    data = copy.deepcopy(data)
+    machine: MachineNode | None = None
+    machine_ref = data.get("machine")
+    if isinstance(machine_ref, str):
+        mpath = resolve_file(machine_ref, "machines", path.parent)
+        if mpath is None:
+            problems.append(doc.source.diag(("machine",), f"machine {machine_ref!r} not found "
+                                            f"(relative to {path.parent}, nor bundled)",
+                                            tuple(bundled_names("machines"))))
+        else:
+            machine, sub = load_machine_file(mpath)
+            problems += sub
+    keys = blackboard_keys(machine) if machine else set()
+    if isinstance(data.get("blackboard"), dict):
+        keys |= set(data["blackboard"])
+    for text in overrides or []:
+        ov = parse_override(text)
+        if isinstance(ov, Diagnostic):
+            problems.append(ov)
+            continue
+        diag = apply_override(data, ov, keys)
+        if diag is not None:
+            problems.append(diag)
+    scenario: Scenario | None = None
+    try:
+        scenario = Scenario.model_validate(data)
+    except ValidationError as exc:
+        problems += diagnostics_from_validation(exc, Scenario, doc.source, data)
+    if scenario is not None:
+        problems += validate_guards(scenario.guards, doc.source, ("guards",))
+        problems += _check_scenario_refs(scenario, doc.source)
+        if machine is not None:
+            for key in scenario.blackboard:
+                if key not in keys:
+                    problems.append(doc.source.diag(("blackboard", key), f"the machine has no blackboard key {key!r}", tuple(sorted(keys))))
+    if machine is not None:
+        problems += validate_machine(machine, extra_keys=keys)
+    if problems:
+        raise ConfigError(problems)
+    assert scenario is not None and machine is not None
+    return LoadedScenario(scenario, machine, path, doc.source)
+
+
+def _check_scenario_refs(scenario: Scenario, src: SourceMap) -> list[Diagnostic]:
+    out = []
+    objects = [o.name for o in scenario.scene.objects]
+    markers = [m.name for m in scenario.scene.markers]
+    for name, check in scenario.success.items():
+        if check.object not in objects:
+            out.append(src.diag(("success", name, "object"), f"no scene object {check.object!r}", tuple(objects)))
+        if check.target is not None and check.target not in markers:
+            out.append(src.diag(("success", name, "target"), f"no marker {check.target!r}", tuple(markers)))
+    from .robots import ROBOTS
+
+    if scenario.robot.name not in ROBOTS:
+        out.append(src.diag(("robot", "name"), f"unknown robot {scenario.robot.name!r}", tuple(sorted(ROBOTS))))
+    return out

@@ -1,0 +1,1 @@
+"""Generated JSON Schemas of the machine and scenario languages."""

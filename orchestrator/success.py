@@ -1,0 +1,41 @@
+"""Success criteria, evaluated at the end of a run."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from .context import Context
+from .scenario import SuccessCheck
+
+__all__ = ["evaluate"]
+
+
+def evaluate(ctx: Context, checks: dict[str, SuccessCheck]) -> dict[str, bool]:
+    """Name -> passed, for every criterion of the scenario."""
+    return {name: _check(ctx, c) for name, c in checks.items()}
+
+
+def _check(ctx: Context, c: SuccessCheck) -> bool:
+    pose = ctx.object_pose(c.object)
+    if c.kind == "object_at":
+        assert c.target is not None
+        target = ctx.world.markers[c.target]
+        xy_err = float(np.linalg.norm(np.asarray(pose.pos[:2]) - target[:2]))
+        w, x, y, z = pose.quat
+        up = 1.0 - 2.0 * (x * x + y * y)
+        upright = up >= math.cos(math.radians(c.upright_tol_deg))
+        handle = ctx.world.objects[c.object]
+        resting = pose.pos[2] < ctx.world.table_height + handle.half_size[2] + 0.01
+        return bool(xy_err <= c.xy_tol_m and upright and resting)
+    # gripper_clear: open, and no finger geom within min_distance of the object
+    open_enough = ctx.gripper_width >= 2 * ctx.robot.gripper_open_m * 0.9
+    handle = ctx.world.objects[c.object]
+    fromto = np.zeros(6)
+    for g in ctx.world.finger_geoms:
+        dist = mujoco.mj_geomDistance(ctx.model, ctx.data, g, handle.geom_id, c.min_distance_m + 0.05, fromto)
+        if dist < c.min_distance_m:
+            return False
+    return bool(open_enough)

@@ -1,0 +1,82 @@
+"""Robot base: what the framework needs to know about an arm + gripper."""
+
+from __future__ import annotations
+
+import abc
+import functools
+from dataclasses import dataclass
+from typing import ClassVar
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+
+__all__ = ["Gains", "Robot"]
+
+
+@dataclass(frozen=True)
+class Gains:
+    """Default joint-impedance gains of an arm.
+
+    Attributes:
+        kp: Joint stiffness in [Nm/rad]. Shape (n_arm,).
+        kd: Joint damping in [Nm s/rad]. Shape (n_arm,).
+    """
+
+    kp: np.ndarray
+    kd: np.ndarray
+
+
+class Robot(abc.ABC):
+    """An arm with a parallel gripper, described once for MuJoCo and for pinocchio.
+
+    Subclasses set the names below and implement `build_spec` (the MuJoCo plant, robot only)
+    and `urdf_path` (the same robot for the controller's pinocchio model).
+    """
+
+    name: ClassVar[str]
+    arm_joints: ClassVar[tuple[str, ...]]
+    finger_joints: ClassVar[tuple[str, ...]]
+    tcp_site: ClassVar[str] = "tcp"
+    wrist_site: ClassVar[str] = "wrist_ft"
+    force_sensor: ClassVar[str] = "wrist_force"
+    torque_sensor: ClassVar[str] = "wrist_torque"
+    gripper_actuator: ClassVar[str] = "gripper"
+    hand_body: ClassVar[str]
+    root_body: ClassVar[str]
+    """First body of the robot (its base link)."""
+    finger_bodies: ClassVar[tuple[str, str]]
+    tcp_frame: ClassVar[str]
+    """Name of the TCP frame in the URDF (for pinocchio)."""
+    home: ClassVar[tuple[float, ...]]
+    """Arm joint angles of the home pose in [rad]."""
+    gripper_open_m: ClassVar[float]
+    """Per-finger opening when fully open in [m]."""
+    gripper_force_n: ClassVar[float]
+    """Grip force each finger can press with in [N]."""
+    gains: ClassVar[Gains]
+    shoulder_height_m: ClassVar[float]
+    """Height of the first pitch axis above the base [m]."""
+    reach_m: ClassVar[float]
+    """Farthest TCP distance from the shoulder [m]: beyond it a target is unreachable."""
+
+    @abc.abstractmethod
+    def urdf_path(self) -> str:
+        """Path to the URDF this robot is built from."""
+
+    @abc.abstractmethod
+    def build_spec(self) -> mujoco.MjSpec:
+        """The robot alone as an MjSpec: actuators, sites, sensors and a `home` keyframe."""
+
+    @property
+    def n_arm(self) -> int:
+        return len(self.arm_joints)
+
+    def pinocchio_model(self) -> pin.Model:
+        """The controller's own model of the robot, loaded from the same URDF (cached)."""
+        return _pinocchio_model(self.urdf_path())
+
+
+@functools.cache
+def _pinocchio_model(urdf: str) -> pin.Model:
+    return pin.buildModelFromUrdf(urdf)

@@ -1,0 +1,163 @@
+"""The low-level controller (the cerebellum): setpoint -> joint torques, every physics step.
+
+It uses its own pinocchio model of the arm, loaded from the same URDF as the MuJoCo plant,
+never MuJoCo's ground truth: model mismatch (rotor inertia, a held object, a mounted tool)
+is real, and this is where it shows.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from .base import Robot
+
+__all__ = ["CartesianGains", "ControlMode", "Controller"]
+
+
+class ControlMode(enum.Enum):
+    """What the controller tracks."""
+
+    JOINT = "joint"
+    """Joint impedance to (q_d, qd_d): tau = Kp (q_d - q) + Kd (qd_d - qd) + g(q)."""
+    CARTESIAN = "cartesian"
+    """Cartesian impedance: tau = J^T (K e - D xdot) + g(q) + nullspace posture term."""
+    HOLD = "hold"
+    """Joint impedance to the pose captured when hold() was called, zero velocity."""
+
+
+@dataclass(frozen=True)
+class CartesianGains:
+    """Cartesian impedance gains.
+
+    Attributes:
+        stiffness: Translational stiffness in [N/m] and rotational in [Nm/rad]. Shape (6,).
+        damping: Translational damping in [N s/m] and rotational in [Nm s/rad]. Shape (6,).
+        nullspace_stiffness: Posture stiffness in the nullspace in [Nm/rad].
+    """
+
+    stiffness: np.ndarray
+    damping: np.ndarray
+    nullspace_stiffness: float = 10.0
+
+    @classmethod
+    def critically_damped(
+        cls, translational: float, rotational: float, mass_kg: float = 2.0, inertia: float = 0.1
+    ) -> CartesianGains:
+        """Gains with damping 2 sqrt(K m) for a nominal apparent mass and inertia."""
+        k = np.array([translational] * 3 + [rotational] * 3)
+        m = np.array([mass_kg] * 3 + [inertia] * 3)
+        return cls(stiffness=k, damping=2.0 * np.sqrt(k * m))
+
+
+class Controller:
+    """Torque controller of one arm.
+
+    Args:
+        robot: The robot; its URDF gives the pinocchio model, its gains the defaults.
+    """
+
+    def __init__(self, robot: Robot) -> None:
+        self.robot = robot
+        self.model = robot.pinocchio_model()
+        self.data = self.model.createData()
+        self.n = robot.n_arm
+        self.kp = robot.gains.kp.astype(float).copy()
+        self.kd = robot.gains.kd.astype(float).copy()
+        self.effort_limit = np.asarray(self.model.effortLimit[: self.n], dtype=float).copy()
+        self.tcp_id = self.model.getFrameId(robot.tcp_frame)
+        self.mode = ControlMode.HOLD
+        self.q_d = np.array(robot.home, dtype=float)
+        self.qd_d = np.zeros(self.n)
+        self.pos_d = np.zeros(3)
+        self.rot_d = np.eye(3)
+        self.cart = CartesianGains.critically_damped(500.0, 30.0)
+        self.q_null = np.array(robot.home, dtype=float)
+        self.tau = np.zeros(self.n)
+        self._lo = -self.effort_limit
+
+    # -- setpoints ----------------------------------------------------------------------
+    def set_joint_target(self, q_d: np.ndarray, qd_d: np.ndarray | None = None) -> None:
+        """Track joint angles `q_d` [rad] with feed-forward velocity `qd_d` [rad/s]. Shape (n,)."""
+        self.mode = ControlMode.JOINT
+        self.q_d[:] = q_d
+        if qd_d is None:
+            self.qd_d[:] = 0.0
+        else:
+            self.qd_d[:] = qd_d
+
+    def hold(self, q: np.ndarray) -> None:
+        """Hold joint angles `q` [rad] at zero velocity."""
+        self.mode = ControlMode.HOLD
+        self.q_d[:] = q
+        self.qd_d[:] = 0.0
+
+    def set_cartesian_target(
+        self,
+        pos: np.ndarray,
+        rot: np.ndarray,
+        gains: CartesianGains | None = None,
+        q_null: np.ndarray | None = None,
+    ) -> None:
+        """Cartesian impedance about the TCP pose (`pos` [m], `rot` 3x3) in the base frame."""
+        self.mode = ControlMode.CARTESIAN
+        self.pos_d[:] = pos
+        self.rot_d[:] = rot
+        if gains is not None:
+            self.cart = gains
+        if q_null is not None:
+            self.q_null[:] = q_null
+
+    # -- the loop -----------------------------------------------------------------------
+    def compute(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """Joint torques for the measured state.
+
+        Args:
+            q: Joint positions of the pinocchio model (arm then fingers). Shape (nq,).
+            qd: Joint velocities. Shape (nv,).
+
+        Returns:
+            Arm torques in [Nm], clamped to the effort limits. Shape (n,).
+        """
+        n = self.n
+        g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
+        if self.mode is ControlMode.CARTESIAN:
+            tau = self._cartesian(q, qd) + g
+        else:
+            tau = self.kp * (self.q_d - q[:n]) + self.kd * (self.qd_d - qd[:n]) + g
+        np.clip(tau, self._lo, self.effort_limit, out=self.tau)
+        return self.tau
+
+    @property
+    def clamped(self) -> np.ndarray:
+        """Which joints had their torque clamped to the effort limit at the last compute()."""
+        return np.abs(self.tau) >= self.effort_limit
+
+    def tcp_pose(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """TCP position [m] and rotation of the controller's own model at `q`."""
+        pin.framesForwardKinematics(self.model, self.data, q)
+        frame = self.data.oMf[self.tcp_id]
+        return frame.translation.copy(), frame.rotation.copy()
+
+    def _cartesian(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        n = self.n
+        model, data = self.model, self.data
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        jac = pin.getFrameJacobian(model, data, self.tcp_id, pin.LOCAL_WORLD_ALIGNED)[:, :n]
+        frame = data.oMf[self.tcp_id]
+        err = np.empty(6)
+        err[:3] = self.pos_d - frame.translation
+        err[3:] = frame.rotation @ pin.log3(frame.rotation.T @ self.rot_d)
+        twist = jac @ qd[:n]
+        wrench = self.cart.stiffness * err - self.cart.damping * twist
+        tau = jac.T @ wrench
+        # Posture in the nullspace of the task: N = I - J^T (J^+)^T.
+        jac_pinv = np.linalg.pinv(jac, rcond=1e-3)
+        null = np.eye(n) - jac.T @ jac_pinv.T
+        k_null = self.cart.nullspace_stiffness
+        tau_null = k_null * (self.q_null - q[:n]) - 2.0 * np.sqrt(k_null) * qd[:n]
+        return tau + null @ tau_null

@@ -1,0 +1,171 @@
+"""The Franka Panda plant, assembled with MjSpec from example-robot-data's URDF."""
+
+from __future__ import annotations
+
+import functools
+import importlib.metadata
+import os
+from pathlib import Path
+from typing import ClassVar
+
+import mujoco
+import numpy as np
+
+from ..base import Gains, Robot
+from ..exceptions import RobotError
+
+__all__ = ["Panda", "panda_urdf_path"]
+
+_URDF_IN_WHEEL = "cmeel.prefix/share/example-robot-data/robots/panda_description/urdf/panda.urdf"
+_ENV_OVERRIDE = "ORCHESTRATOR_PANDA_URDF"
+
+
+@functools.cache
+def panda_urdf_path() -> Path:
+    """Locate panda.urdf inside the installed `example-robot-data` distribution."""
+    if override := os.environ.get(_ENV_OVERRIDE):
+        return Path(override)
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError as exc:
+        raise RobotError(
+            "the Panda URDF comes from the 'example-robot-data' package, which is not installed"
+            " — run: pip install example-robot-data"
+        ) from exc
+    for file in dist.files or ():
+        if str(file).endswith("panda_description/urdf/panda.urdf"):
+            return Path(str(dist.locate_file(file)))
+    path = Path(str(dist.locate_file(_URDF_IN_WHEEL)))
+    if not path.exists():
+        raise RobotError(
+            f"example-robot-data is installed but has no panda.urdf (looked for {path});"
+            f" reinstall it or set {_ENV_OVERRIDE}"
+        )
+    return path
+
+
+# Bit 1: robot geoms, bit 2: world geoms. Robot geoms do not collide with each other
+# (the controller never folds the arm onto itself in these flows, and self-collision
+# of the mesh links would dominate the step time).
+ROBOT_CONTYPE, ROBOT_CONAFFINITY = 1, 2
+WORLD_CONTYPE, WORLD_CONAFFINITY = 2, 3
+
+
+class Panda(Robot):
+    """Franka Emika Panda: 7 torque-controlled joints, a two-finger parallel gripper."""
+
+    name: ClassVar[str] = "panda"
+    arm_joints: ClassVar[tuple[str, ...]] = tuple(f"panda_joint{i}" for i in range(1, 8))
+    finger_joints: ClassVar[tuple[str, ...]] = ("panda_finger_joint1", "panda_finger_joint2")
+    hand_body: ClassVar[str] = "panda_hand"
+    root_body: ClassVar[str] = "panda_link0"
+    finger_bodies: ClassVar[tuple[str, str]] = ("panda_leftfinger", "panda_rightfinger")
+    tcp_frame: ClassVar[str] = "panda_hand_tcp"
+    home: ClassVar[tuple[float, ...]] = (0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785)
+    gripper_open_m: ClassVar[float] = 0.04
+    gripper_force_n: ClassVar[float] = 20.0
+    gains: ClassVar[Gains] = Gains(
+        kp=np.array([600.0, 600.0, 600.0, 600.0, 250.0, 150.0, 50.0]),
+        kd=np.array([50.0, 50.0, 50.0, 50.0, 20.0, 15.0, 5.0]),
+    )
+    shoulder_height_m: ClassVar[float] = 0.333
+    reach_m: ClassVar[float] = 0.855
+    armature: ClassVar[float] = 0.1
+    """Rotor inertia added to each arm joint in [kg m^2]; the pinocchio model has none."""
+
+    def urdf_path(self) -> str:
+        return str(panda_urdf_path())
+
+    def build_spec(self) -> mujoco.MjSpec:
+        urdf = panda_urdf_path()
+        mesh_dir = urdf.parent.parent / "meshes" / "collision"
+        text = urdf.read_text()
+        spec = mujoco.MjSpec.from_string(text)
+        spec.modelname = "panda"
+        spec.compiler.discardvisual = True
+        spec.compiler.fusestatic = False  # panda_hand stays a body: the wrist sensor needs it
+        spec.compiler.balanceinertia = True
+        for mesh in spec.meshes:
+            mesh.file = str(mesh_dir / Path(mesh.file).name)
+        for geom in spec.geoms:
+            geom.contype, geom.conaffinity = ROBOT_CONTYPE, ROBOT_CONAFFINITY
+        for joint in spec.joints:
+            joint.damping = [0.0, 0.0, 0.0]
+            joint.frictionloss = 0.0
+        for jname in self.arm_joints:
+            joint = spec.joint(jname)
+            joint.armature = self.armature
+        self._add_actuators(spec)  # arm motors first: ctrl[:n_arm] are the arm torques
+        self._add_gripper(spec)
+        self._add_sites_and_sensors(spec)
+        return spec
+
+    def _add_actuators(self, spec: mujoco.MjSpec) -> None:
+        for jname in self.arm_joints:
+            joint = spec.joint(jname)
+            effort = _urdf_effort(jname)
+            act = spec.add_actuator(name=jname.replace("joint", "motor"), target=jname)
+            act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+            act.ctrllimited = True
+            act.ctrlrange = [-effort, effort]
+            act.forcelimited = True
+            act.forcerange = [-effort, effort]
+            del joint
+
+    def _add_gripper(self, spec: mujoco.MjSpec) -> None:
+        j1, j2 = self.finger_joints
+        for jname in self.finger_joints:
+            joint = spec.joint(jname)
+            joint.armature = 0.01
+            joint.damping = [5.0, 0.0, 0.0]
+        for bname in self.finger_bodies:
+            for geom in spec.body(bname).geoms:
+                geom.friction = [1.5, 0.01, 0.001]
+                geom.condim = 4
+                geom.solref = [0.005, 1.0]
+        eq = spec.add_equality(name="finger_mimic", type=mujoco.mjtEq.mjEQ_JOINT)
+        eq.name1, eq.name2 = j1, j2
+        eq.data[0:5] = [0, 1, 0, 0, 0]
+        tendon = spec.add_tendon(name="finger_split")
+        tendon.wrap_joint(j1, 0.5)
+        tendon.wrap_joint(j2, 0.5)
+        kp, kv = 4000.0, 40.0
+        act = spec.add_actuator(name=self.gripper_actuator, target="finger_split")
+        act.trntype = mujoco.mjtTrn.mjTRN_TENDON
+        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        act.gainprm[0] = kp
+        act.biasprm[0:3] = [0.0, -kp, -kv]
+        act.ctrllimited = True
+        act.ctrlrange = [0.0, self.gripper_open_m]
+        act.forcelimited = True
+        # each finger gets half of the tendon force
+        act.forcerange = [-2 * self.gripper_force_n, 2 * self.gripper_force_n]
+
+    def _add_sites_and_sensors(self, spec: mujoco.MjSpec) -> None:
+        spec.body(self.tcp_frame).add_site(name=self.tcp_site, size=[0.005, 0.005, 0.005])
+        spec.body(self.hand_body).add_site(name=self.wrist_site, size=[0.005, 0.005, 0.005])
+        force = spec.add_sensor(name=self.force_sensor, type=mujoco.mjtSensor.mjSENS_FORCE)
+        force.objtype, force.objname = mujoco.mjtObj.mjOBJ_SITE, self.wrist_site
+        torque = spec.add_sensor(name=self.torque_sensor, type=mujoco.mjtSensor.mjSENS_TORQUE)
+        torque.objtype, torque.objname = mujoco.mjtObj.mjOBJ_SITE, self.wrist_site
+        key = spec.add_key(name="home")
+        key.qpos = [*self.home, self.gripper_open_m, self.gripper_open_m]
+        key.ctrl = [0.0] * self.n_arm + [self.gripper_open_m]
+
+
+@functools.cache
+def _urdf_efforts() -> dict[str, float]:
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(panda_urdf_path()).getroot()
+    out: dict[str, float] = {}
+    for joint in root.iter("joint"):
+        limit = joint.find("limit")
+        if limit is not None and "effort" in limit.attrib:
+            out[joint.attrib["name"]] = float(limit.attrib["effort"])
+    return out
+
+
+def _urdf_effort(joint: str) -> float:
+    return _urdf_efforts()[joint]

@@ -1,0 +1,1 @@
+"""Bundled scenarios (YAML), found by name."""

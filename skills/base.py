@@ -1,0 +1,57 @@
+"""The Skill base: an atomic, non-blocking robot behaviour with a py_trees-style lifecycle."""
+
+from __future__ import annotations
+
+import abc
+from typing import TYPE_CHECKING, ClassVar
+
+from pydantic import BaseModel, ConfigDict
+
+if TYPE_CHECKING:
+    from orchestrator.context import Context
+
+__all__ = ["Skill", "SkillParams"]
+
+
+class SkillParams(BaseModel):
+    """Base of every skill's `Params`: unknown keys are an error."""
+
+    model_config = ConfigDict(extra="forbid", arbitrary_types_allowed=True)
+
+
+class Skill(abc.ABC):
+    """One atomic behaviour run by a state.
+
+    The framework owns the loop: `start` once on entry, `step` every control tick until it
+    returns an outcome, `stop` on exit (also when a guard aborts or a timeout fires). A skill
+    never blocks and never steps physics itself.
+
+    Class attributes:
+        name: The name used in YAML (`skill: move`).
+        Params: Validates the state's `with:` block.
+        outcomes: Every outcome `step` can return; the first one is the success outcome.
+        writes: Names of the Params fields that hold blackboard keys this skill writes.
+    """
+
+    name: ClassVar[str]
+    Params: ClassVar[type[SkillParams]]
+    outcomes: ClassVar[tuple[str, ...]]
+    writes: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, params: SkillParams) -> None:
+        self.params = params
+
+    def start(self, ctx: Context) -> None:  # noqa: B027 - optional hook
+        """Capture the start state and set targets."""
+
+    @abc.abstractmethod
+    def step(self, ctx: Context) -> str | None:
+        """Advance one control tick: None while running, else one of `outcomes`."""
+
+    def stop(self, ctx: Context) -> None:
+        """Leave a safe setpoint behind: by default hold the current joint angles."""
+        ctx.controller.hold(ctx.q)
+
+    def written_keys(self) -> list[str]:
+        """Blackboard keys this instance writes (the values of its `writes` fields)."""
+        return [getattr(self.params, f) for f in self.writes]

@@ -1,0 +1,85 @@
+"""`grasp`: close the gripper on an object and check that it is held."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+from pydantic import Field, PositiveFloat
+
+from .base import Skill, SkillParams
+from .gripper import finger_contact_forces
+
+if TYPE_CHECKING:
+    from orchestrator.context import Context
+
+__all__ = ["Grasp"]
+
+
+_STILL_MPS = 0.005
+"""Finger speed below which the fingers count as stopped [m/s] (contacts creep slowly)."""
+
+
+class GraspParams(SkillParams):
+    object: str = Field(description="Name of the scene object to grasp.")
+    min_force_n: PositiveFloat = Field(
+        default=5.0, description="Normal force each finger must press with for `grasped` [N]."
+    )
+    settle_s: PositiveFloat = Field(
+        default=0.1, description="Minimum closing time before the check [s]."
+    )
+    close_timeout_s: PositiveFloat = Field(
+        default=1.5, description="Longest time to wait for the fingers to stop [s]."
+    )
+
+
+class Grasp(Skill):
+    """Close the fingers until they stop; `grasped` only if the object is between them and
+    both fingers press on it with at least `min_force_n`, else `missed`."""
+
+    name: ClassVar[str] = "grasp"
+    Params: ClassVar[type[SkillParams]] = GraspParams
+    outcomes: ClassVar[tuple[str, ...]] = ("grasped", "missed")
+
+    params: GraspParams
+
+    def start(self, ctx: Context) -> None:
+        if self.params.object not in ctx.world.objects:
+            from orchestrator.exceptions import SkillError
+
+            valid = ", ".join(sorted(ctx.world.objects))
+            raise SkillError(f"grasp: unknown object {self.params.object!r} (valid: {valid})")
+        self.t0 = ctx.t
+        self.still_ticks = 0
+        ctx.controller.hold(ctx.controller.q_d.copy())
+        ctx.set_gripper(0.0)
+
+    def step(self, ctx: Context) -> str | None:
+        p = self.params
+        elapsed = ctx.t - self.t0
+        finger_speed = float(np.max(np.abs(ctx.data.qvel[ctx.world.robot_dof[ctx.robot.n_arm :]])))
+        self.still_ticks = self.still_ticks + 1 if finger_speed < _STILL_MPS else 0
+        if elapsed < p.settle_s or (self.still_ticks < 3 and elapsed < p.close_timeout_s):
+            return None
+        handle = ctx.world.objects[p.object]
+        left, right = finger_contact_forces(ctx, handle.geom_id)
+        between = _between_fingers(ctx, p.object)
+        held = min(left, right) >= p.min_force_n and between
+        ctx.log(
+            "skill",
+            f"grasp: width {ctx.gripper_width * 1000:.1f} mm, finger forces "
+            f"{left:.1f}/{right:.1f} N, between fingers: {between}",
+        )
+        return "grasped" if held else "missed"
+
+    def stop(self, ctx: Context) -> None:
+        ctx.controller.hold(ctx.controller.q_d.copy())
+
+
+def _between_fingers(ctx: Context, name: str) -> bool:
+    """The object's centre lies between the finger pads (in the hand's frame)."""
+    obj = np.asarray(ctx.object_pose(name).pos)
+    rel = ctx.tcp_rot.T @ (obj - ctx.tcp_pos)
+    half = ctx.world.objects[name].half_size
+    # closing axis is the TCP y axis; along x and z the centre must be within the pad span
+    return bool(abs(rel[0]) < max(half) + 0.01 and abs(rel[2]) < max(half) + 0.02)

@@ -1,0 +1,33 @@
+"""Helpers shared by the gripper skills: contacts between the fingers and an object."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+if TYPE_CHECKING:
+    from orchestrator.context import Context
+
+__all__ = ["finger_contact_forces"]
+
+
+def finger_contact_forces(ctx: Context, object_geom: int) -> tuple[float, float]:
+    """Normal contact force [N] of the left and the right finger on `object_geom`."""
+    m, d, w = ctx.model, ctx.data, ctx.world
+    left, right = w.finger_body_ids
+    out = [0.0, 0.0]
+    wrench = np.zeros(6)
+    for i in range(d.ncon):
+        con = d.contact[i]
+        g1, g2 = con.geom1, con.geom2
+        if object_geom not in (g1, g2):
+            continue
+        other = g2 if g1 == object_geom else g1
+        body = m.geom_bodyid[other]
+        if body not in (left, right):
+            continue
+        mujoco.mj_contactForce(m, d, i, wrench)
+        out[0 if body == left else 1] += abs(float(wrench[0]))
+    return out[0], out[1]

@@ -1,0 +1,64 @@
+"""`move_joints`: a synchronized joint-space move, e.g. to home."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, ClassVar, Literal
+
+import numpy as np
+from pydantic import Field, PositiveFloat
+
+from .base import Skill, SkillParams
+from .trajectory import Trapezoid
+
+if TYPE_CHECKING:
+    from orchestrator.context import Context
+
+__all__ = ["MoveJoints"]
+
+
+class MoveJointsParams(SkillParams):
+    to: Literal["home"] | list[float] = Field(
+        default="home", description="`home` or the arm joint angles [rad]."
+    )
+    max_speed: PositiveFloat = Field(default=1.0, le=2.5, description="[rad/s]")
+    max_accel: PositiveFloat = Field(default=3.0, le=20.0, description="[rad/s^2]")
+    tolerance_rad: PositiveFloat = Field(default=0.005, description="[rad]")
+    settle_s: PositiveFloat = Field(default=1.0, description="[s]")
+
+
+class MoveJoints(Skill):
+    """Move every arm joint to `to` on one trapezoidal timing law: `reached` or `timeout`."""
+
+    name: ClassVar[str] = "move_joints"
+    Params: ClassVar[type[SkillParams]] = MoveJointsParams
+    outcomes: ClassVar[tuple[str, ...]] = ("reached", "timeout")
+
+    params: MoveJointsParams
+
+    def start(self, ctx: Context) -> None:
+        p = self.params
+        goal = ctx.world.home if p.to == "home" else np.asarray(p.to, float)
+        if goal.shape != (ctx.robot.n_arm,):
+            from orchestrator.exceptions import SkillError
+
+            raise SkillError(
+                f"move_joints: `to` needs {ctx.robot.n_arm} joint angles, got {goal.size}"
+            )
+        self.q0 = ctx.controller.q_d.copy()
+        self.delta = goal - self.q0
+        dist = float(np.max(np.abs(self.delta)))
+        self.profile = Trapezoid(dist, p.max_speed, p.max_accel)
+        self.goal = goal
+        self.t0 = ctx.t
+
+    def step(self, ctx: Context) -> str | None:
+        elapsed = ctx.t - self.t0
+        s, sd = self.profile.progress(elapsed)
+        ctx.controller.set_joint_target(self.q0 + s * self.delta, sd * self.delta)
+        if elapsed < self.profile.duration:
+            return None
+        if float(np.max(np.abs(ctx.q - self.goal))) <= self.params.tolerance_rad:
+            return "reached"
+        if elapsed > self.profile.duration + self.params.settle_s:
+            return "timeout"
+        return None
