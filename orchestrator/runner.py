@@ -21,7 +21,7 @@ from .robots import Controller
 from .scenario_loading import LoadedScenario
 from .skills.ik import IKSolver
 from .success import evaluate
-from .world import World, robot_only_model
+from .world import World, as_index, robot_only_model
 
 __all__ = ["Observer", "run_episode"]
 
@@ -35,13 +35,6 @@ class Observer(Protocol):
     def on_start(self, ctx: Context, executor: Executor) -> None: ...
     def on_tick(self, ctx: Context, executor: Executor) -> None: ...
     def on_end(self, ctx: Context, executor: Executor, result: RunResult) -> None: ...
-
-
-def _as_index(idx: np.ndarray) -> slice | np.ndarray:
-    """A slice when the indices are contiguous (cheaper on the hot path)."""
-    if len(idx) and np.all(np.diff(idx) == 1):
-        return slice(int(idx[0]), int(idx[-1]) + 1)
-    return idx
 
 
 def initial_blackboard(machine: MachineNode, overrides: dict[str, Any]) -> Blackboard:
@@ -77,7 +70,7 @@ def run_episode(
     scn = loaded.scenario
     world = World.build(scn, seed)
     model, data = world.model, world.data
-    controller = Controller(world.robot)
+    controller = Controller(world.robot, float(world.model.opt.timestep))
     controller.hold(world.home)
     dt = float(model.opt.timestep)
     n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
@@ -89,8 +82,8 @@ def run_episode(
     ctx.ik = IKSolver(world.robot, robot_only_model(world.robot.name), dt_control, scn.robot.base_pos)
     executor = Executor(loaded.machine, ctx, make_guards(scn.guards, ctx), scn.physics.safe_stop_s)
 
-    q_idx, v_idx = _as_index(world.robot_qpos), _as_index(world.robot_dof)
-    act_idx = _as_index(world.arm_act)
+    q_idx, v_idx = as_index(world.robot_qpos), as_index(world.robot_dof)
+    act_idx = as_index(world.arm_act)
     time_limit = scn.physics.time_limit_s
     max_force = 0.0
     timed_out = False

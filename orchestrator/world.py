@@ -14,7 +14,7 @@ from .robots import Robot, get_robot
 from .robots.panda.model import WORLD_CONAFFINITY, WORLD_CONTYPE
 from .scenario import Scenario
 
-__all__ = ["ObjectHandle", "World", "robot_only_model"]
+__all__ = ["ObjectHandle", "World", "as_index", "robot_only_model"]
 
 
 @dataclass(frozen=True)
@@ -54,6 +54,8 @@ class World:
         self.robot_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot_joints])
         self.robot_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot_joints])
         self.finger_qpos = self.robot_qpos[robot.n_arm :]
+        self.arm_qpos_index = as_index(self.arm_qpos)
+        """`arm_qpos` as a slice when contiguous: cheaper on the per-step path."""
         self.arm_act = np.array(
             [m.actuator(j.replace("joint", "motor")).id for j in robot.arm_joints]
         )
@@ -122,6 +124,13 @@ class World:
             d.qpos[h.qpos_adr : h.qpos_adr + 3] = pos
             d.qpos[h.qpos_adr + 3 : h.qpos_adr + 7] = quat
         mujoco.mj_forward(m, d)
+
+
+def as_index(idx: np.ndarray) -> slice | np.ndarray:
+    """A slice when the indices are contiguous (cheaper on the hot path)."""
+    if len(idx) and np.all(np.diff(idx) == 1):
+        return slice(int(idx[0]), int(idx[-1]) + 1)
+    return idx
 
 
 def _is_descendant(m: mujoco.MjModel, body: int, root: int) -> bool:

@@ -107,7 +107,13 @@ def parse_yaml(text: str, file: str) -> YamlDocument:
         mark = exc.problem_mark or exc.context_mark
         line, col = (mark.line + 1, mark.column + 1) if mark else (0, 0)
         problem = exc.problem or "syntax error"
-        context = f" ({exc.context})" if exc.context else ""
+        context = ""
+        if exc.context:
+            context = f" ({exc.context}"
+            cm = exc.context_mark
+            if cm is not None and exc.problem_mark is not None and cm.line != exc.problem_mark.line:
+                context += f" that starts at line {cm.line + 1}, column {cm.column + 1}"
+            context += ")"
         raise ConfigError(
             [Diagnostic(file, line, col, "<yaml>", f"YAML syntax error: {problem}{context}")]
         ) from None

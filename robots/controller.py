@@ -22,7 +22,9 @@ class ControlMode(enum.Enum):
     """What the controller tracks."""
 
     JOINT = "joint"
-    """Joint impedance to (q_d, qd_d): tau = Kp (q_d - q) + Kd (qd_d - qd) + g(q)."""
+    """Joint impedance to (q_d, qd_d) with inverse-dynamics feed-forward:
+    tau = Kp (q_d - q) + Kd (qd_d - qd) + M(q) qdd_d + C(q, qd) qd + g(q).
+    Between setpoints, q_d advances along qd_d every physics step."""
     CARTESIAN = "cartesian"
     """Cartesian impedance: tau = J^T (K e - D xdot) + g(q) + nullspace posture term."""
     HOLD = "hold"
@@ -60,7 +62,7 @@ class Controller:
         robot: The robot; its URDF gives the pinocchio model, its gains the defaults.
     """
 
-    def __init__(self, robot: Robot) -> None:
+    def __init__(self, robot: Robot, dt: float = 0.002) -> None:
         self.robot = robot
         self.model = robot.pinocchio_model()
         self.data = self.model.createData()
@@ -72,6 +74,9 @@ class Controller:
         self.mode = ControlMode.HOLD
         self.q_d = np.array(robot.home, dtype=float)
         self.qd_d = np.zeros(self.n)
+        self.qdd_d = np.zeros(self.n)
+        self.dt = dt
+        self._qdd_full = np.zeros(self.model.nv)
         self.pos_d = np.zeros(3)
         self.rot_d = np.eye(3)
         self.cart = CartesianGains.critically_damped(500.0, 30.0)
@@ -80,20 +85,25 @@ class Controller:
         self._lo = -self.effort_limit
 
     # -- setpoints ----------------------------------------------------------------------
-    def set_joint_target(self, q_d: np.ndarray, qd_d: np.ndarray | None = None) -> None:
-        """Track joint angles `q_d` [rad] with feed-forward velocity `qd_d` [rad/s]. Shape (n,)."""
+    def set_joint_target(
+        self,
+        q_d: np.ndarray,
+        qd_d: np.ndarray | None = None,
+        qdd_d: np.ndarray | None = None,
+    ) -> None:
+        """Track joint angles `q_d` [rad], velocity `qd_d` [rad/s], acceleration `qdd_d`
+        [rad/s^2]. Shape (n,) each; omitted derivatives are zero."""
         self.mode = ControlMode.JOINT
         self.q_d[:] = q_d
-        if qd_d is None:
-            self.qd_d[:] = 0.0
-        else:
-            self.qd_d[:] = qd_d
+        self.qd_d[:] = 0.0 if qd_d is None else qd_d
+        self.qdd_d[:] = 0.0 if qdd_d is None else qdd_d
 
     def hold(self, q: np.ndarray) -> None:
         """Hold joint angles `q` [rad] at zero velocity."""
         self.mode = ControlMode.HOLD
         self.q_d[:] = q
         self.qd_d[:] = 0.0
+        self.qdd_d[:] = 0.0
 
     def set_cartesian_target(
         self,
@@ -123,12 +133,21 @@ class Controller:
             Arm torques in [Nm], clamped to the effort limits. Shape (n,).
         """
         n = self.n
-        g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
         if self.mode is ControlMode.CARTESIAN:
+            g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
             tau = self._cartesian(q, qd) + g
+        elif self.mode is ControlMode.HOLD:
+            g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
+            tau = self.kp * (self.q_d - q[:n]) - self.kd * qd[:n] + g
         else:
-            tau = self.kp * (self.q_d - q[:n]) + self.kd * (self.qd_d - qd[:n]) + g
-        np.clip(tau, self._lo, self.effort_limit, out=self.tau)
+            self._qdd_full[:n] = self.qdd_d
+            ff = pin.rnea(self.model, self.data, q, qd, self._qdd_full)[:n]
+            tau = self.kp * (self.q_d - q[:n]) + self.kd * (self.qd_d - qd[:n]) + ff
+            # the setpoint moves on between control ticks (no 100 Hz staircase)
+            self.q_d += self.qd_d * self.dt
+            self.qd_d += self.qdd_d * self.dt
+        np.minimum(tau, self.effort_limit, out=self.tau)
+        np.maximum(self.tau, self._lo, out=self.tau)
         return self.tau
 
     @property

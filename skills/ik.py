@@ -51,6 +51,7 @@ class IKSolver:
         ]
         self.damping = damping
         self.velocity = np.zeros(self.n)
+        self.acceleration = np.zeros(self.n)
         self.error = np.zeros(6)
 
     @property
@@ -65,6 +66,7 @@ class IKSolver:
         self.config.update(q)
         self.posture_task.set_target(q)
         self.velocity[:] = 0.0
+        self.acceleration[:] = 0.0
 
     def tcp_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """World TCP position [m] and rotation at the IK's joint angles."""
@@ -75,7 +77,8 @@ class IKSolver:
         """One control tick towards the world pose (`pos` [m], `rot` 3x3).
 
         Returns:
-            The new joint angles [rad]; `velocity` holds the joint speeds that led there.
+            The new joint angles [rad]; `velocity` and `acceleration` hold the joint speeds
+            that led there and their change over the tick.
         """
         target = mink.SE3.from_rotation_and_translation(
             mink.SO3.from_matrix(rot), np.asarray(pos) - self.base_pos
@@ -90,6 +93,7 @@ class IKSolver:
             limits=self.limits,
         )
         self.config.integrate_inplace(v, self.dt)
+        self.acceleration[:] = (v[: self.n] - self.velocity) / self.dt
         self.velocity[:] = v[: self.n]
         self.error[:] = self.frame_task.compute_error(self.config)
         return self.q

@@ -102,7 +102,7 @@ class Move(Skill):
         elapsed = ctx.t - self.t0
         pos, rot = self.line.sample(elapsed)
         q = ctx.ik.step(pos, rot)
-        ctx.controller.set_joint_target(q, ctx.ik.velocity)
+        ctx.controller.set_joint_target(q, ctx.ik.velocity, ctx.ik.acceleration)
         tcp_speed = float(np.linalg.norm(ctx.tcp_pos - self.last_tcp)) / ctx.dt_control
         self.last_tcp[:] = ctx.tcp_pos
         if elapsed < self.line.duration:

@@ -36,7 +36,7 @@ class JointLimits(Guard):
         self.upper = m.jnt_range[jids, 1] - self.params.margin_rad
         self.mid = (self.lower + self.upper) / 2.0
         self.half = (self.upper - self.lower) / 2.0
-        self.idx = w.arm_qpos
+        self.idx = w.arm_qpos_index
         self.names = ctx.robot.arm_joints
 
     def check(self, ctx: Context) -> Violation | None:

@@ -1,0 +1,74 @@
+"""Shared fixtures: loaded scenarios, a CLI runner, small scenario files."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from orchestrator.cli import app
+from orchestrator.scenario_loading import LoadedScenario, load_scenario
+
+DATA = Path(__file__).parent / "data"
+REPO = Path(__file__).resolve().parent.parent
+
+
+@dataclass
+class CliResult:
+    exit_code: int
+    stdout: str
+    stderr: str
+    exception: BaseException | None = None
+
+    @property
+    def json(self) -> dict:
+        return json.loads(self.stdout)
+
+
+@pytest.fixture(scope="session")
+def pick_place() -> LoadedScenario:
+    return load_scenario("pick_place")
+
+
+@pytest.fixture
+def cli():
+    """Run the CLI in-process; the result has exit_code, stdout, stderr, exception."""
+    runner = CliRunner()
+
+    def invoke(*args: str) -> CliResult:
+        res = runner.invoke(app, list(args), catch_exceptions=True)
+        exc = res.exception if not isinstance(res.exception, SystemExit) else None
+        return CliResult(res.exit_code, res.stdout, res.stderr, exc)
+
+    return invoke
+
+
+@pytest.fixture
+def cli_process():
+    """Run the installed `orchestrator` console script in a subprocess."""
+
+    def invoke(*args: str, cwd: Path | None = None) -> CliResult:
+        proc = subprocess.run(
+            [sys.executable, "-m", "orchestrator.cli", *args],
+            capture_output=True, text=True, cwd=cwd, timeout=300,
+        )
+        return CliResult(proc.returncode, proc.stdout, proc.stderr)
+
+    return invoke
+
+
+@pytest.fixture
+def write_yaml(tmp_path: Path):
+    """Write a YAML file into tmp_path and return its path."""
+
+    def write(name: str, text: str) -> Path:
+        path = tmp_path / name
+        path.write_text(text)
+        return path
+
+    return write

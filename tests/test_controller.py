@@ -1,0 +1,101 @@
+"""The low-level controller: gravity compensation, joint tracking, Cartesian impedance."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from orchestrator.robots import Controller, Panda
+from orchestrator.robots.controller import CartesianGains
+from orchestrator.scenario import Scenario
+from orchestrator.world import World
+
+
+def _world(**scene) -> World:
+    scenario = Scenario.model_validate({"name": "t", "machine": "pick_place", "scene": scene})
+    return World.build(scenario, seed=0)
+
+
+def _run(world: World, ctrl: Controller, seconds: float) -> None:
+    m, d = world.model, world.data
+    for _ in range(round(seconds / m.opt.timestep)):
+        d.ctrl[world.arm_act] = ctrl.compute(d.qpos[world.robot_qpos], d.qvel[world.robot_dof])
+        mujoco.mj_step(m, d)
+
+
+def test_gravity_compensation_holds_home_within_1mm_over_2s():
+    world = _world()
+    ctrl = Controller(world.robot, world.model.opt.timestep)
+    ctrl.hold(world.home)
+    start = world.data.site_xpos[world.tcp_site].copy()
+    _run(world, ctrl, 2.0)
+    drift = np.linalg.norm(world.data.site_xpos[world.tcp_site] - start)
+    assert drift < 1e-3, f"TCP drifted {drift * 1000:.3f} mm"
+
+
+def test_torques_are_clamped_to_the_urdf_effort_limits():
+    world = _world()
+    ctrl = Controller(world.robot, world.model.opt.timestep)
+    ctrl.set_joint_target(world.home + 2.0)  # a huge step: every joint saturates
+    q, qd = world.data.qpos[world.robot_qpos], world.data.qvel[world.robot_dof]
+    tau = ctrl.compute(q, qd)
+    np.testing.assert_allclose(np.abs(tau), [87, 87, 87, 87, 12, 12, 12])
+    assert ctrl.clamped.all()
+
+
+def test_pinocchio_model_agrees_with_mujoco_kinematics():
+    world = _world()
+    ctrl = Controller(world.robot)
+    pos, rot = ctrl.tcp_pose(world.data.qpos[world.robot_qpos].copy())
+    np.testing.assert_allclose(pos, world.data.site_xpos[world.tcp_site], atol=1e-9)
+    np.testing.assert_allclose(rot, world.data.site_xmat[world.tcp_site].reshape(3, 3), atol=1e-9)
+
+
+def test_wrist_sensor_reads_zero_external_force_at_rest():
+    from orchestrator.blackboard import Blackboard
+    from orchestrator.context import Context
+
+    world = _world()
+    ctrl = Controller(world.robot, world.model.opt.timestep)
+    ctrl.hold(world.home)
+    _run(world, ctrl, 0.5)
+    ctx = Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
+    assert np.linalg.norm(ctx.wrist_force()) < 0.05
+
+
+@pytest.mark.parametrize("stiffness", [500.0])
+def test_cartesian_impedance_pressing_2cm_into_a_rigid_surface(stiffness):
+    """K = 500 N/m, setpoint 2 cm inside a rigid surface -> 10 N +- 10 % at the wrist."""
+    from orchestrator.blackboard import Blackboard
+    from orchestrator.context import Context
+
+    # a table whose top is 1 cm below the open fingertips at home
+    world = _world(table={"center_xy": [0.35, 0.0], "size_xy": [0.3, 0.3], "height": 0.466})
+    m, d = world.model, world.data
+    ctrl = Controller(world.robot, m.opt.timestep)
+    ctx = Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
+    table = m.geom("table_top").id
+    fromto = np.zeros(6)
+    gap = min(
+        mujoco.mj_geomDistance(m, d, g, table, 0.1, fromto) for g in world.finger_geoms
+    )
+    assert 0.001 < gap < 0.03
+    pos0 = d.site_xpos[world.tcp_site].copy()
+    rot0 = d.site_xmat[world.tcp_site].reshape(3, 3).copy()
+    gains = CartesianGains.critically_damped(stiffness, 50.0)
+    gains = CartesianGains(
+        stiffness=np.array([2000.0, 2000.0, stiffness, 50.0, 50.0, 50.0]),
+        damping=gains.damping * 2.0,
+        nullspace_stiffness=10.0,
+    )
+    ctrl.set_cartesian_target(pos0 - [0, 0, gap + 0.02], rot0, gains, q_null=world.home)
+    _run(world, ctrl, 3.0)
+    force = ctx.wrist_force()
+    assert force[2] == pytest.approx(stiffness * 0.02, rel=0.10), force
+    # and it is the table pushing back: the fingertips rest on it
+    assert abs(force[0]) < 1.0 and abs(force[1]) < 1.0
+
+
+def test_panda_gripper_grips_with_at_least_15_n():
+    assert Panda.gripper_force_n >= 15.0
