@@ -1,0 +1,65 @@
+"""Every robot model compiles with every bundled scenario's scene and steps cleanly."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from orchestrator.bundled import bundled_names
+from orchestrator.robots import ROBOTS, get_robot
+from orchestrator.scenario_loading import load_scenario
+from orchestrator.world import World
+
+
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_robot_alone_compiles_with_actuators_sites_and_home(name):
+    robot = get_robot(name)
+    model = robot.build_spec().compile()
+    assert model.nu == robot.n_arm + 1
+    assert model.site(robot.tcp_site).id >= 0 and model.site(robot.wrist_site).id >= 0
+    assert model.key("home").id == 0
+    # actuator limits are the URDF effort limits
+    pin_model = robot.pinocchio_model()
+    np.testing.assert_allclose(
+        model.actuator_ctrlrange[: robot.n_arm, 1], pin_model.effortLimit[: robot.n_arm]
+    )
+
+
+@pytest.mark.parametrize("scenario", bundled_names("scenarios"))
+def test_scene_steps_one_second_with_noise_without_warnings(scenario):
+    loaded = load_scenario(scenario)
+    world = World.build(loaded.scenario, seed=0)
+    m, d = world.model, world.data
+    rng = np.random.default_rng(0)
+    for _ in range(round(1.0 / m.opt.timestep)):
+        d.ctrl[world.arm_act] = rng.normal(0.0, 1.0, len(world.arm_act))
+        mujoco.mj_step(m, d)
+    assert all(w.number == 0 for w in d.warning), [
+        mujoco.mjtWarning(i).name for i, w in enumerate(d.warning) if w.number
+    ]
+    assert np.all(np.isfinite(d.qpos))
+
+
+def test_urdf_comes_from_the_installed_distribution():
+    from orchestrator.robots.panda import panda_urdf_path
+
+    path = panda_urdf_path()
+    assert path.is_file() and "example-robot-data" in str(path)
+
+
+def test_nothing_called_skills_or_robots_at_the_top_level(tmp_path):
+    """Installed, only `orchestrator` is importable; its subpackages map the repo folders."""
+    import subprocess
+    import sys
+
+    code = (
+        "import importlib.util as u, json;"
+        "import orchestrator.skills, orchestrator.robots, orchestrator.machines;"
+        "print(json.dumps([u.find_spec(n) is None for n in "
+        "('skills', 'robots', 'machines', 'scenarios')]))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == "[true, true, true, true]", out.stdout + out.stderr
