@@ -61,6 +61,8 @@ class Context:
         self.gripper_target = world.robot.gripper_open_m
         self.events: list[Event] = []
         self.listeners: list[Callable[[Event], None]] = []
+        self.metrics: dict[str, Any] = {}
+        """Figures skills add to the result's `metrics` (e.g. force RMS error of a trace)."""
         self.ik: Any = None
         """The IK solver motion skills share (`orchestrator.skills.ik.IKSolver`)."""
         self.ik_target: Pose | None = None

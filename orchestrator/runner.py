@@ -137,6 +137,7 @@ def run_episode(
         "max_wrist_force_n": round(max_force, 4),
         "control_ticks": ctx.tick,
     }
+    metrics.update(ctx.metrics)
     if timed_out:
         metrics["time_limit_reached"] = True
     if diverged:
