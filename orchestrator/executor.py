@@ -1,13 +1,14 @@
 """The executor: runs a machine tree one control tick at a time (the brain).
 
-Each machine level is a `transitions.Machine` whose triggers are the outcomes of its states;
-nested machines run as a stack of frames. Guards can abort from any state.
+Each machine level runs as a *region*: a `transitions.Machine` whose triggers are the outcomes
+of its states. The active state of a region runs one *activity*: a skill, a nested region
+(`machine:` or inline `states:`), or a parallel group of branches. Guards can abort from any
+state; the executor then stops every activity and enters `on_abort` or the built-in safe stop.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import transitions
 from pydantic import ValidationError
@@ -19,15 +20,28 @@ from .exceptions import ConfigError, SkillError
 from .guard import Guard, Violation
 from .guards import get_guard
 from .loading import MachineNode
-from .machine import StateSpec, guard_entries
+from .machine import BranchSpec, StateSpec, guard_entries
 from .skills import Skill, get_skill
-from .validation import state_outcomes
+from .validation import branch_outcomes, state_outcomes
 
 __all__ = ["ABORT", "SAFE_STOP", "Executor"]
 
 ABORT = "abort"
 SAFE_STOP = "SAFE_STOP"
 """The built-in state a guard violation leads to when the machine names no `on_abort`."""
+_EPS = 1e-9
+
+Finished = tuple[str, str]
+"""(outcome, dotted path of the leaf state it came from)."""
+
+
+class _Activity(Protocol):
+    """What a state runs. An activity whose `tick` reports it finished has stopped itself."""
+
+    def tick(self) -> Finished | None: ...
+    def stop(self) -> None: ...
+    def leaf(self) -> str: ...
+    def regions(self) -> list[_Region]: ...
 
 
 class _Model:
@@ -36,16 +50,168 @@ class _Model:
     state: str
 
 
-@dataclass
-class _Frame:
-    node: MachineNode
-    prefix: str
-    model: _Model
-    fsm: transitions.Machine
-    entered_t: float = 0.0
-    skill: Skill | None = None
-    child: _Frame | None = None
-    retries: dict[str, int] = field(default_factory=dict)
+def _make_skill(ex: Executor, node: MachineNode, at: tuple, spec: StateSpec | BranchSpec) -> Skill:
+    assert spec.skill is not None
+    cls = get_skill(spec.skill)
+    try:
+        params = cls.Params.model_validate(ex.ctx.blackboard.resolve(spec.with_))
+    except (BlackboardError, ValidationError) as exc:
+        raise ConfigError(
+            [node.source.diag((*at, "with"), f"at t={ex.ctx.t:.3f} s: {exc}")]
+        ) from None
+    return cls(params)
+
+
+def _start_skill(ex: Executor, node: MachineNode, at: tuple, skill: Skill) -> None:
+    try:
+        skill.start(ex.ctx)
+    except SkillError as exc:
+        raise ConfigError([node.source.diag(at, str(exc))]) from None
+
+
+def _step_skill(ex: Executor, node: MachineNode, at: tuple, skill: Skill) -> str | None:
+    try:
+        outcome = skill.step(ex.ctx)
+    except SkillError as exc:
+        raise ConfigError([node.source.diag(at, str(exc))]) from None
+    if outcome is not None and outcome not in type(skill).outcomes:
+        raise SkillError(
+            f"skill {skill.name!r} returned {outcome!r}, which it does not declare"
+            f" (valid: {', '.join(type(skill).outcomes)})"
+        )
+    return outcome
+
+
+class _SkillActivity:
+    """The skill of a state, or a single-skill parallel branch (with its own timeout)."""
+
+    def __init__(
+        self,
+        ex: Executor,
+        node: MachineNode,
+        at: tuple,
+        path: str,
+        spec: StateSpec | BranchSpec,
+        timeout: float | None = None,
+    ) -> None:
+        self.ex, self.node, self.at, self.path = ex, node, at, path
+        self.skill = _make_skill(ex, node, at, spec)
+        self.timeout = timeout
+        self.t0 = ex.ctx.t
+
+    def start(self) -> None:
+        _start_skill(self.ex, self.node, self.at, self.skill)
+
+    def tick(self) -> Finished | None:
+        if self.timeout is not None and self.ex.ctx.t - self.t0 >= self.timeout - _EPS:
+            self.ex.ctx.log("timeout", f"{self.path}: timeout after {self.timeout} s")
+            self.stop()
+            return "timeout", self.path
+        outcome = _step_skill(self.ex, self.node, self.at, self.skill)
+        if outcome is None:
+            return None
+        self.ex.ctx.log("outcome", f"{self.path}: {outcome}")
+        self.stop()
+        return outcome, self.path
+
+    def stop(self) -> None:
+        self.skill.stop(self.ex.ctx)
+
+    def leaf(self) -> str:
+        return self.path
+
+    def regions(self) -> list[_Region]:
+        return []
+
+
+class _ParallelActivity:
+    """Branches ticked side by side; `rule` decides when the state ends and with what."""
+
+    def __init__(self, ex: Executor, region: _Region, name: str, spec: StateSpec) -> None:
+        self.ex, self.path, self.rule = ex, region.prefix + name, spec.rule
+        self.branches: dict[str, _Activity] = {}
+        self.success: dict[str, str] = {}
+        self.done: dict[str, str] = {}
+        node = region.node
+        for bname, branch in node.branches[name].items():
+            at = (*node.at, "states", name, "parallel", bname)
+            bpath = f"{self.path}.{bname}"
+            outcomes = branch_outcomes(branch)
+            self.success[bname] = outcomes[0] if outcomes else ""
+            if isinstance(branch, MachineNode):
+                self.branches[bname] = _Region(ex, branch, bpath + ".")
+            else:
+                self.branches[bname] = _SkillActivity(ex, node, at, bpath, branch, branch.timeout)
+
+    def start(self, src: str) -> None:
+        for activity in self.branches.values():
+            if isinstance(activity, _Region):
+                activity.start(src, "parallel")
+            else:
+                activity.start()
+
+    def tick(self) -> Finished | None:
+        for bname, activity in self.branches.items():
+            if bname in self.done:
+                continue
+            finished = activity.tick()
+            if finished is None:
+                continue
+            outcome = finished[0]
+            self.done[bname] = outcome
+            ok = outcome == self.success[bname]
+            self.ex.ctx.log("outcome", f"{self.path}.{bname}: {outcome}")
+            if self.rule == "first":
+                return self._end(outcome)
+            if self.rule == "all" and not ok:
+                return self._end("failed")
+            if self.rule == "any" and ok:
+                return self._end("succeeded")
+        if len(self.done) == len(self.branches):
+            return self._end("succeeded" if self.rule == "all" else "failed")
+        return None
+
+    def _end(self, outcome: str) -> Finished:
+        for bname, activity in self.branches.items():
+            if bname not in self.done:
+                activity.stop()  # the other branches are stopped cleanly
+        return outcome, self.path
+
+    def stop(self) -> None:
+        for bname, activity in self.branches.items():
+            if bname not in self.done:
+                activity.stop()
+
+    def leaf(self) -> str:
+        return self.path
+
+    def regions(self) -> list[_Region]:
+        return [a for b, a in self.branches.items() if isinstance(a, _Region) and b not in self.done]
+
+
+class _Region:
+    """One running machine level."""
+
+    def __init__(self, ex: Executor, node: MachineNode, prefix: str) -> None:
+        self.ex, self.node, self.prefix = ex, node, prefix
+        self.model = _Model()
+        edges: list[list[str]] = []
+        for name, st in node.states.items():
+            edges += [[outcome, name, target] for outcome, target in st.transitions.items()]
+            edges.append(["retry", name, name])
+        if node.top and node.on_abort is not None:
+            edges.append([ABORT, "*", node.on_abort])
+        self.fsm = transitions.Machine(
+            model=self.model,
+            states=list(node.states),
+            transitions=edges,
+            initial=node.initial,
+            auto_transitions=False,
+        )
+        self.activity: _Activity | None = None
+        self.entered_t = ex.ctx.t
+        self.retries: dict[str, int] = {}
+        self.final: Finished | None = None
 
     @property
     def state(self) -> str:
@@ -55,26 +221,93 @@ class _Frame:
     def spec(self) -> StateSpec:
         return self.node.states[self.model.state]
 
+    def leaf(self) -> str:
+        return self.activity.leaf() if self.activity is not None else self.prefix + self.state
 
-def _make_frame(node: MachineNode, prefix: str, with_abort: bool) -> _Frame:
-    model = _Model()
-    names = list(node.states)
-    edges: list[list[str]] = []
-    for name, st in node.states.items():
-        for outcome, target in st.transitions.items():
-            edges.append([outcome, name, target])
-        edges.append(["retry", name, name])
-    if with_abort and node.on_abort is not None:
-        edges.append([ABORT, "*", node.on_abort])
-    fsm = transitions.Machine(
-        model=model,
-        states=names,
-        transitions=edges,
-        initial=node.initial,
-        auto_transitions=False,
-        send_event=False,
-    )
-    return _Frame(node, prefix, model, fsm)
+    def regions(self) -> list[_Region]:
+        inner = self.activity.regions() if self.activity is not None else []
+        return [self, *(r for region in inner for r in region.regions())]
+
+    def start(
+        self, src: str | None, trigger: str | None, retry: int | None = None
+    ) -> Finished | None:
+        return self._enter(src, trigger, retry)
+
+    def stop(self) -> None:
+        if self.activity is not None:
+            self.activity.stop()
+            self.activity = None
+
+    def tick(self) -> Finished | None:
+        if self.final is not None:
+            return self.final
+        st = self.spec
+        if st.timeout is not None and self.ex.ctx.t - self.entered_t >= st.timeout - _EPS:
+            self.ex.ctx.log("timeout", f"{self.prefix}{self.state}: timeout after {st.timeout} s")
+            leaf = self.leaf()
+            self.stop()
+            return self._outcome("timeout", leaf)
+        if self.activity is None:
+            return None
+        finished = self.activity.tick()
+        if finished is None:
+            return None
+        self.activity = None
+        return self._outcome(*finished)
+
+    def abort_to(self, state: str, src: str) -> None:
+        """Stop what runs and enter `state` (the machine's `on_abort`)."""
+        self.stop()
+        self.model.trigger(ABORT)
+        assert self.state == state
+        self._enter(src, ABORT)
+
+    def _outcome(self, outcome: str, src: str) -> Finished | None:
+        st = self.spec
+        path = self.prefix + self.state
+        outcomes = state_outcomes(self.node, self.state)
+        failures = st.retry_on if st.retry_on is not None else outcomes[1:]
+        used = self.retries.get(self.state, 0)
+        if st.retry and outcome in failures and used < st.retry:
+            self.retries[self.state] = used + 1
+            self.ex.retries[path] = self.ex.retries.get(path, 0) + 1
+            self.ex.ctx.log("retry", f"{path}: {outcome}, retry {used + 1} of {st.retry}")
+            self.model.trigger("retry")
+            return self._enter(src, outcome, retry=used + 1)
+        self.model.trigger(outcome)
+        return self._enter(src, outcome)
+
+    def _enter(self, src: str | None, trigger: str | None, retry: int | None = None) -> Finished | None:
+        ex, name, st = self.ex, self.state, self.spec
+        path = self.prefix + name
+        self.entered_t = ex.ctx.t
+        at = (*self.node.at, "states", name)
+        if st.states is None and st.machine is None and src is not None:
+            ex.record(src, path, trigger or "", retry)
+        if st.final is not None:
+            self.final = (st.final, path)
+            ex.changed()
+            return self.final
+        if st.skill is not None:
+            activity = _SkillActivity(ex, self.node, at, path, st)
+            self.activity = activity
+            ex.changed()
+            activity.start()
+            return None
+        if st.parallel is not None:
+            group = _ParallelActivity(ex, self, name, st)
+            self.activity = group
+            group.start(path)
+            ex.changed()
+            return None
+        child = _Region(ex, self.node.children[name], path + ".")
+        self.activity = child
+        finished = child.start(src, trigger, retry)
+        ex.changed()
+        if finished is not None:  # the nested machine starts in a final state
+            self.activity = None
+            return self._outcome(*finished)
+        return None
 
 
 class Executor:
@@ -94,7 +327,7 @@ class Executor:
         self.ctx = ctx
         self.scenario_guards = scenario_guards
         self.safe_stop_s = safe_stop_s
-        self.frames: list[_Frame] = []
+        self.region: _Region | None = None
         self.transitions: list[dict[str, Any]] = []
         self.retries: dict[str, int] = {}
         self.done = False
@@ -105,7 +338,8 @@ class Executor:
         self.safe_stop_until: float | None = None
         self.active_guards: list[Guard] = []
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
-        self._build_guards(root)
+        for node in root.nodes():
+            self._build_guards(node)
 
     # -- guards -------------------------------------------------------------------------
     def _build_guards(self, node: MachineNode) -> None:
@@ -122,67 +356,47 @@ class Executor:
         for name, st in node.states.items():
             if st.guards:
                 self._guards[(id(node), name)] = make(st.guards)
-        for child in node.children.values():
-            self._build_guards(child)
 
-    def _refresh_guards(self) -> None:
-        if self.violation is not None:
+    def changed(self) -> None:
+        """A state changed somewhere: recompute which guards are active."""
+        if self.violation is not None or self.region is None:
             self.active_guards = []  # the safety response runs; do not re-fire
             return
         active = list(self.scenario_guards)
-        for frame in self.frames:
-            active += self._guards.get((id(frame.node), None), [])
-            active += self._guards.get((id(frame.node), frame.state), [])
+        for region in self.region.regions():
+            if region.final is not None:
+                continue
+            active += self._guards.get((id(region.node), None), [])
+            active += self._guards.get((id(region.node), region.state), [])
         self.active_guards = sorted(active, key=lambda g: -g.priority)
 
     # -- lifecycle ----------------------------------------------------------------------
     @property
     def leaf(self) -> str:
-        """Dotted path of the innermost active state."""
-        if not self.frames:
+        """Dotted path of the innermost active state (a parallel state names itself)."""
+        if self.region is None or self.done:
             return self.final_state or ""
-        f = self.frames[-1]
-        return f.prefix + f.state
+        return self.region.leaf()
 
     def start(self) -> None:
-        frame = _make_frame(self.root, "", with_abort=True)
-        self.frames = [frame]
-        self._enter(frame, None, None)
+        self.region = _Region(self, self.root, "")
+        finished = self.region.start(None, None)
+        self._check_end(finished)
 
     def tick(self) -> None:
-        """One control tick: timeouts, then the active skill's step."""
+        """One control tick: timeouts (outer first), then every active skill's step."""
         if self.done:
             return
-        ctx = self.ctx
         if self.safe_stop_until is not None:
-            if ctx.t >= self.safe_stop_until - 1e-9:
+            if self.ctx.t >= self.safe_stop_until - _EPS:
                 self._finish("aborted", SAFE_STOP)
             return
-        for frame in list(self.frames):  # outer timeouts win
-            st = frame.spec
-            if st.timeout is not None and ctx.t - frame.entered_t >= st.timeout - 1e-9:
-                ctx.log("timeout", f"{frame.prefix}{frame.state}: timeout after {st.timeout} s")
-                self._outcome(frame, "timeout")
-                return
-        frame = self.frames[-1]
-        if frame.skill is None:
-            return
-        try:
-            outcome = frame.skill.step(ctx)
-        except SkillError as exc:
-            raise ConfigError([runtime_error(frame.node, frame.state, str(exc))]) from None
-        if outcome is not None:
-            if outcome not in type(frame.skill).outcomes:
-                raise SkillError(
-                    f"skill {frame.skill.name!r} returned {outcome!r}, which it does not declare"
-                    f" (valid: {', '.join(type(frame.skill).outcomes)})"
-                )
-            ctx.log("outcome", f"{frame.prefix}{frame.state}: {outcome}")
-            self._outcome(frame, outcome)
+        assert self.region is not None
+        self._check_end(self.region.tick())
 
     def abort(self, violation: Violation) -> None:
         """A guard fired: stop everything and go to `on_abort` or the built-in safe stop."""
-        if self.violation is not None or self.done:
+        if self.violation is not None or self.done or self.region is None:
             return
         ctx = self.ctx
         self.violation = violation
@@ -195,106 +409,34 @@ class Executor:
             limit=violation.limit,
         )
         leaf = self.leaf
-        self._stop_from(0)
-        root = self.frames[0]
-        self.frames = [root]
         if self.root.on_abort is not None:
-            root.model.trigger(ABORT)
-            self._record(leaf, root.state, ABORT)
-            self._enter(root, None, None, record=False)
+            self.region.abort_to(self.root.on_abort, leaf)
+            self._check_end(self.region.final)
         else:
-            self._record(leaf, SAFE_STOP, ABORT)
-            self.frames = []
+            self.region.stop()
+            self.record(leaf, SAFE_STOP, ABORT)
             ctx.controller.hold(ctx.q.copy())
             self.safe_stop_until = ctx.t + self.safe_stop_s
             self.final_state = SAFE_STOP
-            self._refresh_guards()
+        self.changed()
 
-    # -- internals ----------------------------------------------------------------------
-    def _record(self, src: str, dst: str, trigger: str, **extra: Any) -> None:
-        rec = {"t": round(self.ctx.t, 6), "from": src, "to": dst, "trigger": trigger, **extra}
+    def record(self, src: str, dst: str, trigger: str, retry: int | None = None) -> None:
+        """Append a transition to the result (and tell the listeners)."""
+        rec: dict[str, Any] = {"t": round(self.ctx.t, 6), "from": src, "to": dst, "trigger": trigger}
+        if retry:
+            rec["retry"] = retry
         self.transitions.append(rec)
         self.ctx.log("transition", f"{src} -> {dst} ({trigger})", transition=rec)
 
-    def _stop_from(self, index: int) -> None:
-        for frame in reversed(self.frames[index:]):
-            if frame.skill is not None:
-                frame.skill.stop(self.ctx)
-                frame.skill = None
-            frame.child = None
-
-    def _outcome(self, frame: _Frame, outcome: str, leaf: str | None = None) -> None:
-        index = self.frames.index(frame)
-        leaf = leaf or self.leaf
-        self._stop_from(index)
-        del self.frames[index + 1 :]
-        st = frame.spec
-        path = frame.prefix + frame.state
-        outcomes = state_outcomes(frame.node, frame.state)
-        failures = st.retry_on if st.retry_on is not None else outcomes[1:]
-        used = frame.retries.get(frame.state, 0)
-        if st.retry and outcome in failures and used < st.retry:
-            frame.retries[frame.state] = used + 1
-            self.retries[path] = self.retries.get(path, 0) + 1
-            self.ctx.log("retry", f"{path}: {outcome}, retry {used + 1} of {st.retry}")
-            frame.model.trigger("retry")
-            self._enter(frame, leaf, outcome, retry=used + 1)
+    # -- internals ----------------------------------------------------------------------
+    def _check_end(self, finished: Finished | None) -> None:
+        if finished is None:
             return
-        frame.model.trigger(outcome)
-        self._enter(frame, leaf, outcome)
-
-    def _enter(
-        self,
-        frame: _Frame,
-        src: str | None,
-        trigger: str | None,
-        record: bool = True,
-        retry: int | None = None,
-    ) -> None:
-        ctx = self.ctx
-        name = frame.state
-        st = frame.spec
-        frame.entered_t = ctx.t
-        if st.states is None and st.machine is None and record and src is not None:
-            extra = {"retry": retry} if retry else {}
-            self._record(src, frame.prefix + name, trigger or "", **extra)
-        if st.final is not None:
-            if len(self.frames) == 1:
-                self.frames = []
-                outcome = "aborted" if self.violation else (
-                    "succeeded" if st.final == "succeeded" else "failed"
-                )
-                self._finish(outcome, name)
-            else:
-                parent = self.frames[-2]
-                ctx.log("outcome", f"{parent.prefix}{parent.state}: {st.final}")
-                self.frames.pop()
-                self._outcome(parent, st.final, leaf=frame.prefix + name)
-            return
-        if st.skill is not None:
-            frame.skill = self._make_skill(frame, st)
-            self._refresh_guards()
-            try:
-                frame.skill.start(ctx)
-            except SkillError as exc:
-                raise ConfigError([runtime_error(frame.node, name, str(exc))]) from None
-            return
-        child_node = frame.node.children[name]
-        child = _make_frame(child_node, f"{frame.prefix}{name}.", with_abort=False)
-        frame.child = child
-        self.frames.append(child)
-        child.entered_t = ctx.t
-        self._enter(child, src if record else None, trigger, record=record, retry=retry)
-
-    def _make_skill(self, frame: _Frame, st: StateSpec) -> Skill:
-        assert st.skill is not None
-        cls = get_skill(st.skill)
-        at = (*frame.node.at, "states", frame.state, "with")
-        try:
-            params = cls.Params.model_validate(self.ctx.blackboard.resolve(st.with_))
-        except (BlackboardError, ValidationError) as exc:
-            raise ConfigError([frame.node.source.diag(at, f"at t={self.ctx.t:.3f} s: {exc}")]) from None
-        return cls(params)
+        outcome, path = finished
+        if self.violation is not None:
+            self._finish("aborted", path)
+        else:
+            self._finish("succeeded" if outcome == "succeeded" else "failed", path)
 
     def _finish(self, outcome: str, state: str) -> None:
         self.done = True

@@ -11,11 +11,11 @@ from pydantic import ValidationError
 from .bundled import bundled_names, resolve_file
 from .diagnostics import Diagnostic
 from .exceptions import ConfigError
-from .machine import GuardRef, MachineSpec, StateSpec
+from .machine import BlackboardKey, BranchSpec, GuardRef, MachineSpec, StateSpec
 from .pydantic_errors import diagnostics_from_validation
 from .yamlio import SourceMap, load_yaml
 
-__all__ = ["MachineNode", "load_machine", "load_machine_file"]
+__all__ = ["Branch", "MachineNode", "load_machine", "load_machine_file"]
 
 
 @dataclass
@@ -27,9 +27,12 @@ class MachineNode:
         initial: The initial state.
         states: State name -> spec.
         blackboard: Declared keys and defaults of this level.
+        types: Declared type of each key (`any` for the short form `key: default`).
         guards: Machine-level guards.
         on_abort: State entered after a guard fires (None: the built-in safe stop).
         children: State name -> nested machine for `machine:` and inline `states:`.
+        branches: Parallel state name -> branch name -> a nested machine, or the branch spec
+            itself for a single-skill branch.
         source: Where this machine's keys are (for messages).
         at: Path of this machine's mapping inside its file.
     """
@@ -43,6 +46,9 @@ class MachineNode:
     source: SourceMap
     at: tuple = ()
     children: dict[str, MachineNode] = field(default_factory=dict)
+    branches: dict[str, dict[str, Branch]] = field(default_factory=dict)
+    types: dict[str, str] = field(default_factory=dict)
+    top: bool = True
 
     def outcomes(self) -> list[str]:
         """The outcomes this machine can end with (its `final:` values, in order)."""
@@ -59,6 +65,40 @@ class MachineNode:
             child = self.children.get(name)
             if child is not None:
                 yield from child.walk(prefix + name + ".")
+            for bname, branch in self.branches.get(name, {}).items():
+                if isinstance(branch, MachineNode):
+                    yield from branch.walk(f"{prefix}{name}.{bname}.")
+
+    def nodes(self):
+        """This node and every nested machine node below it."""
+        yield self
+        for child in self.children.values():
+            yield from child.nodes()
+        for branches in self.branches.values():
+            for branch in branches.values():
+                if isinstance(branch, MachineNode):
+                    yield from branch.nodes()
+
+    def skill_branches(self):
+        """Yield (state name, branch name, spec) of every single-skill branch of this level."""
+        for name, branches in self.branches.items():
+            for bname, branch in branches.items():
+                if isinstance(branch, BranchSpec):
+                    yield name, bname, branch
+
+
+Branch = MachineNode | BranchSpec
+
+
+def _declarations(raw: dict[str, Any]) -> tuple[dict[str, Any], dict[str, str]]:
+    defaults: dict[str, Any] = {}
+    types: dict[str, str] = {}
+    for key, value in raw.items():
+        if isinstance(value, BlackboardKey):
+            defaults[key], types[key] = value.default, value.type
+        else:
+            defaults[key], types[key] = value, "any"
+    return defaults, types
 
 
 def load_machine_file(path: Path, _stack: tuple[Path, ...] = ()) -> tuple[MachineNode | None, list[Diagnostic]]:
@@ -83,11 +123,13 @@ def load_machine_file(path: Path, _stack: tuple[Path, ...] = ()) -> tuple[Machin
             if d.path not in reported
         ]
         return None, problems
+    defaults, types = _declarations(spec.blackboard)
     node = MachineNode(
         name=spec.name,
         initial=spec.initial,
         states=spec.states,
-        blackboard=dict(spec.blackboard),
+        blackboard=defaults,
+        types=types,
         guards=list(spec.guards),
         on_abort=spec.on_abort,
         source=doc.source,
@@ -100,42 +142,63 @@ def _load_children(node: MachineNode, path: Path, stack: tuple[Path, ...]) -> li
     problems: list[Diagnostic] = []
     for name, st in node.states.items():
         at = (*node.at, "states", name)
-        if st.states is not None:
-            child = MachineNode(
-                name=name,
-                initial=st.initial or "",
-                states=st.states,
-                blackboard={},
-                guards=[],
-                on_abort=None,
-                source=node.source,
-                at=at,
-            )
-            problems += _load_children(child, path, stack)
+        child, sub = _load_nested(st, name, node.source, at, path, stack)
+        problems += sub
+        if child is not None:
             node.children[name] = child
-        elif st.machine is not None:
-            target = resolve_file(st.machine, "machines", path.parent)
-            if target is None:
-                problems.append(
-                    node.source.diag(
-                        (*at, "machine"),
-                        f"machine file {st.machine!r} not found (relative to {path.parent}, "
-                        "nor a bundled machine)",
-                        tuple(bundled_names("machines")),
-                    )
-                )
+        for bname, branch in (st.parallel or {}).items():
+            bat = (*at, "parallel", bname)
+            if branch.skill is not None:
+                node.branches.setdefault(name, {})[bname] = branch
                 continue
-            if target.resolve() in stack:
-                cycle = " -> ".join(p.name for p in (*stack, target.resolve()))
-                problems.append(
-                    node.source.diag((*at, "machine"), f"include cycle: {cycle}")
-                )
-                continue
-            child, sub = load_machine_file(target, stack)
+            child, sub = _load_nested(branch, bname, node.source, bat, path, stack)
             problems += sub
             if child is not None:
-                node.children[name] = child
+                node.branches.setdefault(name, {})[bname] = child
     return problems
+
+
+def _load_nested(
+    st: StateSpec | BranchSpec,
+    name: str,
+    source: SourceMap,
+    at: tuple,
+    path: Path,
+    stack: tuple[Path, ...],
+) -> tuple[MachineNode | None, list[Diagnostic]]:
+    """The nested machine of a state or branch (inline or included), if it has one."""
+    if st.states is not None:
+        child = MachineNode(
+            name=name,
+            initial=st.initial or "",
+            states=st.states,
+            blackboard={},
+            guards=[],
+            on_abort=None,
+            source=source,
+            at=at,
+            top=False,
+        )
+        return child, _load_children(child, path, stack)
+    if st.machine is None:
+        return None, []
+    target = resolve_file(st.machine, "machines", path.parent)
+    if target is None:
+        return None, [
+            source.diag(
+                (*at, "machine"),
+                f"machine file {st.machine!r} not found (relative to {path.parent}, "
+                "nor a bundled machine)",
+                tuple(bundled_names("machines")),
+            )
+        ]
+    if target.resolve() in stack:
+        cycle = " -> ".join(p.name for p in (*stack, target.resolve()))
+        return None, [source.diag((*at, "machine"), f"include cycle: {cycle}")]
+    child, sub = load_machine_file(target, stack)
+    if child is not None:
+        child.top = False
+    return child, sub
 
 
 def load_machine(ref: str, base_dir: Path | None = None) -> MachineNode:

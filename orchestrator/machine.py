@@ -2,11 +2,22 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, NonNegativeInt, PositiveFloat, model_validator
 
-__all__ = ["GuardRef", "MachineSpec", "StateSpec", "guard_entries"]
+__all__ = [
+    "BLACKBOARD_TYPES",
+    "BlackboardKey",
+    "BranchSpec",
+    "GuardRef",
+    "MachineSpec",
+    "StateSpec",
+    "guard_entries",
+]
+
+BLACKBOARD_TYPES = ("any", "str", "int", "float", "bool", "vec3", "pose", "list", "dict")
+BlackboardType = Literal["any", "str", "int", "float", "bool", "vec3", "pose", "list", "dict"]
 
 GuardRef = str | dict[str, dict[str, Any] | None]
 """A guard by name (`joint_limits`) or with parameters (`{contact_force: {max_n: 40}}`)."""
@@ -35,6 +46,44 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", populate_by_name=True)
 
 
+class BlackboardKey(_Strict):
+    """A typed blackboard declaration: `hover: {type: vec3, default: [0, 0, 0.1]}`.
+
+    The short form `hover: [0, 0, 0.1]` declares a key with that default and a type inferred
+    from it (`null` declares a key of type `any` with no value yet).
+    """
+
+    type: BlackboardType = Field(description="Value type; checked for defaults and overrides.")
+    default: Any = Field(default=None, description="Initial value (null: none yet).")
+    description: str | None = None
+
+
+class BranchSpec(_Strict):
+    """One branch of a parallel state: a skill, a nested machine file, or inline states."""
+
+    description: str | None = None
+    skill: str | None = None
+    with_: dict[str, Any] = Field(default_factory=dict, alias="with")
+    machine: str | None = None
+    initial: str | None = None
+    states: dict[str, StateSpec] | None = None
+    timeout: PositiveFloat | None = Field(
+        default=None, description="Simulated seconds before the branch ends with `timeout`."
+    )
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> BranchSpec:
+        kinds = [k for k in ("skill", "machine", "states") if getattr(self, k) is not None]
+        if len(kinds) != 1:
+            got = ", ".join(kinds) if kinds else "none of them"
+            raise ValueError(
+                f"a branch needs exactly one of `skill`, `machine` or `states` (got {got})"
+            )
+        if self.states is not None and self.initial is None:
+            raise ValueError("inline `states` need an `initial` state")
+        return self
+
+
 class StateSpec(_Strict):
     """One state. It runs exactly one of: a `skill`, a nested `machine` file, inline `states`,
     or it is `final`.
@@ -53,6 +102,14 @@ class StateSpec(_Strict):
     )
     initial: str | None = Field(default=None, description="Initial state of inline `states`.")
     states: dict[str, StateSpec] | None = Field(default=None, description="Inline nested machine.")
+    parallel: dict[str, BranchSpec] | None = Field(
+        default=None, description="Named branches run side by side (see `rule`)."
+    )
+    rule: Literal["all", "any", "first"] = Field(
+        default="all",
+        description="Outcome of a parallel state: `all` succeed, `any` succeeds, or the "
+        "`first` branch to finish decides (its outcome becomes the state's).",
+    )
     final: str | None = Field(
         default=None, description="Final state: the outcome this machine ends with."
     )
@@ -81,6 +138,7 @@ class StateSpec(_Strict):
                 ("skill", self.skill),
                 ("machine", self.machine),
                 ("states", self.states),
+                ("parallel", self.parallel),
                 ("final", self.final),
             )
             if v is not None
@@ -88,9 +146,11 @@ class StateSpec(_Strict):
         if len(kinds) != 1:
             got = ", ".join(kinds) if kinds else "none of them"
             raise ValueError(
-                "a state needs exactly one of `skill`, `machine`, `states` or `final`"
-                f" (got {got})"
+                "a state needs exactly one of `skill`, `machine`, `states`, `parallel` or"
+                f" `final` (got {got})"
             )
+        if self.parallel is not None and not self.parallel:
+            raise ValueError("`parallel` needs at least one branch")
         if self.states is not None and self.initial is None:
             raise ValueError("inline `states` need an `initial` state")
         if self.final is not None and self.transitions:
@@ -105,6 +165,8 @@ class StateSpec(_Strict):
             return "machine"
         if self.states is not None:
             return "states"
+        if self.parallel is not None:
+            return "parallel"
         return "final"
 
 
@@ -114,8 +176,9 @@ class MachineSpec(_Strict):
     name: str
     description: str | None = None
     initial: str
-    blackboard: dict[str, Any] = Field(
-        default_factory=dict, description="Blackboard keys and their defaults."
+    blackboard: dict[str, BlackboardKey | Any] = Field(
+        default_factory=dict,
+        description="Blackboard keys: `key: default` or `key: {type: ..., default: ...}`.",
     )
     guards: list[GuardRef] = Field(
         default_factory=list, description="Guards active while this machine runs."
@@ -125,3 +188,7 @@ class MachineSpec(_Strict):
         description="State entered when a guard fires (default: the built-in safe stop).",
     )
     states: dict[str, StateSpec] = Field(min_length=1)
+
+
+BranchSpec.model_rebuild()
+StateSpec.model_rebuild()

@@ -8,22 +8,64 @@ from typing import Any
 from pydantic import ValidationError
 
 from .blackboard import parse_ref
+from .blackboard_types import check_type, sample_value
 from .diagnostics import Diagnostic
 from .guards import GUARDS
 from .loading import MachineNode
-from .machine import GuardRef, guard_entries
+from .machine import BranchSpec, GuardRef, StateSpec, guard_entries
 from .pydantic_errors import diagnostics_from_validation
 from .skills import SKILLS, get_skill, skill_names
 from .yamlio import SourceMap
 
-__all__ = ["blackboard_keys", "state_outcomes", "validate_guards", "validate_machine"]
+__all__ = [
+    "blackboard_keys",
+    "blackboard_types",
+    "branch_outcomes",
+    "skill_writes",
+    "state_outcomes",
+    "validate_guards",
+    "validate_machine",
+]
+
+POSE_FIELDS = ("pos", "quat")
+
+
+def skill_writes(skill: str, params: dict) -> dict[str, str]:
+    """Blackboard key -> type that a skill state writes (from its `writes` declaration)."""
+    cls = SKILLS.get(skill)
+    if cls is None:
+        return {}
+    writes = cls.writes if isinstance(cls.writes, dict) else dict.fromkeys(cls.writes, "any")
+    out = {}
+    for fld, type_ in writes.items():
+        value = params.get(fld, cls.Params.model_fields[fld].default)
+        if isinstance(value, str):
+            out[value] = type_
+    return out
+
+
+def branch_outcomes(branch: MachineNode | BranchSpec) -> list[str]:
+    """Outcomes a parallel branch can end with; the first one is its success."""
+    if isinstance(branch, MachineNode):
+        return branch.outcomes()
+    out = list(SKILLS[branch.skill].outcomes) if branch.skill in SKILLS else []
+    if branch.timeout is not None and "timeout" not in out:
+        out.append("timeout")
+    return out
 
 
 def state_outcomes(node: MachineNode, name: str) -> list[str]:
-    """Outcomes the state `name` of `node` can end with."""
+    """Outcomes the state `name` of `node` can end with; the first one is its success."""
     st = node.states[name]
     if st.skill is not None:
         out = list(SKILLS[st.skill].outcomes) if st.skill in SKILLS else []
+    elif st.parallel is not None:
+        if st.rule == "first":
+            out = []
+            for branch in node.branches.get(name, {}).values():
+                out += [o for o in branch_outcomes(branch) if o not in out]
+        else:
+            out = ["succeeded", "failed"]
     elif name in node.children:
         out = node.children[name].outcomes()
     else:
@@ -33,81 +75,133 @@ def state_outcomes(node: MachineNode, name: str) -> list[str]:
     return out
 
 
+def _skill_specs(node: MachineNode) -> Iterable[tuple[str, dict]]:
+    for sub in node.nodes():
+        for st in sub.states.values():
+            if st.skill is not None:
+                yield st.skill, st.with_
+        for _, _, branch in sub.skill_branches():
+            assert branch.skill is not None
+            yield branch.skill, branch.with_
+
+
+def blackboard_types(node: MachineNode) -> dict[str, str]:
+    """Every key declared in the tree or written by one of its skills, with its type."""
+    types: dict[str, str] = {}
+    for sub in node.nodes():
+        for key, type_ in skill_writes_of(sub).items():
+            types.setdefault(key, type_)
+    for sub in node.nodes():
+        for key, type_ in sub.types.items():
+            if type_ != "any" or key not in types:
+                types[key] = type_
+    return types
+
+
+def skill_writes_of(sub: MachineNode) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for st in sub.states.values():
+        if st.skill is not None:
+            out.update(skill_writes(st.skill, st.with_))
+    for _, _, branch in sub.skill_branches():
+        out.update(skill_writes(branch.skill or "", branch.with_))
+    return out
+
+
 def blackboard_keys(node: MachineNode) -> set[str]:
     """Keys declared anywhere in the tree or written by one of its skills."""
-    keys = set(node.blackboard)
-    for _, st, _owner in node.walk():
-        if st.skill in SKILLS:
-            cls = SKILLS[st.skill]
-            for fld in cls.writes:
-                value = st.with_.get(fld, cls.Params.model_fields[fld].default)
-                if isinstance(value, str):
-                    keys.add(value)
-    for child in node.children.values():
-        keys |= blackboard_keys(child)
-    return keys
+    skill_names()
+    return set(blackboard_types(node))
 
 
 def validate_machine(node: MachineNode, extra_keys: Iterable[str] = ()) -> list[Diagnostic]:
     """Every static problem of `node` and its nested machines."""
     skill_names()  # discover skills
-    keys = blackboard_keys(node) | set(extra_keys)
-    return _check(node, keys)
+    types = blackboard_types(node)
+    for key in extra_keys:
+        types.setdefault(key, "any")
+    return _check(node, types)
 
 
-def _check(node: MachineNode, keys: set[str]) -> list[Diagnostic]:
+def _check(node: MachineNode, types: dict[str, str]) -> list[Diagnostic]:
     src, at = node.source, node.at
     out: list[Diagnostic] = []
     names = tuple(node.states)
     if node.initial not in node.states:
         out.append(src.diag((*at, "initial"), f"unknown state {node.initial!r}", names))
-    if node.on_abort is not None and node.on_abort not in node.states:
-        out.append(src.diag((*at, "on_abort"), f"unknown state {node.on_abort!r}", names))
+    if node.on_abort is not None:
+        if node.on_abort not in node.states:
+            out.append(src.diag((*at, "on_abort"), f"unknown state {node.on_abort!r}", names))
     out += validate_guards(node.guards, src, (*at, "guards"))
     for key, value in node.blackboard.items():
-        out += _check_refs(value, keys, src, (*at, "blackboard", key))
+        kat = (*at, "blackboard", key)
+        type_ = node.types.get(key, "any")
+        if not check_type(value, type_):
+            out.append(src.diag(kat, f"default {value!r} is not a {type_}"))
+        out += _check_refs(value, types, src, kat)
+    writes = skill_writes_of(node)
+    for key, type_ in writes.items():
+        declared = types.get(key, "any")
+        if declared not in ("any", type_) and type_ != "any":
+            out.append(src.diag((*at, "blackboard"), f"key {key!r} is declared {declared} but a "
+                                f"skill writes a {type_} into it"))
     for name, st in node.states.items():
-        sat = (*at, "states", name)
-        if st.skill is not None:
-            if st.skill not in SKILLS:
-                out.append(src.diag((*sat, "skill"), f"unknown skill {st.skill!r}", tuple(sorted(SKILLS))))
-            else:
-                out += _check_params(st.skill, st.with_, keys, src, (*sat, "with"))
-        outcomes = state_outcomes(node, name)
-        known = st.skill is None or st.skill in SKILLS
-        if known and (st.skill is not None or name in node.children):
-            for outcome, target in st.transitions.items():
-                if outcome not in outcomes:
-                    what = f"skill {st.skill!r}" if st.skill else "the nested machine"
-                    out.append(
-                        src.diag(
-                            (*sat, "transitions", outcome),
-                            f"{what} has no outcome {outcome!r}",
-                            tuple(outcomes),
-                        )
-                    )
-            for outcome in outcomes:
-                if outcome not in st.transitions:
-                    out.append(
-                        src.diag(
-                            (*sat, "transitions") if st.transitions else sat,
-                            f"outcome {outcome!r} is not handled: add `{outcome}: <STATE>` "
-                            "to transitions",
-                            names,
-                        )
-                    )
-            for outcome in st.retry_on or ():
-                if outcome not in outcomes:
-                    out.append(src.diag((*sat, "retry_on"), f"no outcome {outcome!r}", tuple(outcomes)))
-        for outcome, target in st.transitions.items():
-            if target not in node.states:
-                out.append(
-                    src.diag((*sat, "transitions", outcome), f"unknown state {target!r}", names)
-                )
-        out += validate_guards(st.guards, src, (*sat, "guards"))
-        if name in node.children:
-            out += _check(node.children[name], keys)
+        out += _check_state(node, name, st, types)
     out += _check_graph(node)
+    for child in node.children.values():
+        out += _check(child, types)
+    for name, branches in node.branches.items():
+        for branch in branches.values():
+            if isinstance(branch, MachineNode):
+                out += _check(branch, types)
+    return out
+
+
+def _check_state(node: MachineNode, name: str, st: StateSpec, types: dict[str, str]) -> list[Diagnostic]:
+    src = node.source
+    sat = (*node.at, "states", name)
+    names = tuple(node.states)
+    out: list[Diagnostic] = []
+    known = True
+    if st.skill is not None:
+        if st.skill not in SKILLS:
+            known = False
+            out.append(src.diag((*sat, "skill"), f"unknown skill {st.skill!r}", tuple(sorted(SKILLS))))
+        else:
+            out += _check_params(st.skill, st.with_, types, src, (*sat, "with"))
+    if st.parallel is not None:
+        for bname, branch in node.branches.get(name, {}).items():
+            if isinstance(branch, BranchSpec) and branch.skill is not None:
+                bat = (*sat, "parallel", bname)
+                if branch.skill not in SKILLS:
+                    known = False
+                    out.append(src.diag((*bat, "skill"), f"unknown skill {branch.skill!r}",
+                                        tuple(sorted(SKILLS))))
+                else:
+                    out += _check_params(branch.skill, branch.with_, types, src, (*bat, "with"))
+        known = known and set(node.branches.get(name, {})) == set(st.parallel)
+    if st.machine is not None and name not in node.children:
+        known = False  # the include failed; reported by the loader
+    outcomes = state_outcomes(node, name)
+    if known and st.final is None:
+        what = f"skill {st.skill!r}" if st.skill else (
+            "the parallel state" if st.parallel is not None else "the nested machine")
+        for outcome in st.transitions:
+            if outcome not in outcomes:
+                out.append(src.diag((*sat, "transitions", outcome), f"{what} has no outcome "
+                                    f"{outcome!r}", tuple(outcomes)))
+        for outcome in outcomes:
+            if outcome not in st.transitions:
+                out.append(src.diag((*sat, "transitions") if st.transitions else sat,
+                                    f"outcome {outcome!r} is not handled: add `{outcome}: <STATE>` "
+                                    "to transitions", names))
+        for outcome in st.retry_on or ():
+            if outcome not in outcomes:
+                out.append(src.diag((*sat, "retry_on"), f"no outcome {outcome!r}", tuple(outcomes)))
+    for outcome, target in st.transitions.items():
+        if target not in node.states:
+            out.append(src.diag((*sat, "transitions", outcome), f"unknown state {target!r}", names))
+    out += validate_guards(st.guards, src, (*sat, "guards"))
     return out
 
 
@@ -123,6 +217,9 @@ def _check_graph(node: MachineNode) -> list[Diagnostic]:
             reachable.add(s)
             todo.extend(edges[s])
     out = []
+    if node.on_abort is not None and not node.top:
+        out.append(src.diag((*at, "on_abort"), "`on_abort` only takes effect in the top-level "
+                            "machine: move it there"))
     for name in states:
         if name not in reachable and node.initial in states:
             out.append(src.diag((*at, "states", name), f"state {name!r} is unreachable from "
@@ -146,10 +243,10 @@ def _check_graph(node: MachineNode) -> list[Diagnostic]:
     return out
 
 
-def _refs(value: Any, path: tuple) -> Iterable[tuple[tuple, str]]:
+def _refs(value: Any, path: tuple) -> Iterable[tuple[tuple, str, list]]:
     ref = parse_ref(value)
     if ref is not None:
-        yield path, ref[0]
+        yield path, ref[0], ref[1]
     elif isinstance(value, dict):
         for k, v in value.items():
             yield from _refs(v, (*path, k))
@@ -157,41 +254,91 @@ def _refs(value: Any, path: tuple) -> Iterable[tuple[tuple, str]]:
         for i, v in enumerate(value):
             yield from _refs(v, (*path, i))
     elif isinstance(value, str) and value.startswith("$"):
-        yield path, value  # malformed reference
+        yield path, value, []  # malformed reference
 
 
-def _check_refs(value: Any, keys: set[str], src: SourceMap, path: tuple) -> list[Diagnostic]:
+def _check_refs(value: Any, types: dict[str, str], src: SourceMap, path: tuple) -> list[Diagnostic]:
     out = []
-    for p, key in _refs(value, path):
+    for p, key, rest in _refs(value, path):
         if key.startswith("$"):
             out.append(src.diag(p, f"malformed reference {key!r}: use `$key`, `$key.field` or `$key[0]`"))
-        elif key not in keys:
+        elif key not in types:
             out.append(src.diag(p, f"`${key}` reads a blackboard key that is never declared or "
-                                "written: declare it under `blackboard:`", tuple(sorted(keys))))
+                                "written: declare it under `blackboard:`", tuple(sorted(types))))
+        elif rest:
+            type_ = types[key]
+            head = rest[0]
+            if type_ == "pose" and (not isinstance(head, str) or head not in POSE_FIELDS):
+                out.append(src.diag(p, f"`${key}` is a pose: read `.pos` or `.quat`, not {head!r}", POSE_FIELDS))
+            elif type_ == "vec3" and (not isinstance(head, int) or head > 2):
+                out.append(src.diag(p, f"`${key}` is a vec3: index it with [0], [1] or [2]"))
+            elif type_ in ("str", "int", "float", "bool"):
+                out.append(src.diag(p, f"`${key}` is a {type_}: it has no fields or items"))
     return out
 
 
-def _check_params(skill: str, params: dict, keys: set[str], src: SourceMap, path: tuple) -> list[Diagnostic]:
+def _substitute(value: Any, types: dict[str, str]) -> Any:
+    """Replace whole-value `$key` references by a sample of the key's type (None if unknown)."""
+    ref = parse_ref(value)
+    if ref is not None:
+        key, rest = ref
+        return sample_value(types.get(key, "any")) if not rest else None
+    if isinstance(value, dict):
+        return {k: _substitute(v, types) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_substitute(v, types) for v in value]
+    return value
+
+
+def _has_ref(value: Any) -> bool:
+    return any(True for _ in _refs(value, ()))
+
+
+def _check_params(skill: str, params: dict, types: dict[str, str], src: SourceMap, path: tuple) -> list[Diagnostic]:
     cls = get_skill(skill)
-    out = _check_refs(params, keys, src, path)
-    concrete = {k: v for k, v in params.items() if not any(True for _ in _refs(v, ()))}
-    referenced = set(params) - set(concrete)
+    out = _check_refs(params, types, src, path)
+    concrete = {}
+    unknown_refs = set()
+    for k, v in params.items():
+        if not _has_ref(v):
+            concrete[k] = v
+            continue
+        sub = _substitute(v, types)
+        if sub is None or (isinstance(sub, (list, dict)) and _contains_none(sub)):
+            unknown_refs.add(k)  # untyped reference: checked when the state starts
+        else:
+            concrete[k] = sub
     try:
         cls.Params.model_validate(concrete)
     except ValidationError as exc:
         for d in diagnostics_from_validation(exc, cls.Params, src, params, path):
-            leaf = d.path.split(".")[-1]
-            if "missing required key" in d.message and leaf.strip("'") in referenced:
+            leaf = d.path.split(".")[-1].split("[")[0]
+            if "missing required key" in d.message and leaf in unknown_refs:
                 continue
+            ref = parse_ref(params.get(leaf))
+            if ref is not None:  # a typed `$key` whose type does not fit the parameter
+                declared = types.get(ref[0], "any")
+                d = src.diag((*path, leaf), f"`{params[leaf]}` is a {declared}, which does not "
+                             f"fit this parameter: {d.message.split(', got ')[0]}", d.valid)
             out.append(d)
     return out
+
+
+def _contains_none(value: Any) -> bool:
+    if value is None:
+        return True
+    if isinstance(value, dict):
+        return any(_contains_none(v) for v in value.values())
+    if isinstance(value, list):
+        return any(_contains_none(v) for v in value)
+    return False
 
 
 def validate_guards(refs: list[GuardRef] | dict, src: SourceMap, path: tuple) -> list[Diagnostic]:
     """Unknown guards and bad guard parameters."""
     out = []
     for pos, name, params in guard_entries(refs):
-        gpath = (*path, pos) if isinstance(pos, int) else (*path, pos)
+        gpath = (*path, pos)
         if name not in GUARDS:
             out.append(src.diag(gpath, f"unknown guard {name!r}", tuple(sorted(GUARDS))))
             continue

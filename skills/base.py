@@ -30,13 +30,14 @@ class Skill(abc.ABC):
         name: The name used in YAML (`skill: move`).
         Params: Validates the state's `with:` block.
         outcomes: Every outcome `step` can return; the first one is the success outcome.
-        writes: Names of the Params fields that hold blackboard keys this skill writes.
+        writes: Params field holding a blackboard key this skill writes -> the type it writes
+            (`{"into": "pose"}`); a tuple of field names means type `any`.
     """
 
     name: ClassVar[str]
     Params: ClassVar[type[SkillParams]]
     outcomes: ClassVar[tuple[str, ...]]
-    writes: ClassVar[tuple[str, ...]] = ()
+    writes: ClassVar[dict[str, str] | tuple[str, ...]] = {}
 
     def __init__(self, params: SkillParams) -> None:
         self.params = params
@@ -54,4 +55,4 @@ class Skill(abc.ABC):
 
     def written_keys(self) -> list[str]:
         """Blackboard keys this instance writes (the values of its `writes` fields)."""
-        return [getattr(self.params, f) for f in self.writes]
+        return [getattr(self.params, f) for f in self.writes]  # dict iterates its fields

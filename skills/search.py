@@ -34,7 +34,7 @@ class Search(Skill):
     name: ClassVar[str] = "search"
     Params: ClassVar[type[SkillParams]] = SearchParams
     outcomes: ClassVar[tuple[str, ...]] = ("found", "not_found")
-    writes: ClassVar[tuple[str, ...]] = ("into",)
+    writes: ClassVar[dict[str, str]] = {"into": "pose"}
 
     params: SearchParams
 

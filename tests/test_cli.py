@@ -61,7 +61,7 @@ def test_run_json_follows_the_contract(cli):
 def test_run_human_output_summarizes(cli):
     res = cli("run", "pick_place", "--seed", "1")
     assert res.exit_code == 0
-    assert "succeeded" in res.stdout and "PICK.CLOSE" in res.stdout
+    assert "succeeded" in res.stdout and "PICK.GRASP.CLOSE" in res.stdout
 
 
 def test_guard_violation_exits_3_with_guard_value_and_limit(cli):

@@ -19,7 +19,10 @@ def test_pick_place_succeeds(pick_place, seed):
     assert result.reason is None
     assert result.metrics["cycle_time"] <= 5.0
     states = [t["to"] for t in result.transitions]
-    assert states[:4] == ["PICK.APPROACH", "PICK.DESCEND", "PICK.CLOSE", "PICK.LIFT"]
+    assert states[:5] == [
+        "PICK.GRASP.PREGRASP", "PICK.GRASP.DESCEND", "PICK.GRASP.CLOSE", "PICK.GRASP.LIFT",
+        "PICK.GRASP.VERIFY",
+    ]
     assert states[-1] == "DONE"
 
 
@@ -44,7 +47,7 @@ def test_missed_grasps_are_retried_then_the_run_fails():
     assert result.outcome == "failed"
     assert result.final_state == "FAILED"
     assert result.retries == {"PICK": 2}
-    assert ("PICK.CLOSE", "PICK.REOPEN", "missed") in triggers
+    assert ("PICK.GRASP.CLOSE", "PICK.GRASP.REOPEN", "missed") in triggers
     retried = [t for t in result.transitions if t.get("retry")]
     assert [t["retry"] for t in retried] == [1, 2]
     assert all(t["to"] == "PICK.SEARCH" for t in retried)

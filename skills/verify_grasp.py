@@ -1,0 +1,68 @@
+"""`verify_grasp`: check that an object is really held (after a lift, it came along)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+from pydantic import Field, PositiveFloat
+
+from .base import Skill, SkillParams
+from .gripper import finger_contact_forces
+
+if TYPE_CHECKING:
+    from orchestrator.context import Context
+
+__all__ = ["VerifyGrasp"]
+
+
+class VerifyGraspParams(SkillParams):
+    object: str = Field(description="Name of the scene object that should be held.")
+    min_force_n: PositiveFloat = Field(
+        default=5.0, description="Normal force each finger must still press with [N]."
+    )
+    max_offset_m: PositiveFloat = Field(
+        default=0.02, description="Largest distance of the object's centre from the TCP [m]."
+    )
+    min_height_m: float = Field(
+        default=0.02, description="The object must be at least this far above the table [m]."
+    )
+    duration_s: PositiveFloat = Field(
+        default=0.05, description="How long the check must hold continuously [s]."
+    )
+
+
+class VerifyGrasp(Skill):
+    """`held` if, for `duration_s`, both fingers press on the object, its centre stays within
+    `max_offset_m` of the TCP and it is off the table; `dropped` as soon as any fails."""
+
+    name: ClassVar[str] = "verify_grasp"
+    Params: ClassVar[type[SkillParams]] = VerifyGraspParams
+    outcomes: ClassVar[tuple[str, ...]] = ("held", "dropped")
+
+    params: VerifyGraspParams
+
+    def start(self, ctx: Context) -> None:
+        if self.params.object not in ctx.world.objects:
+            from orchestrator.exceptions import SkillError
+
+            valid = ", ".join(sorted(ctx.world.objects))
+            raise SkillError(f"verify_grasp: unknown object {self.params.object!r} (valid: {valid})")
+        self.t0 = ctx.t
+        ctx.controller.hold(ctx.controller.q_d.copy())
+
+    def step(self, ctx: Context) -> str | None:
+        p = self.params
+        handle = ctx.world.objects[p.object]
+        left, right = finger_contact_forces(ctx, handle.geom_id)
+        pos = np.asarray(ctx.object_pose(p.object).pos)
+        offset = float(np.linalg.norm(pos - ctx.tcp_pos))
+        lifted = pos[2] - handle.half_size[2] - ctx.world.table_height >= p.min_height_m
+        if min(left, right) < p.min_force_n or offset > p.max_offset_m or not lifted:
+            ctx.log(
+                "skill",
+                f"verify_grasp: not held (forces {left:.1f}/{right:.1f} N, offset "
+                f"{offset * 1000:.1f} mm, lifted {lifted})",
+            )
+            return "dropped"
+        return "held" if ctx.t - self.t0 >= p.duration_s else None
