@@ -23,22 +23,22 @@ GuardRef = str | dict[str, dict[str, Any] | None]
 """A guard by name (`joint_limits`) or with parameters (`{contact_force: {max_n: 40}}`)."""
 
 
-def guard_entries(refs: list[GuardRef] | dict[str, Any]) -> list[tuple[int | str, str, dict]]:
+def guard_entries(refs: list[GuardRef] | dict[str, Any]) -> list[tuple[int | str, str, Any]]:
     """Normalize guard references to `(position, name, params)`.
 
     Accepts the list form of machines and the mapping form (`{name: params}`) of scenarios.
     """
-    out: list[tuple[int | str, str, dict]] = []
+    out: list[tuple[int | str, str, Any]] = []
     if isinstance(refs, dict):
         for name, params in refs.items():
-            out.append((name, name, dict(params or {})))
+            out.append((name, str(name), {} if params is None else params))
         return out
     for i, ref in enumerate(refs):
-        if isinstance(ref, str):
-            out.append((i, ref, {}))
-        else:
+        if isinstance(ref, dict):
             for name, params in ref.items():
-                out.append((i, name, dict(params or {})))
+                out.append((i, str(name), {} if params is None else params))
+        else:
+            out.append((i, str(ref), {}))
     return out
 
 

@@ -111,4 +111,14 @@ def diagnostics_from_validation(
                 by_path[full] = source.diag(full, f"{prev.message}; or {msg}", prev.valid or valid)
             continue
         by_path[full] = source.diag(full, msg, valid)
-    return list(by_path.values())
+    # A union reports "should be a valid list" for the arm that did not apply; when deeper
+    # errors exist under that path, they are the useful ones.
+    paths = [d.path for d in by_path.values()]
+    return [
+        d
+        for d in by_path.values()
+        if not (
+            d.message.startswith("Input should be a valid")
+            and any(p.startswith(d.path + ".") or p.startswith(d.path + "[") for p in paths)
+        )
+    ]

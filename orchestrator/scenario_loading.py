@@ -15,7 +15,8 @@ from .loading import MachineNode, load_machine_file
 from .overrides import apply_override, parse_override
 from .pydantic_errors import diagnostics_from_validation
 from .scenario import Scenario
-from .validation import blackboard_keys, validate_guards, validate_machine
+from .blackboard_types import check_type
+from .validation import blackboard_types, validate_guards, validate_machine
 from .yamlio import SourceMap, load_yaml
 
 __all__ = ["LoadedScenario", "load_scenario"]
@@ -65,9 +66,9 @@ def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenari
         else:
             machine, sub = load_machine_file(mpath)
             problems += sub
-    keys = blackboard_keys(machine) if machine else set()
-    if isinstance(data.get("blackboard"), dict):
-        keys |= set(data["blackboard"])
+    types = blackboard_types(machine) if machine else {}
+    keys = set(types)
+    overridden: dict[str, str] = {}
     for text in overrides or []:
         ov = parse_override(text)
         if isinstance(ov, Diagnostic):
@@ -76,24 +77,47 @@ def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenari
         diag = apply_override(data, ov, keys)
         if diag is not None:
             problems.append(diag)
+        else:
+            dotted = ".".join(ov.path)
+            overridden["blackboard." + dotted if len(ov.path) == 1 and dotted in keys else dotted] = text
     scenario: Scenario | None = None
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as exc:
         problems += diagnostics_from_validation(exc, Scenario, doc.source, data)
+    raw_guards = data.get("guards")
+    if isinstance(raw_guards, (list, dict)):
+        # guard names and parameters are checked here, with better messages than the model's
+        problems = [p for p in problems if not p.path.startswith("guards.") and not p.path.startswith("guards[")]
+        problems += validate_guards(raw_guards, doc.source, ("guards",))
     if scenario is not None:
-        problems += validate_guards(scenario.guards, doc.source, ("guards",))
         problems += _check_scenario_refs(scenario, doc.source)
         if machine is not None:
-            for key in scenario.blackboard:
+            for key, value in scenario.blackboard.items():
                 if key not in keys:
-                    problems.append(doc.source.diag(("blackboard", key), f"the machine has no blackboard key {key!r}", tuple(sorted(keys))))
+                    problems.append(doc.source.diag(
+                        ("blackboard", key), f"the machine has no blackboard key {key!r}",
+                        tuple(sorted(keys))))
+                elif not check_type(value, types[key]):
+                    problems.append(doc.source.diag(
+                        ("blackboard", key), f"{value!r} is not a {types[key]}, the type the "
+                        "machine declares for this key"))
     if machine is not None:
-        problems += validate_machine(machine, extra_keys=keys)
+        problems += validate_machine(machine)
     if problems:
-        raise ConfigError(problems)
+        raise ConfigError([_attribute(d, overridden, doc.source.file) for d in problems])
     assert scenario is not None and machine is not None
     return LoadedScenario(scenario, machine, path, doc.source)
+
+
+def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagnostic:
+    """Blame a `--set` override, not the scenario file, for problems in what it set."""
+    if diag.file != file:
+        return diag
+    for path, text in overridden.items():
+        if diag.path == path or diag.path.startswith(path + ".") or diag.path.startswith(path + "["):
+            return Diagnostic("<--set>", 0, 0, diag.path, f"{diag.message} (from --set {text})", diag.valid)
+    return diag
 
 
 def _check_scenario_refs(scenario: Scenario, src: SourceMap) -> list[Diagnostic]:

@@ -342,9 +342,13 @@ def validate_guards(refs: list[GuardRef] | dict, src: SourceMap, path: tuple) ->
         if name not in GUARDS:
             out.append(src.diag(gpath, f"unknown guard {name!r}", tuple(sorted(GUARDS))))
             continue
+        ppath = (*gpath, name) if isinstance(pos, int) else gpath
+        if not isinstance(params, dict):
+            out.append(src.diag(ppath, f"guard parameters must be a mapping, got {params!r}",
+                                tuple(GUARDS[name].Params.model_fields)))
+            continue
         try:
             GUARDS[name].Params.model_validate(params)
         except ValidationError as exc:
-            ppath = (*gpath, name) if isinstance(pos, int) else gpath
             out += diagnostics_from_validation(exc, GUARDS[name].Params, src, params, ppath)
     return out
