@@ -1,0 +1,128 @@
+"""JSON Schemas (draft 7, for yaml-language-server) of the machine and scenario languages,
+generated from the pydantic models, with each skill's `with:` and each guard's parameters."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel
+
+from .guards import GUARDS
+from .machine import MachineSpec
+from .scenario import Scenario
+from .skills import SKILLS, skill_names
+
+__all__ = ["SCHEMA_DIR", "machine_schema", "scenario_schema", "schema_text", "write_schemas"]
+
+SCHEMA_DIR = Path(__file__).parent / "schemas"
+DRAFT7 = "http://json-schema.org/draft-07/schema#"
+REF = "#/definitions/{model}"
+REF_PATTERN = r"^\$[A-Za-z_][A-Za-z0-9_]*((\.[A-Za-z_][A-Za-z0-9_]*)|(\[[0-9]+\]))*$"
+BLACKBOARD_REF = {"type": "string", "pattern": REF_PATTERN, "description": "A blackboard read."}
+
+
+def _model_schema(model: type[BaseModel], defs: dict[str, Any], prefix: str = "") -> dict:
+    """The model's schema; its sub-definitions go into `defs` (names prefixed to stay unique)."""
+    schema = model.model_json_schema(ref_template="#/definitions/" + prefix + "{model}")
+    for name, sub in schema.pop("$defs", {}).items():
+        defs[prefix + name] = sub
+    return schema
+
+
+def _allow_refs(params: dict) -> dict:
+    """Every parameter may also be a `$key` blackboard read (and so may list items)."""
+    params = copy.deepcopy(params)
+    for prop, sub in params.get("properties", {}).items():
+        if sub.get("type") == "array" and isinstance(sub.get("items"), dict):
+            sub["items"] = {"anyOf": [sub["items"], BLACKBOARD_REF]}
+        params["properties"][prop] = {"anyOf": [sub, BLACKBOARD_REF], "description": sub.get("description", "")}
+    params.pop("required", None)  # a required parameter may come from the blackboard at run time
+    return params
+
+
+def _guard_schema(defs: dict[str, Any]) -> dict:
+    by_name = {}
+    for name, cls in sorted(GUARDS.items()):
+        by_name[name] = _model_schema(cls.Params, defs, prefix=f"guard_{name}_")
+    one = {
+        "type": "object",
+        "minProperties": 1,
+        "maxProperties": 1,
+        "additionalProperties": False,
+        "properties": {n: {"anyOf": [s, {"type": "null"}]} for n, s in by_name.items()},
+    }
+    return {"anyOf": [{"type": "string", "enum": sorted(GUARDS)}, one]}
+
+
+def _skill_conditions(defs: dict[str, Any]) -> list[dict]:
+    conditions = []
+    for name in skill_names():
+        params = _allow_refs(_model_schema(SKILLS[name].Params, defs, prefix=f"skill_{name}_"))
+        conditions.append(
+            {
+                "if": {"properties": {"skill": {"const": name}}, "required": ["skill"]},
+                "then": {"properties": {"with": params}},
+            }
+        )
+    return conditions
+
+
+def machine_schema() -> dict:
+    """JSON Schema of a machine file."""
+    defs: dict[str, Any] = {}
+    schema = _model_schema(MachineSpec, defs)
+    guard = _guard_schema(defs)
+    conditions = _skill_conditions(defs)
+    skills = {"type": "string", "enum": skill_names(), "description": "Skill to run."}
+    for name in ("StateSpec", "BranchSpec"):
+        spec = defs[name]
+        spec["properties"]["skill"] = {"anyOf": [skills, {"type": "null"}]}
+        spec["allOf"] = conditions
+        if "guards" in spec["properties"]:
+            spec["properties"]["guards"] = {"type": "array", "items": guard}
+    schema["properties"]["guards"] = {"type": "array", "items": guard}
+    return _finish(schema, defs, "embodied-orchestrator machine")
+
+
+def scenario_schema() -> dict:
+    """JSON Schema of a scenario file."""
+    defs: dict[str, Any] = {}
+    schema = _model_schema(Scenario, defs)
+    guard = _guard_schema(defs)
+    mapping = {
+        "type": "object",
+        "additionalProperties": False,
+        "properties": guard["anyOf"][1]["properties"],
+    }
+    schema["properties"]["guards"] = {"anyOf": [{"type": "array", "items": guard}, mapping]}
+    return _finish(schema, defs, "embodied-orchestrator scenario")
+
+
+def _finish(schema: dict, defs: dict, title: str) -> dict:
+    schema["title"] = title
+    out = {"$schema": DRAFT7, **schema, "definitions": dict(sorted(defs.items()))}
+    return out
+
+
+def schema_text(kind: str) -> str:
+    """The schema of `machine` or `scenario` as formatted JSON."""
+    schema = machine_schema() if kind == "machine" else scenario_schema()
+    return json.dumps(schema, indent=2, sort_keys=False) + "\n"
+
+
+def write_schemas() -> list[Path]:
+    """Regenerate the files in orchestrator/schemas/ (run after changing a model or skill)."""
+    paths = []
+    for kind in ("machine", "scenario"):
+        path = SCHEMA_DIR / f"{kind}.schema.json"
+        path.write_text(schema_text(kind))
+        paths.append(path)
+    return paths
+
+
+if __name__ == "__main__":
+    for p in write_schemas():
+        print(f"wrote {p}")

@@ -1,0 +1,104 @@
+"""`orchestrator graph`: Mermaid flowchart and DOT output of a machine."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from orchestrator.graph import _id
+from orchestrator.loading import load_machine
+
+NODE = re.compile(r"^\s*(\w+)(\[\"|\(\(|\(\[\"|\{\{)")
+SUBGRAPH = re.compile(r"^\s*subgraph (\w+)\[\"")
+EDGE = re.compile(r"^\s*(\w+) (-->|-\.->)(?:\|([^|]+)\|)? (\w+)$")
+CLASS = re.compile(r"^\s*(classDef|class) ")
+
+
+def parse_mermaid(text: str) -> tuple[set[str], list[tuple[str, str, str | None]]]:
+    """A strict reader of the flowchart subset we emit: fails on any other line."""
+    lines = text.splitlines()
+    assert lines[0] == "flowchart TD"
+    nodes: set[str] = set()
+    edges = []
+    depth = 0
+    for line in lines[1:]:
+        if m := SUBGRAPH.match(line):
+            nodes.add(m.group(1))
+            depth += 1
+        elif line.strip() == "end":
+            depth -= 1
+            assert depth >= 0, "unbalanced `end`"
+        elif m := EDGE.match(line):
+            edges.append((m.group(1), m.group(4), m.group(3)))
+        elif m := NODE.match(line):
+            nodes.add(m.group(1))
+        elif CLASS.match(line):
+            continue
+        else:
+            raise AssertionError(f"not flowchart syntax we know: {line!r}")
+    assert depth == 0, "unclosed subgraph"
+    return nodes, edges
+
+
+def test_pick_place_mermaid_declares_every_node_and_edge(cli):
+    res = cli("graph", "pick_place", "--format", "mermaid")
+    assert res.exit_code == 0
+    nodes, edges = parse_mermaid(res.stdout)
+    for src, dst, _ in edges:
+        assert src in nodes and dst in nodes, (src, dst)
+    machine = load_machine("pick_place")
+    for path, st, node in machine.walk():
+        assert _id(path) in nodes, path
+        prefix = path.rsplit(".", 1)[0] + "." if "." in path else ""
+        for outcome, target in st.transitions.items():
+            assert (_id(path), _id(prefix + target), outcome) in edges
+    # nested machines are clusters, and the abort path is drawn
+    assert "subgraph s_PICK__GRASP[" in res.stdout
+    assert ("s___guard", "s_SAFE_STOP", "abort") in edges
+
+
+def test_on_abort_is_the_abort_target(tmp_path, cli):
+    text = (tmp_path / "m.yaml")
+    text.write_text(
+        "name: m\ninitial: A\non_abort: HOLD\nstates:\n"
+        "  A:\n    skill: release\n    transitions: {released: DONE, timeout: DONE}\n"
+        "  HOLD:\n    skill: release\n    transitions: {released: DONE, timeout: DONE}\n"
+        "  DONE: {final: succeeded}\n"
+    )
+    nodes, edges = parse_mermaid(cli("graph", str(text)).stdout)
+    assert ("s___guard", "s_HOLD", "abort") in edges
+
+
+def test_parallel_branches_are_clusters(tmp_path, cli):
+    path = tmp_path / "p.yaml"
+    path.write_text(
+        "name: p\ninitial: P\nblackboard: {object: cube}\nstates:\n"
+        "  P:\n    rule: any\n    parallel:\n"
+        "      look: {skill: search, with: {object: $object}}\n"
+        "      hold:\n        initial: H\n        states:\n"
+        "          H:\n            skill: release\n            transitions: {released: OK, timeout: OK}\n"
+        "          OK: {final: ok}\n"
+        "    transitions: {succeeded: DONE, failed: DONE}\n"
+        "  DONE: {final: succeeded}\n"
+    )
+    res = cli("graph", str(path))
+    nodes, edges = parse_mermaid(res.stdout)
+    assert {"s_P", "s_P__look", "s_P__hold", "s_P__hold__H"} <= nodes
+    assert ("s_P__hold__H", "s_P__hold__OK", "released") in edges
+
+
+def test_dot_output_is_a_balanced_digraph_with_every_transition(cli):
+    res = cli("graph", "pick_place", "--format", "dot")
+    assert res.exit_code == 0
+    text = res.stdout
+    assert text.startswith("digraph machine {") and text.count("{") == text.count("}")
+    assert "subgraph cluster_s_PICK__GRASP {" in text
+    for outcome in ("found", "grasped", "held", "picked", "released", "abort"):
+        assert f'label="{outcome}"' in text
+
+
+@pytest.mark.parametrize("fmt", ["svg", "png"])
+def test_unknown_format_is_invalid_input(cli, fmt):
+    res = cli("graph", "pick_place", "--format", fmt)
+    assert res.exit_code == 2 and "valid: mermaid, dot" in res.stderr

@@ -1,0 +1,101 @@
+"""A corpus of invalid machines and scenarios: each is reported at the exact file:line, with
+the expected message, exit code 2 and no traceback; the JSON Schema rejects the ones that
+are schema-level mistakes and accepts every bundled file."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import jsonschema
+import pytest
+import yaml
+
+from orchestrator.bundled import bundled_path
+from orchestrator.schema_gen import SCHEMA_DIR
+
+CORPUS = Path(__file__).parent / "corpus"
+FILES = sorted(CORPUS.glob("*.yaml"))
+REPO = Path(__file__).resolve().parent.parent
+
+
+def _header(path: Path) -> tuple[int, str, str]:
+    lines = path.read_text().splitlines()
+    m = re.match(r"# expect: (\d+): (.*)$", lines[0])
+    s = re.match(r"# schema: (reject|accept|skip)$", lines[1])
+    assert m and s, f"{path.name}: needs '# expect: LINE: fragment' and '# schema: ...' headers"
+    return int(m.group(1)), m.group(2), s.group(1)
+
+
+def test_the_corpus_has_at_least_25_cases():
+    assert len(FILES) >= 25
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.stem)
+def test_invalid_file_is_reported_at_its_line(cli, path):
+    line, fragment, _ = _header(path)
+    res = cli("validate", str(path))
+    assert res.exit_code == 2, res.stdout
+    assert res.exception is None and "Traceback" not in res.stderr
+    located = [ln for ln in res.stderr.splitlines() if ln.startswith(f"{path}:{line}:")]
+    assert any(fragment in ln for ln in located), res.stderr
+
+
+def _schema(kind: str) -> jsonschema.Draft7Validator:
+    return jsonschema.Draft7Validator(json.loads((SCHEMA_DIR / f"{kind}.schema.json").read_text()))
+
+
+@pytest.mark.parametrize(
+    "path", [p for p in FILES if _header(p)[2] != "skip"], ids=lambda p: p.stem
+)
+def test_schema_rejects_exactly_the_schema_level_mistakes(path):
+    _, _, verdict = _header(path)
+    data = yaml.safe_load(path.read_text())
+    kind = "scenario" if path.name.startswith("s_") else "machine"
+    errors = list(_schema(kind).iter_errors(data))
+    if verdict == "reject":
+        assert errors, f"{path.name}: the schema accepted a schema-level mistake"
+    else:
+        assert not errors, [e.message for e in errors]
+
+
+def _bundled() -> list[tuple[str, Path]]:
+    from orchestrator.bundled import bundled_names
+
+    out = []
+    for kind in ("machines", "scenarios"):
+        for name in bundled_names(kind):
+            path = bundled_path(kind, name)
+            assert path is not None
+            out.append((kind[:-1], path))
+    return out
+
+
+@pytest.mark.parametrize(("kind", "path"), _bundled(), ids=lambda v: getattr(v, "stem", v))
+def test_schema_accepts_every_bundled_file_and_it_has_the_modeline(kind, path):
+    text = path.read_text()
+    assert text.startswith(
+        f"# yaml-language-server: $schema=../orchestrator/schemas/{kind}.schema.json"
+    )
+    errors = list(_schema(kind).iter_errors(yaml.safe_load(text)))
+    assert not errors, [e.message for e in errors]
+
+
+@pytest.mark.parametrize("kind", ["machine", "scenario"])
+def test_generated_schemas_are_not_stale(kind):
+    from orchestrator.schema_gen import schema_text
+
+    on_disk = (SCHEMA_DIR / f"{kind}.schema.json").read_text()
+    assert on_disk == schema_text(kind), (
+        "orchestrator/schemas is stale: run `python -m orchestrator.schema_gen`"
+    )
+
+
+@pytest.mark.parametrize("kind", ["machine", "scenario"])
+def test_schema_command_prints_a_draft7_schema(cli, kind):
+    res = cli("schema", kind)
+    assert res.exit_code == 0
+    schema = json.loads(res.stdout)
+    assert schema["$schema"] == "http://json-schema.org/draft-07/schema#"
+    jsonschema.Draft7Validator.check_schema(schema)
