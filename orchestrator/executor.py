@@ -186,7 +186,9 @@ class _ParallelActivity:
         return self.path
 
     def regions(self) -> list[_Region]:
-        return [a for b, a in self.branches.items() if isinstance(a, _Region) and b not in self.done]
+        return [
+            a for b, a in self.branches.items() if isinstance(a, _Region) and b not in self.done
+        ]
 
 
 class _Region:
@@ -277,7 +279,9 @@ class _Region:
         self.model.trigger(outcome)
         return self._enter(src, outcome)
 
-    def _enter(self, src: str | None, trigger: str | None, retry: int | None = None) -> Finished | None:
+    def _enter(
+        self, src: str | None, trigger: str | None, retry: int | None = None
+    ) -> Finished | None:
         ex, name, st = self.ex, self.state, self.spec
         path = self.prefix + name
         self.entered_t = ex.ctx.t
@@ -422,7 +426,12 @@ class Executor:
 
     def record(self, src: str, dst: str, trigger: str, retry: int | None = None) -> None:
         """Append a transition to the result (and tell the listeners)."""
-        rec: dict[str, Any] = {"t": round(self.ctx.t, 6), "from": src, "to": dst, "trigger": trigger}
+        rec: dict[str, Any] = {
+            "t": round(self.ctx.t, 6),
+            "from": src,
+            "to": dst,
+            "trigger": trigger,
+        }
         if retry:
             rec["retry"] = retry
         self.transitions.append(rec)

@@ -65,7 +65,9 @@ class _Mermaid:
                         self.machine(branch, bpath + ".", indent + "    ")
                         self.lines.append(f"{indent}  end")
                     else:
-                        self.lines.append(f'{indent}  {_id(bpath)}["{_escape(_label(bname, branch))}"]')
+                        self.lines.append(
+                            f'{indent}  {_id(bpath)}["{_escape(_label(bname, branch))}"]'
+                        )
                 self.lines.append(f"{indent}end")
             elif st.final is not None:
                 self.lines.append(f'{indent}{nid}(["{_escape(_label(name, st))}"])')
@@ -74,7 +76,9 @@ class _Mermaid:
                 self.lines.append(f'{indent}{nid}["{_escape(_label(name, st))}"]')
         for name, st in node.states.items():
             for outcome, target in st.transitions.items():
-                self.lines.append(f"{indent}{_id(prefix + name)} -->|{outcome}| {_id(prefix + target)}")
+                self.lines.append(
+                    f"{indent}{_id(prefix + name)} -->|{outcome}| {_id(prefix + target)}"
+                )
 
 
 def to_mermaid(node: MachineNode) -> str:
@@ -103,7 +107,8 @@ class _Dot:
         self.lines = [
             "digraph machine {",
             "  compound=true; rankdir=TB;",
-            '  node [shape=box, style="rounded,filled", fillcolor="#f5f5f5", fontname="Helvetica"];',
+            '  node [shape=box, style="rounded,filled", fillcolor="#f5f5f5",'
+            ' fontname="Helvetica"];',
             '  edge [fontname="Helvetica", fontsize=10];',
         ]
 
@@ -126,7 +131,9 @@ class _Dot:
                 if name in node.children:
                     self.machine(node.children[name], path + ".", indent + "  ")
                 else:
-                    self.lines.append(f'{indent}  {_id(path + ".__start")} [shape=point, label=""];')
+                    self.lines.append(
+                        f'{indent}  {_id(path + ".__start")} [shape=point, label=""];'
+                    )
                     for bname, branch in node.branches.get(name, {}).items():
                         bpath = f"{path}.{bname}"
                         if isinstance(branch, MachineNode):
@@ -135,9 +142,8 @@ class _Dot:
                             self.machine(branch, bpath + ".", indent + "    ")
                             self.lines.append(f"{indent}  }}")
                         else:
-                            self.lines.append(
-                                f'{indent}  {_id(bpath)} [label="{_escape(_label(bname, branch))}"];'
-                            )
+                            label = _escape(_label(bname, branch))
+                            self.lines.append(f'{indent}  {_id(bpath)} [label="{label}"];')
                 self.lines.append(f"{indent}}}")
             elif st.final is not None:
                 self.lines.append(
@@ -147,11 +153,16 @@ class _Dot:
             else:
                 self.lines.append(f'{indent}{_id(path)} [label="{_escape(_label(name, st))}"];')
         for name, st in node.states.items():
-            src, ltail = self.anchor(prefix + name, node.children.get(name) or (
-                node if st.parallel is not None else None))
+            src, ltail = self.anchor(
+                prefix + name,
+                node.children.get(name) or (node if st.parallel is not None else None),
+            )
             for outcome, target in st.transitions.items():
-                dst, lhead = self.anchor(prefix + target, node.children.get(target) or (
-                    node if node.states[target].parallel is not None else None))
+                dst, lhead = self.anchor(
+                    prefix + target,
+                    node.children.get(target)
+                    or (node if node.states[target].parallel is not None else None),
+                )
                 attrs = [f'label="{outcome}"']
                 if ltail:
                     attrs.append(f"ltail={ltail}")
@@ -168,7 +179,9 @@ def to_dot(node: MachineNode) -> str:
     d.lines.append(f'  {guard} [label="guard fires", shape=hexagon, fillcolor="#ffebee"];')
     target = node.on_abort or SAFE_STOP
     if node.on_abort is None:
-        d.lines.append(f'  {_id(SAFE_STOP)} [label="{SAFE_STOP}: aborted", shape=oval, fillcolor="#ffebee"];')
+        d.lines.append(
+            f'  {_id(SAFE_STOP)} [label="{SAFE_STOP}: aborted", shape=oval, fillcolor="#ffebee"];'
+        )
     dst, lhead = d.anchor(target, node.children.get(target) if node.on_abort else None)
     extra = f", lhead={lhead}" if lhead else ""
     d.lines.append(f'  {guard} -> {dst} [label="abort", style=dashed, color="#c62828"{extra}];')

@@ -101,7 +101,9 @@ def _declarations(raw: dict[str, Any]) -> tuple[dict[str, Any], dict[str, str]]:
     return defaults, types
 
 
-def load_machine_file(path: Path, _stack: tuple[Path, ...] = ()) -> tuple[MachineNode | None, list[Diagnostic]]:
+def load_machine_file(
+    path: Path, _stack: tuple[Path, ...] = ()
+) -> tuple[MachineNode | None, list[Diagnostic]]:
     """Parse one machine file and its includes. Returns the tree (None if unusable) and every
     problem found; nothing is raised for user mistakes."""
     try:
@@ -110,8 +112,11 @@ def load_machine_file(path: Path, _stack: tuple[Path, ...] = ()) -> tuple[Machin
         return None, exc.diagnostics
     problems = list(doc.problems)
     if not isinstance(doc.data, dict):
-        problems.append(doc.source.diag((), "a machine file must be a mapping with `name`, "
-                                        "`initial` and `states`"))
+        problems.append(
+            doc.source.diag(
+                (), "a machine file must be a mapping with `name`, `initial` and `states`"
+            )
+        )
         return None, problems
     try:
         spec = MachineSpec.model_validate(doc.data)
@@ -214,7 +219,10 @@ def load_machine(ref: str, base_dir: Path | None = None) -> MachineNode:
         raise ConfigError(
             [
                 Diagnostic(
-                    ref, 0, 0, "<machine>",
+                    ref,
+                    0,
+                    0,
+                    "<machine>",
                     "no such machine file or bundled machine",
                     tuple(bundled_names("machines")),
                 )

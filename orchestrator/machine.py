@@ -123,9 +123,7 @@ class StateSpec(_Strict):
         default=None,
         description="Outcomes that count as failures for `retry` (default: all but the first).",
     )
-    transitions: dict[str, str] = Field(
-        default_factory=dict, description="Outcome -> next state."
-    )
+    transitions: dict[str, str] = Field(default_factory=dict, description="Outcome -> next state.")
     guards: list[GuardRef] = Field(
         default_factory=list, description="Guards active only while this state is active."
     )

@@ -29,7 +29,9 @@ def parse_override(text: str) -> Override | Diagnostic:
     key, sep, raw = text.partition("=")
     key = key.strip()
     if not sep or not key:
-        return Diagnostic("<--set>", 0, 0, text, "expected KEY=VALUE, e.g. --set place_at=[0.5,0.2,0.3]")
+        return Diagnostic(
+            "<--set>", 0, 0, text, "expected KEY=VALUE, e.g. --set place_at=[0.5,0.2,0.3]"
+        )
     try:
         value = yaml.safe_load(raw) if raw.strip() else ""
     except yaml.YAMLError as exc:
@@ -83,8 +85,16 @@ def apply_override(data: dict, ov: Override, blackboard_keys: set[str]) -> Diagn
 
 
 _SCENARIO_KEYS = (
-    "name", "description", "robot", "scene", "machine", "blackboard", "guards", "success",
-    "physics", "perception",
+    "name",
+    "description",
+    "robot",
+    "scene",
+    "machine",
+    "blackboard",
+    "guards",
+    "success",
+    "physics",
+    "perception",
 )
 
 

@@ -28,7 +28,9 @@ class Pose(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     pos: list[float] = Field(min_length=3, max_length=3)
-    quat: list[float] = Field(default_factory=lambda: [1.0, 0.0, 0.0, 0.0], min_length=4, max_length=4)
+    quat: list[float] = Field(
+        default_factory=lambda: [1.0, 0.0, 0.0, 0.0], min_length=4, max_length=4
+    )
 
     @property
     def yaw(self) -> float:

@@ -76,10 +76,15 @@ def run_episode(
     n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
     dt_control = n_sub * dt
     ctx = Context(
-        world, controller, initial_blackboard(loaded.machine, scn.blackboard),
-        np.random.default_rng([seed, 1]), dt_control,
+        world,
+        controller,
+        initial_blackboard(loaded.machine, scn.blackboard),
+        np.random.default_rng([seed, 1]),
+        dt_control,
     )
-    ctx.ik = IKSolver(world.robot, robot_only_model(world.robot.name), dt_control, scn.robot.base_pos)
+    ctx.ik = IKSolver(
+        world.robot, robot_only_model(world.robot.name), dt_control, scn.robot.base_pos
+    )
     executor = Executor(loaded.machine, ctx, make_guards(scn.guards, ctx), scn.physics.safe_stop_s)
 
     q_idx, v_idx = as_index(world.robot_qpos), as_index(world.robot_dof)
@@ -116,7 +121,10 @@ def run_episode(
         ctx.tick += 1
         f = ctx.wrist_force()
         max_force = max(max_force, math.sqrt(float(f @ f)))
-        if not np.all(np.isfinite(data.qpos)) or data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
+        if (
+            not np.all(np.isfinite(data.qpos))
+            or data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
+        ):
             diverged = f"physics diverged at t={ctx.t:.3f} s (state {executor.leaf})"
             break
         if ctx.t >= time_limit and not executor.done:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
+from .blackboard_types import check_type
 from .bundled import bundled_names, resolve_file
 from .diagnostics import Diagnostic
 from .exceptions import ConfigError
@@ -15,7 +16,6 @@ from .loading import MachineNode, load_machine_file
 from .overrides import apply_override, parse_override
 from .pydantic_errors import diagnostics_from_validation
 from .scenario import Scenario
-from .blackboard_types import check_type
 from .validation import blackboard_types, validate_guards, validate_machine
 from .yamlio import SourceMap, load_yaml
 
@@ -45,14 +45,24 @@ def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenari
     path = resolve_file(ref, "scenarios")
     if path is None:
         raise ConfigError(
-            [Diagnostic(ref, 0, 0, "<scenario>", "no such scenario file or bundled scenario",
-                        tuple(bundled_names("scenarios")))]
+            [
+                Diagnostic(
+                    ref,
+                    0,
+                    0,
+                    "<scenario>",
+                    "no such scenario file or bundled scenario",
+                    tuple(bundled_names("scenarios")),
+                )
+            ]
         )
     doc = load_yaml(path)
     problems = list(doc.problems)
     data = doc.data
     if not isinstance(data, dict):
-        problems.append(doc.source.diag((), "a scenario file must be a mapping (name, machine, scene, ...)"))
+        problems.append(
+            doc.source.diag((), "a scenario file must be a mapping (name, machine, scene, ...)")
+        )
         raise ConfigError(problems)
     data = copy.deepcopy(data)
     machine: MachineNode | None = None
@@ -60,9 +70,13 @@ def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenari
     if isinstance(machine_ref, str):
         mpath = resolve_file(machine_ref, "machines", path.parent)
         if mpath is None:
-            problems.append(doc.source.diag(("machine",), f"machine {machine_ref!r} not found "
-                                            f"(relative to {path.parent}, nor bundled)",
-                                            tuple(bundled_names("machines"))))
+            problems.append(
+                doc.source.diag(
+                    ("machine",),
+                    f"machine {machine_ref!r} not found (relative to {path.parent}, nor bundled)",
+                    tuple(bundled_names("machines")),
+                )
+            )
         else:
             machine, sub = load_machine_file(mpath)
             problems += sub
@@ -79,7 +93,9 @@ def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenari
             problems.append(diag)
         else:
             dotted = ".".join(ov.path)
-            overridden["blackboard." + dotted if len(ov.path) == 1 and dotted in keys else dotted] = text
+            overridden[
+                "blackboard." + dotted if len(ov.path) == 1 and dotted in keys else dotted
+            ] = text
     scenario: Scenario | None = None
     try:
         scenario = Scenario.model_validate(data)
@@ -88,20 +104,32 @@ def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenari
     raw_guards = data.get("guards")
     if isinstance(raw_guards, (list, dict)):
         # guard names and parameters are checked here, with better messages than the model's
-        problems = [p for p in problems if not p.path.startswith("guards.") and not p.path.startswith("guards[")]
+        problems = [
+            p
+            for p in problems
+            if not p.path.startswith("guards.") and not p.path.startswith("guards[")
+        ]
         problems += validate_guards(raw_guards, doc.source, ("guards",))
     if scenario is not None:
         problems += _check_scenario_refs(scenario, doc.source)
         if machine is not None:
             for key, value in scenario.blackboard.items():
                 if key not in keys:
-                    problems.append(doc.source.diag(
-                        ("blackboard", key), f"the machine has no blackboard key {key!r}",
-                        tuple(sorted(keys))))
+                    problems.append(
+                        doc.source.diag(
+                            ("blackboard", key),
+                            f"the machine has no blackboard key {key!r}",
+                            tuple(sorted(keys)),
+                        )
+                    )
                 elif not check_type(value, types[key]):
-                    problems.append(doc.source.diag(
-                        ("blackboard", key), f"{value!r} is not a {types[key]}, the type the "
-                        "machine declares for this key"))
+                    problems.append(
+                        doc.source.diag(
+                            ("blackboard", key),
+                            f"{value!r} is not a {types[key]}, the type the "
+                            "machine declares for this key",
+                        )
+                    )
     if machine is not None:
         problems += validate_machine(machine)
     if problems:
@@ -115,8 +143,14 @@ def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagn
     if diag.file != file:
         return diag
     for path, text in overridden.items():
-        if diag.path == path or diag.path.startswith(path + ".") or diag.path.startswith(path + "["):
-            return Diagnostic("<--set>", 0, 0, diag.path, f"{diag.message} (from --set {text})", diag.valid)
+        if (
+            diag.path == path
+            or diag.path.startswith(path + ".")
+            or diag.path.startswith(path + "[")
+        ):
+            return Diagnostic(
+                "<--set>", 0, 0, diag.path, f"{diag.message} (from --set {text})", diag.valid
+            )
     return diag
 
 
@@ -126,11 +160,21 @@ def _check_scenario_refs(scenario: Scenario, src: SourceMap) -> list[Diagnostic]
     markers = [m.name for m in scenario.scene.markers]
     for name, check in scenario.success.items():
         if check.object not in objects:
-            out.append(src.diag(("success", name, "object"), f"no scene object {check.object!r}", tuple(objects)))
+            out.append(
+                src.diag(
+                    ("success", name, "object"), f"no scene object {check.object!r}", tuple(objects)
+                )
+            )
         if check.target is not None and check.target not in markers:
-            out.append(src.diag(("success", name, "target"), f"no marker {check.target!r}", tuple(markers)))
+            out.append(
+                src.diag(("success", name, "target"), f"no marker {check.target!r}", tuple(markers))
+            )
     from .robots import ROBOTS
 
     if scenario.robot.name not in ROBOTS:
-        out.append(src.diag(("robot", "name"), f"unknown robot {scenario.robot.name!r}", tuple(sorted(ROBOTS))))
+        out.append(
+            src.diag(
+                ("robot", "name"), f"unknown robot {scenario.robot.name!r}", tuple(sorted(ROBOTS))
+            )
+        )
     return out

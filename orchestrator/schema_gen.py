@@ -38,7 +38,10 @@ def _allow_refs(params: dict) -> dict:
     for prop, sub in params.get("properties", {}).items():
         if sub.get("type") == "array" and isinstance(sub.get("items"), dict):
             sub["items"] = {"anyOf": [sub["items"], BLACKBOARD_REF]}
-        params["properties"][prop] = {"anyOf": [sub, BLACKBOARD_REF], "description": sub.get("description", "")}
+        params["properties"][prop] = {
+            "anyOf": [sub, BLACKBOARD_REF],
+            "description": sub.get("description", ""),
+        }
     params.pop("required", None)  # a required parameter may come from the blackboard at run time
     return params
 

@@ -35,7 +35,9 @@ def _check(ctx: Context, c: SuccessCheck) -> bool:
     handle = ctx.world.objects[c.object]
     fromto = np.zeros(6)
     for g in ctx.world.finger_geoms:
-        dist = mujoco.mj_geomDistance(ctx.model, ctx.data, g, handle.geom_id, c.min_distance_m + 0.05, fromto)
+        dist = mujoco.mj_geomDistance(
+            ctx.model, ctx.data, g, handle.geom_id, c.min_distance_m + 0.05, fromto
+        )
         if dist < c.min_distance_m:
             return False
     return bool(open_enough)

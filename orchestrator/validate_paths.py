@@ -23,9 +23,13 @@ def _kind(ref: str) -> tuple[str, str] | None:
             return "machine" if "machine" in path.parts else "scenario", str(path)
         if isinstance(data, dict) and "states" in data:
             return "machine", str(path)
-        if isinstance(data, dict) and ("scene" in data or "robot" in data or isinstance(data.get("machine"), str)):
+        if isinstance(data, dict) and (
+            "scene" in data or "robot" in data or isinstance(data.get("machine"), str)
+        ):
             return "scenario", str(path)
-        return ("machine" if isinstance(data, dict) and "initial" in data else "scenario"), str(path)
+        return ("machine" if isinstance(data, dict) and "initial" in data else "scenario"), str(
+            path
+        )
     if resolve_file(ref, "scenarios") is not None:
         return "scenario", ref
     if resolve_file(ref, "machines") is not None:
@@ -40,7 +44,9 @@ def validate_paths(refs: list[str]) -> tuple[list[Diagnostic], list[tuple[str, s
     for ref in refs:
         kind = _kind(ref)
         if kind is None:
-            problems.append(Diagnostic(ref, 0, 0, "<file>", "no such file, bundled scenario or machine"))
+            problems.append(
+                Diagnostic(ref, 0, 0, "<file>", "no such file, bundled scenario or machine")
+            )
             continue
         try:
             if kind[0] == "machine":

@@ -143,21 +143,27 @@ def _check(node: MachineNode, types: dict[str, str]) -> list[Diagnostic]:
     for key, type_ in writes.items():
         declared = types.get(key, "any")
         if declared not in ("any", type_) and type_ != "any":
-            out.append(src.diag((*at, "blackboard"), f"key {key!r} is declared {declared} but a "
-                                f"skill writes a {type_} into it"))
+            out.append(
+                src.diag(
+                    (*at, "blackboard"),
+                    f"key {key!r} is declared {declared} but a skill writes a {type_} into it",
+                )
+            )
     for name, st in node.states.items():
         out += _check_state(node, name, st, types)
     out += _check_graph(node)
     for child in node.children.values():
         out += _check(child, types)
-    for name, branches in node.branches.items():
+    for branches in node.branches.values():
         for branch in branches.values():
             if isinstance(branch, MachineNode):
                 out += _check(branch, types)
     return out
 
 
-def _check_state(node: MachineNode, name: str, st: StateSpec, types: dict[str, str]) -> list[Diagnostic]:
+def _check_state(
+    node: MachineNode, name: str, st: StateSpec, types: dict[str, str]
+) -> list[Diagnostic]:
     src = node.source
     sat = (*node.at, "states", name)
     names = tuple(node.states)
@@ -166,7 +172,9 @@ def _check_state(node: MachineNode, name: str, st: StateSpec, types: dict[str, s
     if st.skill is not None:
         if st.skill not in SKILLS:
             known = False
-            out.append(src.diag((*sat, "skill"), f"unknown skill {st.skill!r}", tuple(sorted(SKILLS))))
+            out.append(
+                src.diag((*sat, "skill"), f"unknown skill {st.skill!r}", tuple(sorted(SKILLS)))
+            )
         else:
             out += _check_params(st.skill, st.with_, types, src, (*sat, "with"))
     if st.parallel is not None:
@@ -175,8 +183,13 @@ def _check_state(node: MachineNode, name: str, st: StateSpec, types: dict[str, s
                 bat = (*sat, "parallel", bname)
                 if branch.skill not in SKILLS:
                     known = False
-                    out.append(src.diag((*bat, "skill"), f"unknown skill {branch.skill!r}",
-                                        tuple(sorted(SKILLS))))
+                    out.append(
+                        src.diag(
+                            (*bat, "skill"),
+                            f"unknown skill {branch.skill!r}",
+                            tuple(sorted(SKILLS)),
+                        )
+                    )
                 else:
                     out += _check_params(branch.skill, branch.with_, types, src, (*bat, "with"))
         known = known and set(node.branches.get(name, {})) == set(st.parallel)
@@ -184,17 +197,30 @@ def _check_state(node: MachineNode, name: str, st: StateSpec, types: dict[str, s
         known = False  # the include failed; reported by the loader
     outcomes = state_outcomes(node, name)
     if known and st.final is None:
-        what = f"skill {st.skill!r}" if st.skill else (
-            "the parallel state" if st.parallel is not None else "the nested machine")
+        what = (
+            f"skill {st.skill!r}"
+            if st.skill
+            else ("the parallel state" if st.parallel is not None else "the nested machine")
+        )
         for outcome in st.transitions:
             if outcome not in outcomes:
-                out.append(src.diag((*sat, "transitions", outcome), f"{what} has no outcome "
-                                    f"{outcome!r}", tuple(outcomes)))
+                out.append(
+                    src.diag(
+                        (*sat, "transitions", outcome),
+                        f"{what} has no outcome {outcome!r}",
+                        tuple(outcomes),
+                    )
+                )
         for outcome in outcomes:
             if outcome not in st.transitions:
-                out.append(src.diag((*sat, "transitions") if st.transitions else sat,
-                                    f"outcome {outcome!r} is not handled: add `{outcome}: <STATE>` "
-                                    "to transitions", names))
+                out.append(
+                    src.diag(
+                        (*sat, "transitions") if st.transitions else sat,
+                        f"outcome {outcome!r} is not handled: add `{outcome}: <STATE>` "
+                        "to transitions",
+                        names,
+                    )
+                )
         for outcome in st.retry_on or ():
             if outcome not in outcomes:
                 out.append(src.diag((*sat, "retry_on"), f"no outcome {outcome!r}", tuple(outcomes)))
@@ -218,12 +244,21 @@ def _check_graph(node: MachineNode) -> list[Diagnostic]:
             todo.extend(edges[s])
     out = []
     if node.on_abort is not None and not node.top:
-        out.append(src.diag((*at, "on_abort"), "`on_abort` only takes effect in the top-level "
-                            "machine: move it there"))
+        out.append(
+            src.diag(
+                (*at, "on_abort"),
+                "`on_abort` only takes effect in the top-level machine: move it there",
+            )
+        )
     for name in states:
         if name not in reachable and node.initial in states:
-            out.append(src.diag((*at, "states", name), f"state {name!r} is unreachable from "
-                                f"{node.initial!r}: no transition leads to it"))
+            out.append(
+                src.diag(
+                    (*at, "states", name),
+                    f"state {name!r} is unreachable from "
+                    f"{node.initial!r}: no transition leads to it",
+                )
+            )
     finals = {n for n, st in states.items() if st.final is not None}
     can_finish = set(finals)
     changed = True
@@ -234,12 +269,18 @@ def _check_graph(node: MachineNode) -> list[Diagnostic]:
                 can_finish.add(n)
                 changed = True
     if not finals:
-        out.append(src.diag((*at, "states"), "the machine has no final state (add e.g. "
-                            "`DONE: {final: succeeded}`)"))
+        out.append(
+            src.diag(
+                (*at, "states"),
+                "the machine has no final state (add e.g. `DONE: {final: succeeded}`)",
+            )
+        )
     else:
         for name in states:
             if name in reachable and name not in can_finish:
-                out.append(src.diag((*at, "states", name), f"state {name!r} has no path to a final state"))
+                out.append(
+                    src.diag((*at, "states", name), f"state {name!r} has no path to a final state")
+                )
     return out
 
 
@@ -261,15 +302,27 @@ def _check_refs(value: Any, types: dict[str, str], src: SourceMap, path: tuple) 
     out = []
     for p, key, rest in _refs(value, path):
         if key.startswith("$"):
-            out.append(src.diag(p, f"malformed reference {key!r}: use `$key`, `$key.field` or `$key[0]`"))
+            out.append(
+                src.diag(p, f"malformed reference {key!r}: use `$key`, `$key.field` or `$key[0]`")
+            )
         elif key not in types:
-            out.append(src.diag(p, f"`${key}` reads a blackboard key that is never declared or "
-                                "written: declare it under `blackboard:`", tuple(sorted(types))))
+            out.append(
+                src.diag(
+                    p,
+                    f"`${key}` reads a blackboard key that is never declared or "
+                    "written: declare it under `blackboard:`",
+                    tuple(sorted(types)),
+                )
+            )
         elif rest:
             type_ = types[key]
             head = rest[0]
             if type_ == "pose" and (not isinstance(head, str) or head not in POSE_FIELDS):
-                out.append(src.diag(p, f"`${key}` is a pose: read `.pos` or `.quat`, not {head!r}", POSE_FIELDS))
+                out.append(
+                    src.diag(
+                        p, f"`${key}` is a pose: read `.pos` or `.quat`, not {head!r}", POSE_FIELDS
+                    )
+                )
             elif type_ == "vec3" and (not isinstance(head, int) or head > 2):
                 out.append(src.diag(p, f"`${key}` is a vec3: index it with [0], [1] or [2]"))
             elif type_ in ("str", "int", "float", "bool"):
@@ -294,7 +347,9 @@ def _has_ref(value: Any) -> bool:
     return any(True for _ in _refs(value, ()))
 
 
-def _check_params(skill: str, params: dict, types: dict[str, str], src: SourceMap, path: tuple) -> list[Diagnostic]:
+def _check_params(
+    skill: str, params: dict, types: dict[str, str], src: SourceMap, path: tuple
+) -> list[Diagnostic]:
     cls = get_skill(skill)
     out = _check_refs(params, types, src, path)
     concrete = {}
@@ -318,9 +373,16 @@ def _check_params(skill: str, params: dict, types: dict[str, str], src: SourceMa
             ref = parse_ref(params.get(leaf))
             if ref is not None:  # a typed `$key` whose type does not fit the parameter
                 declared = types.get(ref[0], "any")
-                d = src.diag((*path, leaf), f"`{params[leaf]}` is a {declared}, which does not "
-                             f"fit this parameter: {d.message.split(', got ')[0]}", d.valid)
-            out.append(d)
+                out.append(
+                    src.diag(
+                        (*path, leaf),
+                        f"`{params[leaf]}` is a {declared}, which does not "
+                        f"fit this parameter: {d.message.split(', got ')[0]}",
+                        d.valid,
+                    )
+                )
+            else:
+                out.append(d)
     return out
 
 
@@ -344,8 +406,13 @@ def validate_guards(refs: list[GuardRef] | dict, src: SourceMap, path: tuple) ->
             continue
         ppath = (*gpath, name) if isinstance(pos, int) else gpath
         if not isinstance(params, dict):
-            out.append(src.diag(ppath, f"guard parameters must be a mapping, got {params!r}",
-                                tuple(GUARDS[name].Params.model_fields)))
+            out.append(
+                src.diag(
+                    ppath,
+                    f"guard parameters must be a mapping, got {params!r}",
+                    tuple(GUARDS[name].Params.model_fields),
+                )
+            )
             continue
         try:
             GUARDS[name].Params.model_validate(params)

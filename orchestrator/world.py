@@ -75,7 +75,7 @@ class World:
         )
         gravity = -m.opt.gravity
         self.wrist_bias_world = float(m.body_subtreemass[self.hand_body]) * gravity
-        """Force [N] the arm exerts on the hand at rest: the hand's weight, removed from readings."""
+        """Force [N] the arm exerts on the hand at rest (its weight), removed from readings."""
         self.objects: dict[str, ObjectHandle] = {}
         for spec in scenario.scene.objects:
             body = m.body(spec.name)

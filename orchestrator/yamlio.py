@@ -85,7 +85,9 @@ class _Builder:
                     self.source.marks[kpath] = kpos
                     self.problems.append(
                         Diagnostic(
-                            self.source.file, *kpos, format_path(kpath),
+                            self.source.file,
+                            *kpos,
+                            format_path(kpath),
                             "duplicate key; the later one would silently win — remove one",
                         )
                     )
@@ -127,7 +129,9 @@ def parse_yaml(text: str, file: str) -> YamlDocument:
     except yaml.constructor.ConstructorError as exc:
         mark = exc.problem_mark
         line, col = (mark.line + 1, mark.column + 1) if mark else (0, 0)
-        raise ConfigError([Diagnostic(file, line, col, "<yaml>", f"YAML error: {exc.problem}")]) from None
+        raise ConfigError(
+            [Diagnostic(file, line, col, "<yaml>", f"YAML error: {exc.problem}")]
+        ) from None
     return YamlDocument(data, source, builder.problems)
 
 

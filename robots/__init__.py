@@ -16,4 +16,13 @@ def get_robot(name: str) -> Robot:
         raise RobotError(f"unknown robot {name!r} (valid: {', '.join(sorted(ROBOTS))})") from None
 
 
-__all__ = ["ROBOTS", "ControlMode", "Controller", "Gains", "Panda", "Robot", "RobotError", "get_robot"]
+__all__ = [
+    "ROBOTS",
+    "ControlMode",
+    "Controller",
+    "Gains",
+    "Panda",
+    "Robot",
+    "RobotError",
+    "get_robot",
+]

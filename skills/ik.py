@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import mink
 import numpy as np
-
 from orchestrator.robots import Robot
 
 __all__ = ["IKSolver"]

@@ -86,8 +86,14 @@ class Move(Skill):
         self.reachable = _within_reach(ctx, pos1)
         ctx.ik.reset(ctx.q)
         self.line = CartesianLine(
-            ctx.tcp_pos.copy(), rot0, pos1, rot1,
-            p.max_speed, p.max_accel, p.max_angular_speed, p.max_angular_accel,
+            ctx.tcp_pos.copy(),
+            rot0,
+            pos1,
+            rot1,
+            p.max_speed,
+            p.max_accel,
+            p.max_angular_speed,
+            p.max_angular_accel,
         )
         self.t0 = ctx.t
         self.ik_stalled_ticks = 0
@@ -112,10 +118,9 @@ class Move(Skill):
             if tcp_speed < _AT_REST_MPS:
                 return "reached"
         ik_err = ctx.ik.error
-        ik_converged = (
-            np.linalg.norm(ik_err[:3]) <= 0.5 * p.tolerance_m
-            and np.linalg.norm(ik_err[3:]) <= 0.5 * math.radians(p.tolerance_deg)
-        )
+        ik_converged = np.linalg.norm(ik_err[:3]) <= 0.5 * p.tolerance_m and np.linalg.norm(
+            ik_err[3:]
+        ) <= 0.5 * math.radians(p.tolerance_deg)
         if not ik_converged and float(np.max(np.abs(ctx.ik.velocity))) < 1e-3:
             self.ik_stalled_ticks += 1
             if self.ik_stalled_ticks >= 10:  # the IK is stuck short of the target: limits

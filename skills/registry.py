@@ -35,7 +35,9 @@ def _discover() -> None:
         module = importlib.import_module(f"{pkg_name}.{info.name}")
         for obj in vars(module).values():
             if isinstance(obj, type) and issubclass(obj, Skill) and obj is not Skill:
-                if obj.__module__ == module.__name__ and not getattr(obj, "__abstractmethods__", None):
+                if obj.__module__ == module.__name__ and not getattr(
+                    obj, "__abstractmethods__", None
+                ):
                     classes.append(obj)
     for ep in importlib.metadata.entry_points(group="orchestrator.skills"):
         obj = ep.load()

@@ -31,7 +31,9 @@ class Release(Skill):
     params: ReleaseParams
 
     def start(self, ctx: Context) -> None:
-        self.opening = min(self.params.opening_m or ctx.robot.gripper_open_m, ctx.robot.gripper_open_m)
+        self.opening = min(
+            self.params.opening_m or ctx.robot.gripper_open_m, ctx.robot.gripper_open_m
+        )
         self.t0 = ctx.t
         ctx.controller.hold(ctx.controller.q_d.copy())
         ctx.set_gripper(self.opening)

@@ -47,7 +47,9 @@ class VerifyGrasp(Skill):
             from orchestrator.exceptions import SkillError
 
             valid = ", ".join(sorted(ctx.world.objects))
-            raise SkillError(f"verify_grasp: unknown object {self.params.object!r} (valid: {valid})")
+            raise SkillError(
+                f"verify_grasp: unknown object {self.params.object!r} (valid: {valid})"
+            )
         self.t0 = ctx.t
         ctx.controller.hold(ctx.controller.q_d.copy())
 

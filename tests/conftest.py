@@ -55,7 +55,10 @@ def cli_process():
     def invoke(*args: str, cwd: Path | None = None) -> CliResult:
         proc = subprocess.run(
             [sys.executable, "-m", "orchestrator.cli", *args],
-            capture_output=True, text=True, cwd=cwd, timeout=300,
+            check=False, capture_output=True,
+            text=True,
+            cwd=cwd,
+            timeout=300,
         )
         return CliResult(proc.returncode, proc.stdout, proc.stderr)
 

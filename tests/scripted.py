@@ -5,12 +5,12 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import numpy as np
+from orchestrator.skills import SKILLS, Skill, SkillParams
 from pydantic import Field
 
 from orchestrator.blackboard import Blackboard
 from orchestrator.context import Event
 from orchestrator.guard import Guard, GuardParams, Violation
-from orchestrator.skills import SKILLS, Skill, SkillParams
 
 
 class ScriptedParams(SkillParams):
@@ -36,7 +36,7 @@ class Scripted(Skill):
         count = ctx.blackboard.get(self.params.key, 0) or 0
         ctx.blackboard[self.params.key] = count + 1
         script = self.params.script
-        self.outcome = (script[min(count, len(script) - 1)] if script else self.params.outcome)
+        self.outcome = script[min(count, len(script) - 1)] if script else self.params.outcome
         self.n = 0
 
     def step(self, ctx) -> str | None:
@@ -91,8 +91,9 @@ class FakeContext:
 
 def register() -> None:
     """Make `scripted` and `flag` available to the loader, validator and executor."""
-    from orchestrator.guards import GUARDS
     from orchestrator.skills import skill_names
+
+    from orchestrator.guards import GUARDS
 
     skill_names()
     SKILLS["scripted"] = Scripted

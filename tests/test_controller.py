@@ -5,9 +5,9 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-
 from orchestrator.robots import Controller, Panda
 from orchestrator.robots.controller import CartesianGains
+
 from orchestrator.scenario import Scenario
 from orchestrator.world import World
 
@@ -77,9 +77,7 @@ def test_cartesian_impedance_pressing_2cm_into_a_rigid_surface(stiffness):
     ctx = Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
     table = m.geom("table_top").id
     fromto = np.zeros(6)
-    gap = min(
-        mujoco.mj_geomDistance(m, d, g, table, 0.1, fromto) for g in world.finger_geoms
-    )
+    gap = min(mujoco.mj_geomDistance(m, d, g, table, 0.1, fromto) for g in world.finger_geoms)
     assert 0.001 < gap < 0.03
     pos0 = d.site_xpos[world.tcp_site].copy()
     rot0 = d.site_xmat[world.tcp_site].reshape(3, 3).copy()

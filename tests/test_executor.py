@@ -15,8 +15,9 @@ from .scripted import FakeContext, Scripted, register
 
 @pytest.fixture(autouse=True)
 def _scripted(monkeypatch):
-    from orchestrator.guards import GUARDS
     from orchestrator.skills import SKILLS
+
+    from orchestrator.guards import GUARDS
 
     monkeypatch.setattr("orchestrator.skills.registry.SKILLS", SKILLS)
     register()
@@ -85,14 +86,19 @@ def test_states_advance_on_outcomes_tick_by_tick(tmp_path):
     d.tick()
     assert d.ex.done and d.ex.outcome == "succeeded" and d.ex.final_state == "DONE"
     assert [(t["from"], t["to"], t["trigger"]) for t in d.ex.transitions] == [
-        ("A", "B", "done"), ("B", "DONE", "done"),
+        ("A", "B", "done"),
+        ("B", "DONE", "done"),
     ]
 
 
 def test_timeout_ends_the_state_on_simulated_time(tmp_path):
-    text = SEQUENCE.replace("    with: {ticks: 3}\n", "    with: {ticks: 1000}\n    timeout: 0.05\n")
-    text = text.replace("transitions: {done: B, failed: FAILED, other: FAILED}",
-                        "transitions: {done: B, failed: FAILED, other: FAILED, timeout: FAILED}")
+    text = SEQUENCE.replace(
+        "    with: {ticks: 3}\n", "    with: {ticks: 1000}\n    timeout: 0.05\n"
+    )
+    text = text.replace(
+        "transitions: {done: B, failed: FAILED, other: FAILED}",
+        "transitions: {done: B, failed: FAILED, other: FAILED, timeout: FAILED}",
+    )
     d = Driver(_machine(tmp_path, text))
     d.run()
     assert d.ex.transitions[0] == {"t": 0.05, "from": "A", "to": "FAILED", "trigger": "timeout"}
@@ -110,7 +116,9 @@ def test_retry_reenters_on_failure_then_takes_the_failure_transition(tmp_path):
 
 
 def test_retry_succeeds_on_a_later_attempt(tmp_path):
-    text = SEQUENCE.replace("    with: {ticks: 3}\n", "    with: {script: [failed, done]}\n    retry: 3\n")
+    text = SEQUENCE.replace(
+        "    with: {ticks: 3}\n", "    with: {script: [failed, done]}\n    retry: 3\n"
+    )
     d = Driver(_machine(tmp_path, text))
     d.run()
     assert d.path == ["A", "B", "DONE"] and d.ex.outcome == "succeeded"
@@ -162,7 +170,11 @@ def test_included_machine_outcomes_are_the_state_outcomes_and_it_is_reusable(tmp
 
 
 def _parallel(rule: str, a: str, a_ticks: int, b: str, b_ticks: int) -> str:
-    outcomes = "{succeeded: DONE, failed: FAILED}" if rule != "first" else "{done: DONE, failed: FAILED, other: FAILED}"
+    outcomes = (
+        "{succeeded: DONE, failed: FAILED}"
+        if rule != "first"
+        else "{done: DONE, failed: FAILED, other: FAILED}"
+    )
     return f"""\
 name: par
 initial: BOTH

@@ -48,7 +48,7 @@ def test_pick_place_mermaid_declares_every_node_and_edge(cli):
     for src, dst, _ in edges:
         assert src in nodes and dst in nodes, (src, dst)
     machine = load_machine("pick_place")
-    for path, st, node in machine.walk():
+    for path, st, _node in machine.walk():
         assert _id(path) in nodes, path
         prefix = path.rsplit(".", 1)[0] + "." if "." in path else ""
         for outcome, target in st.transitions.items():
@@ -59,7 +59,7 @@ def test_pick_place_mermaid_declares_every_node_and_edge(cli):
 
 
 def test_on_abort_is_the_abort_target(tmp_path, cli):
-    text = (tmp_path / "m.yaml")
+    text = tmp_path / "m.yaml"
     text.write_text(
         "name: m\ninitial: A\non_abort: HOLD\nstates:\n"
         "  A:\n    skill: release\n    transitions: {released: DONE, timeout: DONE}\n"
@@ -77,7 +77,8 @@ def test_parallel_branches_are_clusters(tmp_path, cli):
         "  P:\n    rule: any\n    parallel:\n"
         "      look: {skill: search, with: {object: $object}}\n"
         "      hold:\n        initial: H\n        states:\n"
-        "          H:\n            skill: release\n            transitions: {released: OK, timeout: OK}\n"
+        "          H:\n            skill: release\n"
+        "            transitions: {released: OK, timeout: OK}\n"
         "          OK: {final: ok}\n"
         "    transitions: {succeeded: DONE, failed: DONE}\n"
         "  DONE: {final: succeeded}\n"

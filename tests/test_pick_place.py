@@ -20,7 +20,10 @@ def test_pick_place_succeeds(pick_place, seed):
     assert result.metrics["cycle_time"] <= 5.0
     states = [t["to"] for t in result.transitions]
     assert states[:5] == [
-        "PICK.GRASP.PREGRASP", "PICK.GRASP.DESCEND", "PICK.GRASP.CLOSE", "PICK.GRASP.LIFT",
+        "PICK.GRASP.PREGRASP",
+        "PICK.GRASP.DESCEND",
+        "PICK.GRASP.CLOSE",
+        "PICK.GRASP.LIFT",
         "PICK.GRASP.VERIFY",
     ]
     assert states[-1] == "DONE"

@@ -17,7 +17,10 @@ from .scripted import FakeContext, Scripted, register
 REPO = Path(__file__).resolve().parent.parent
 OUTCOMES = ("done", "failed", "other")
 SETTINGS = settings(
-    max_examples=60, deadline=None, derandomize=True, database=None,
+    max_examples=60,
+    deadline=None,
+    derandomize=True,
+    database=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 
@@ -42,7 +45,10 @@ def machines(draw, depth: int = 0, prefix: str = "m") -> dict:
         else:
             script = draw(st.lists(st.sampled_from(OUTCOMES), max_size=3)) + ["done"]
             ticks = draw(st.integers(1, 3))
-            state = {"skill": "scripted", "with": {"script": script, "ticks": ticks, "key": f"{prefix}_{name}"}}
+            state = {
+                "skill": "scripted",
+                "with": {"script": script, "ticks": ticks, "key": f"{prefix}_{name}"},
+            }
             outcomes = list(OUTCOMES)
         transitions = {o: draw(st.sampled_from(targets)) for o in outcomes}
         transitions["done"] = nxt
@@ -122,9 +128,28 @@ def mutations(draw) -> tuple[str, str]:
         text = "".join(lines)
         return which, text[: draw(st.integers(0, len(text)))]
     elif kind == "rename":
-        words = sorted({w for w in ("SEARCH", "GRASP", "PICK", "DONE", "FAILED", "LOWER", "OPEN",
-                                    "CLOSE", "VERIFY", "MISSED", "cube", "pad", "move", "release")
-                        if w in BUNDLED[which]})
+        words = sorted(
+            {
+                w
+                for w in (
+                    "SEARCH",
+                    "GRASP",
+                    "PICK",
+                    "DONE",
+                    "FAILED",
+                    "LOWER",
+                    "OPEN",
+                    "CLOSE",
+                    "VERIFY",
+                    "MISSED",
+                    "cube",
+                    "pad",
+                    "move",
+                    "release",
+                )
+                if w in BUNDLED[which]
+            }
+        )
         word = draw(st.sampled_from(words))
         new = draw(st.sampled_from([word.lower(), word + "X", "", "on"]))
         return which, BUNDLED[which].replace(word, new, 1)
@@ -132,7 +157,9 @@ def mutations(draw) -> tuple[str, str]:
         line = lines[i]
         if ":" in line:
             key, _, _ = line.partition(":")
-            value = draw(st.sampled_from(["yes", "-1", "[1, 2]", "{a: 1}", "null", "'text'", "1e9"]))
+            value = draw(
+                st.sampled_from(["yes", "-1", "[1, 2]", "{a: 1}", "null", "'text'", "1e9"])
+            )
             lines[i] = f"{key}: {value}\n"
     return which, "".join(lines)
 
@@ -147,7 +174,9 @@ def test_mutated_bundled_files_exit_2_or_run_never_a_traceback(tmp_path_factory,
         dst.parent.mkdir(exist_ok=True)
         dst.write_text(original)
     scenario = root / "scenarios" / "pick_place.yaml"
-    scenario.write_text(scenario.read_text().replace("machine: pick_place", "machine: ../machines/pick_place.yaml"))
+    scenario.write_text(
+        scenario.read_text().replace("machine: pick_place", "machine: ../machines/pick_place.yaml")
+    )
     target = root / which
     if which.startswith("scenarios"):
         text = text.replace("machine: pick_place", "machine: ../machines/pick_place.yaml")
@@ -166,6 +195,8 @@ def test_mutated_bundled_files_exit_2_or_run_never_a_traceback(tmp_path_factory,
 def test_a_mutation_that_breaks_the_machine_is_reported(cli, tmp_path):
     for name, original in BUNDLED.items():
         (tmp_path / Path(name).name).write_text(original)
-    (tmp_path / "pick_place.yaml").write_text(BUNDLED["machines/pick_place.yaml"].replace("LOWER:", "LOWR:"))
+    (tmp_path / "pick_place.yaml").write_text(
+        BUNDLED["machines/pick_place.yaml"].replace("LOWER:", "LOWR:")
+    )
     res = cli("validate", str(tmp_path / "pick_place.yaml"))
     assert res.exit_code == 2 and "unknown state 'LOWER'" in res.stderr

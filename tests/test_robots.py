@@ -5,9 +5,9 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
+from orchestrator.robots import ROBOTS, get_robot
 
 from orchestrator.bundled import bundled_names
-from orchestrator.robots import ROBOTS, get_robot
 from orchestrator.scenario_loading import load_scenario
 from orchestrator.world import World
 
