@@ -8,6 +8,7 @@ state; the executor then stops every activity and enters `on_abort` or the built
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import transitions
@@ -48,6 +49,7 @@ class _Model:
     """The object `transitions` keeps the state on (kept bare so triggers cannot clash)."""
 
     state: str
+    trigger: Callable[..., bool]  # added by transitions.Machine
 
 
 def _make_skill(ex: Executor, node: MachineNode, at: tuple, spec: StateSpec | BranchSpec) -> Skill:
@@ -129,7 +131,7 @@ class _ParallelActivity:
 
     def __init__(self, ex: Executor, region: _Region, name: str, spec: StateSpec) -> None:
         self.ex, self.path, self.rule = ex, region.prefix + name, spec.rule
-        self.branches: dict[str, _Activity] = {}
+        self.branches: dict[str, _Region | _SkillActivity] = {}
         self.success: dict[str, str] = {}
         self.done: dict[str, str] = {}
         node = region.node

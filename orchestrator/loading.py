@@ -200,10 +200,10 @@ def _load_nested(
     if target.resolve() in stack:
         cycle = " -> ".join(p.name for p in (*stack, target.resolve()))
         return None, [source.diag((*at, "machine"), f"include cycle: {cycle}")]
-    child, sub = load_machine_file(target, stack)
-    if child is not None:
-        child.top = False
-    return child, sub
+    included, sub = load_machine_file(target, stack)
+    if included is not None:
+        included.top = False
+    return included, sub
 
 
 def load_machine(ref: str, base_dir: Path | None = None) -> MachineNode:

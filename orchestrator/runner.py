@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 import time
 from typing import Any, Protocol
 
@@ -62,7 +63,7 @@ def make_guards(refs, ctx: Context) -> list[Guard]:
 
 
 def run_episode(
-    loaded: LoadedScenario, seed: int, observers: list[Observer] | None = None
+    loaded: LoadedScenario, seed: int, observers: Sequence[Observer] | None = None
 ) -> RunResult:
     """Run one episode of `loaded` with `seed`: same inputs, same result, bit for bit."""
     observers = observers or []

@@ -148,9 +148,9 @@ def _object_poses(scenario: Scenario, seed: int) -> list[tuple[str, np.ndarray, 
     top = scenario.scene.table.height
     for obj in scenario.scene.objects:
         r = obj.randomize
-        dx = rng.uniform(*r.x)
-        dy = rng.uniform(*r.y)
-        dyaw = rng.uniform(*r.yaw_deg)
+        dx = rng.uniform(r.x[0], r.x[1])
+        dy = rng.uniform(r.y[0], r.y[1])
+        dyaw = rng.uniform(r.yaw_deg[0], r.yaw_deg[1])
         pos = np.array([obj.xy[0] + dx, obj.xy[1] + dy, top + obj.size[2] / 2.0])
         quat = quat_from_yaw(math.radians(obj.yaw_deg + dyaw))
         out.append((obj.name, pos, quat))
