@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import operator
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -34,15 +35,20 @@ class JointLimits(Guard):
         jids = [m.joint(j).id for j in ctx.robot.arm_joints]
         self.lower = m.jnt_range[jids, 0] + self.params.margin_rad
         self.upper = m.jnt_range[jids, 1] - self.params.margin_rad
-        self.mid = (self.lower + self.upper) / 2.0
-        self.half = (self.upper - self.lower) / 2.0
         self.idx = w.arm_qpos_index
         self.names = ctx.robot.arm_joints
+        # check() runs every physics step: plain floats beat a few small numpy operations
+        self._lower = self.lower.tolist()
+        self._upper = self.upper.tolist()
 
     def check(self, ctx: Context) -> Violation | None:
-        q = ctx.data.qpos[self.idx]
-        if not (np.abs(q - self.mid) > self.half).any():
+        q_list = ctx.data.qpos[self.idx].tolist()
+        if not (
+            any(map(operator.lt, q_list, self._lower))
+            or any(map(operator.gt, q_list, self._upper))
+        ):  # NaN compares false: divergence is the runner's to report, not a violation
             return None
+        q = ctx.data.qpos[self.idx]
         i = int(np.argmax(np.maximum(self.lower - q, q - self.upper)))
         bound = self.lower[i] if q[i] < self.lower[i] else self.upper[i]
         return Violation(

@@ -40,14 +40,22 @@ class Workspace(Guard):
     def bind(self, ctx: Context) -> None:
         self.lo = np.asarray(self.params.min, float)
         self.hi = np.asarray(self.params.max, float)
-        self.mid = (self.lo + self.hi) / 2.0
-        self.half = (self.hi - self.lo) / 2.0
         self.site = ctx.world.tcp_site
+        # check() runs every physics step: a view bound once (MjData never reallocates) and
+        # plain floats cost a fraction of a few small numpy operations.
+        self._tcp = ctx.data.site_xpos[self.site]
+        self._x_lo, self._y_lo, self._z_lo = self.params.min
+        self._x_hi, self._y_hi, self._z_hi = self.params.max
 
     def check(self, ctx: Context) -> Violation | None:
-        p = ctx.data.site_xpos[self.site]
-        if not (np.abs(p - self.mid) > self.half).any():
+        x, y, z = self._tcp.tolist()
+        if not (
+            x < self._x_lo or x > self._x_hi
+            or y < self._y_lo or y > self._y_hi
+            or z < self._z_lo or z > self._z_hi
+        ):  # NaN compares false: divergence is the runner's to report, not a violation
             return None
+        p = ctx.data.site_xpos[self.site]
         i = int(np.argmax(np.maximum(self.lo - p, p - self.hi)))
         bound = self.lo[i] if p[i] < self.lo[i] else self.hi[i]
         axis = "xyz"[i]
