@@ -20,8 +20,11 @@ class ConfigError(OrchestratorError):
         diagnostics: Every problem found, each naming file, line, key and fix.
     """
 
-    def __init__(self, diagnostics: list) -> None:  # list[Diagnostic]
-        self.diagnostics = list(diagnostics)
+    def __init__(self, diagnostics: list, during_run: bool = False) -> None:
+        self.diagnostics = list(diagnostics)  # list[Diagnostic]
+        self.during_run = during_run
+        """True when the problem only showed while simulating (e.g. a bad value read from the
+        blackboard): the run was stopped there."""
         super().__init__("\n".join(str(d) for d in self.diagnostics))
 
 

@@ -59,7 +59,7 @@ def _make_skill(ex: Executor, node: MachineNode, at: tuple, spec: StateSpec | Br
         params = cls.Params.model_validate(ex.ctx.blackboard.resolve(spec.with_))
     except (BlackboardError, ValidationError) as exc:
         raise ConfigError(
-            [node.source.diag((*at, "with"), f"at t={ex.ctx.t:.3f} s: {exc}")]
+            [node.source.diag((*at, "with"), f"at t={ex.ctx.t:.3f} s: {exc}")], during_run=True
         ) from None
     return cls(params)
 
@@ -68,14 +68,18 @@ def _start_skill(ex: Executor, node: MachineNode, at: tuple, skill: Skill) -> No
     try:
         skill.start(ex.ctx)
     except SkillError as exc:
-        raise ConfigError([node.source.diag(at, str(exc))]) from None
+        raise ConfigError(
+            [node.source.diag(at, f"at t={ex.ctx.t:.3f} s: {exc}")], during_run=True
+        ) from None
 
 
 def _step_skill(ex: Executor, node: MachineNode, at: tuple, skill: Skill) -> str | None:
     try:
         outcome = skill.step(ex.ctx)
     except SkillError as exc:
-        raise ConfigError([node.source.diag(at, str(exc))]) from None
+        raise ConfigError(
+            [node.source.diag(at, f"at t={ex.ctx.t:.3f} s: {exc}")], during_run=True
+        ) from None
     if outcome is not None and outcome not in type(skill).outcomes:
         raise SkillError(
             f"skill {skill.name!r} returned {outcome!r}, which it does not declare"

@@ -17,7 +17,7 @@ __all__ = ["Guard", "GuardParams", "Violation"]
 class GuardParams(BaseModel):
     """Base of every guard's `Params`: unknown keys are an error."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 @dataclass(frozen=True)

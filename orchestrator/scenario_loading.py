@@ -110,6 +110,8 @@ def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenari
             if not p.path.startswith("guards.") and not p.path.startswith("guards[")
         ]
         problems += validate_guards(raw_guards, doc.source, ("guards",))
+    if scenario is not None and machine is not None and not problems:
+        problems += _check_scene_names(machine, scenario)
     if scenario is not None:
         problems += _check_scenario_refs(scenario, doc.source)
         if machine is not None:
@@ -152,6 +154,44 @@ def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagn
                 "<--set>", 0, 0, diag.path, f"{diag.message} (from --set {text})", diag.valid
             )
     return diag
+
+
+def _check_scene_names(machine: MachineNode, scenario: Scenario) -> list[Diagnostic]:
+    """Skill parameters that name scene objects or markers — given literally or through a
+    `$key` whose value is known before the run — must name ones this scenario has."""
+    from .blackboard import parse_ref
+    from .runner import initial_blackboard
+    from .skills import SKILLS, skill_names
+
+    skill_names()  # discover the skills
+    objects = [o.name for o in scenario.scene.objects]
+    targets = objects + [m.name for m in scenario.scene.markers]
+    values = initial_blackboard(machine, scenario.blackboard).as_dict()
+    out = []
+    for node in machine.nodes():
+        specs = [((*node.at, "states", n), st.skill, st.with_) for n, st in node.states.items()]
+        specs += [((*node.at, "states", s, "parallel", b), br.skill, br.with_)
+                  for s, b, br in node.skill_branches()]
+        for at, skill, params in specs:
+            cls = SKILLS.get(skill or "")
+            if cls is None:
+                continue
+            for field, info in cls.Params.model_fields.items():
+                extra = info.json_schema_extra
+                kind = extra.get("scene_ref") if isinstance(extra, dict) else None
+                if kind is None or field not in params:
+                    continue
+                value, via = params[field], ""
+                ref = parse_ref(value)
+                if ref is not None and not ref[1]:
+                    value, via = values.get(ref[0]), f" (the value of ${ref[0]})"
+                valid = objects if kind == "object" else targets
+                if isinstance(value, str) and value not in valid:
+                    what = "scene object" if kind == "object" else "object or marker"
+                    out.append(node.source.diag(
+                        (*at, "with", field), f"no {what} {value!r} in scenario "
+                        f"{scenario.name!r}{via}", tuple(valid)))
+    return out
 
 
 def _check_scenario_refs(scenario: Scenario, src: SourceMap) -> list[Diagnostic]:

@@ -10,13 +10,18 @@ from pydantic import BaseModel, ConfigDict
 if TYPE_CHECKING:
     from orchestrator.context import Context
 
-__all__ = ["Skill", "SkillParams"]
+__all__ = ["SCENE_OBJECT", "SCENE_TARGET", "Skill", "SkillParams"]
+
+SCENE_OBJECT = {"scene_ref": "object"}
+"""`json_schema_extra` of a parameter naming a scene object: checked against the scenario."""
+SCENE_TARGET = {"scene_ref": "target"}
+"""`json_schema_extra` of a parameter that, when it is a name, names an object or a marker."""
 
 
 class SkillParams(BaseModel):
     """Base of every skill's `Params`: unknown keys are an error."""
 
-    model_config = ConfigDict(extra="forbid", arbitrary_types_allowed=True)
+    model_config = ConfigDict(extra="forbid", arbitrary_types_allowed=True, allow_inf_nan=False)
 
 
 class Skill(abc.ABC):

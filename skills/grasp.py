@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 from pydantic import Field, PositiveFloat
 
-from .base import Skill, SkillParams
+from .base import SCENE_OBJECT, Skill, SkillParams
 from .gripper import finger_contact_forces
 
 if TYPE_CHECKING:
@@ -21,7 +21,7 @@ _STILL_MPS = 0.005
 
 
 class GraspParams(SkillParams):
-    object: str = Field(description="Name of the scene object to grasp.")
+    object: str = Field(description="Name of the scene object to grasp.", json_schema_extra=SCENE_OBJECT)
     min_force_n: PositiveFloat = Field(
         default=5.0, description="Normal force each finger must press with for `grasped` [N]."
     )

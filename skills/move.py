@@ -10,7 +10,7 @@ from pydantic import Field, PositiveFloat
 
 from orchestrator.pose import Pose
 
-from .base import Skill, SkillParams
+from .base import SCENE_TARGET, Skill, SkillParams
 from .targets import resolve_target, rot_down, yaw_of_rot
 from .trajectory import CartesianLine
 
@@ -26,7 +26,8 @@ _AT_REST_MPS = 0.005
 class MoveParams(SkillParams):
     target: Any = Field(
         description="`[x, y, z]` in the world [m], an object or marker name, or a pose "
-        "(`$object_pose`)."
+        "(`$object_pose`).",
+        json_schema_extra=SCENE_TARGET,
     )
     offset: list[float] = Field(
         default_factory=lambda: [0.0, 0.0, 0.0],

@@ -10,7 +10,7 @@ from pydantic import Field, NonNegativeFloat
 
 from orchestrator.pose import Pose, quat_from_yaw
 
-from .base import Skill, SkillParams
+from .base import SCENE_OBJECT, Skill, SkillParams
 
 if TYPE_CHECKING:
     from orchestrator.context import Context
@@ -19,7 +19,7 @@ __all__ = ["Search"]
 
 
 class SearchParams(SkillParams):
-    object: str = Field(description="Name of the scene object to look for.")
+    object: str = Field(description="Name of the scene object to look for.", json_schema_extra=SCENE_OBJECT)
     into: str = Field(default="object_pose", description="Blackboard key the pose is written to.")
     duration_s: NonNegativeFloat = Field(default=0.1, description="Time the perception takes [s].")
 

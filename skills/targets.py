@@ -6,6 +6,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from pydantic import ValidationError
 
 from orchestrator.exceptions import SkillError
 from orchestrator.pose import Pose
@@ -42,5 +43,9 @@ def resolve_target(ctx: Context, target: Any) -> Pose:
         raise SkillError(f"unknown target {target!r} (valid: {', '.join(valid)})")
     try:
         return Pose.coerce(target)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"])
+        raise SkillError(f"cannot read a pose from {target!r}: {where}: {first['msg']}") from None
     except (ValueError, TypeError) as exc:
         raise SkillError(f"cannot read a pose from {target!r}: {exc}") from None

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 from pydantic import Field, PositiveFloat
 
-from .base import Skill, SkillParams
+from .base import SCENE_OBJECT, Skill, SkillParams
 from .gripper import finger_contact_forces
 
 if TYPE_CHECKING:
@@ -17,7 +17,7 @@ __all__ = ["VerifyGrasp"]
 
 
 class VerifyGraspParams(SkillParams):
-    object: str = Field(description="Name of the scene object that should be held.")
+    object: str = Field(description="Name of the scene object that should be held.", json_schema_extra=SCENE_OBJECT)
     min_force_n: PositiveFloat = Field(
         default=5.0, description="Normal force each finger must still press with [N]."
     )

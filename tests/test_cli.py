@@ -48,8 +48,16 @@ def test_run_json_follows_the_contract(cli):
     assert res.exit_code == 0, res.stderr
     data = json.loads(res.stdout)
     assert list(data)[:10] == [
-        "scenario", "seed", "outcome", "final_state", "reason", "sim_time", "wall_time",
-        "transitions", "metrics", "success",
+        "scenario",
+        "seed",
+        "outcome",
+        "final_state",
+        "reason",
+        "sim_time",
+        "wall_time",
+        "transitions",
+        "metrics",
+        "success",
     ]
     assert data["scenario"] == "pick_place" and data["seed"] == 3
     assert data["outcome"] == "succeeded" and data["reason"] is None
@@ -67,7 +75,10 @@ def test_run_human_output_summarizes(cli):
 def test_guard_violation_exits_3_with_guard_value_and_limit(cli):
     # shrink the workspace so that PLACE (pad at y = 0.2) leaves it
     res = cli(
-        "run", "pick_place", "--json", "--set",
+        "run",
+        "pick_place",
+        "--json",
+        "--set",
         "guards.workspace.max=[0.95, 0.1, 1.2]",
     )
     assert res.exit_code == 3, res.stderr
@@ -108,19 +119,25 @@ def test_abort_stops_the_arm(pick_place):
 def test_unknown_state_names_the_valid_states(cli, tmp_path):
     text = GOOD_MACHINE.replace("found: DONE", "found: DNOE")
     res = cli("run", str(_scenario(tmp_path, text)))
-    _assert_clean_error(res, str(tmp_path / "m.yaml"), 8, "unknown state 'DNOE'", "valid: SEARCH, DONE, FAILED")
+    _assert_clean_error(
+        res, str(tmp_path / "m.yaml"), 8, "unknown state 'DNOE'", "valid: SEARCH, DONE, FAILED"
+    )
 
 
 def test_unknown_skill_names_the_valid_skills(cli, tmp_path):
     text = GOOD_MACHINE.replace("skill: search", "skill: serach")
     res = cli("run", str(_scenario(tmp_path, text)))
-    _assert_clean_error(res, str(tmp_path / "m.yaml"), 6, "unknown skill 'serach'", "move, move_joints")
+    _assert_clean_error(
+        res, str(tmp_path / "m.yaml"), 6, "unknown skill 'serach'", "move, move_joints"
+    )
 
 
 def test_unknown_parameter_names_the_valid_parameters(cli, tmp_path):
     text = GOOD_MACHINE.replace("with: {object: $object}", "with: {object: $object, colour: red}")
     res = cli("run", str(_scenario(tmp_path, text)))
-    _assert_clean_error(res, str(tmp_path / "m.yaml"), 7, "unknown key 'colour'", "valid: duration_s, into, object")
+    _assert_clean_error(
+        res, str(tmp_path / "m.yaml"), 7, "unknown key 'colour'", "valid: duration_s, into, object"
+    )
 
 
 def test_yaml_syntax_error_names_the_line(cli, tmp_path):
@@ -138,7 +155,9 @@ def test_on_instead_of_transitions_is_caught(cli, tmp_path):
 
 
 def test_all_errors_are_reported_at_once(cli, tmp_path):
-    text = GOOD_MACHINE.replace("skill: search", "skill: serach").replace("not_found: FAILED", "not_found: FIALED")
+    text = GOOD_MACHINE.replace("skill: search", "skill: serach").replace(
+        "not_found: FAILED", "not_found: FIALED"
+    )
     res = cli("validate", str(_scenario(tmp_path, text)))
     assert res.exit_code == 2
     assert "unknown skill 'serach'" in res.stderr and "unknown state 'FIALED'" in res.stderr
@@ -166,7 +185,11 @@ def test_validate_accepts_the_bundled_files(cli):
     res = cli("validate", "pick_place")
     assert res.exit_code == 0, res.stderr
     repo = Path(__file__).resolve().parent.parent
-    res = cli("validate", str(repo / "machines" / "pick_place.yaml"), str(repo / "scenarios" / "pick_place.yaml"))
+    res = cli(
+        "validate",
+        str(repo / "machines" / "pick_place.yaml"),
+        str(repo / "scenarios" / "pick_place.yaml"),
+    )
     assert res.exit_code == 0, res.stderr
     assert "ok  machine" in res.stdout and "ok  scenario" in res.stdout
 
@@ -174,7 +197,16 @@ def test_validate_accepts_the_bundled_files(cli):
 def test_list_shows_skills_guards_robots(cli):
     res = cli("list")
     assert res.exit_code == 0
-    for name in ("pick_place", "move", "grasp", "search", "joint_limits", "workspace", "contact_force", "panda"):
+    for name in (
+        "pick_place",
+        "move",
+        "grasp",
+        "search",
+        "joint_limits",
+        "workspace",
+        "contact_force",
+        "panda",
+    ):
         assert name in res.stdout
 
 
@@ -191,3 +223,32 @@ def test_invalid_input_in_a_subprocess_has_no_traceback(cli_process, tmp_path):
     assert res.exit_code == 2
     assert "Traceback" not in res.stderr
     assert "unknown skill 'serach'" in res.stderr
+
+
+@pytest.mark.parametrize(
+    ("override", "fragment"),
+    [
+        ("hover=[.nan, 0, 0.1]", "is not a vec3"),
+        ("scene.objects.0.xy=[.nan, 0]", "finite number"),
+        ("guards.contact_force.max_n=.inf", "finite number"),
+    ],
+)
+def test_nan_and_inf_are_invalid_input(cli, override, fragment):
+    res = cli("run", "pick_place", "--set", override)
+    assert res.exit_code == 2 and res.exception is None
+    assert fragment in res.stderr and "nothing was simulated" in res.stderr
+
+
+def test_unknown_scene_names_are_caught_before_simulating(cli):
+    res = cli("run", "pick_place", "--set", "place_at=padd")
+    assert res.exit_code == 2
+    assert "states.TRANSPORT.with.target: no object or marker 'padd'" in res.stderr
+    assert "(the value of $place_at) (valid: cube, pad)" in res.stderr
+    assert "nothing was simulated" in res.stderr
+
+
+def test_a_bad_value_met_while_running_stops_the_run_with_its_location(cli):
+    res = cli("run", "pick_place", "--set", "place_at=[0.5, 0.2, .inf]")
+    assert res.exit_code == 2 and res.exception is None
+    assert "pick_place.yaml:" in res.stderr and "states.TRANSPORT: at t=" in res.stderr
+    assert "finite number" in res.stderr and "the run was stopped" in res.stderr

@@ -1,0 +1,52 @@
+"""Headless real-time factor of pick_place: simulated time / wall time, per episode.
+
+Reports the median over seeds for (a) episodes run in one process (the batch case: robot
+model, meshes and IK model cached after the first episode) and (b) `orchestrator run` as a
+fresh process per episode (wall_time from its JSON: world build + simulation, cold caches).
+
+    python bench/realtime.py [--seeds 20] [--cli 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=20, help="episodes run in-process")
+    parser.add_argument("--cli", type=int, default=5, help="episodes run as fresh processes")
+    args = parser.parse_args()
+
+    from orchestrator.runner import run_episode
+    from orchestrator.scenario_loading import load_scenario
+
+    loaded = load_scenario("pick_place")
+    run_episode(loaded, 10_000)  # warm the caches once, as a batch worker would
+    rtf, cycle = [], []
+    for seed in range(args.seeds):
+        r = run_episode(loaded, seed)
+        rtf.append(r.sim_time / r.wall_time)
+        cycle.append(r.metrics["cycle_time"])
+    print(f"in-process  : median RTF {statistics.median(rtf):5.1f}x  "
+          f"(min {min(rtf):.1f}x, max {max(rtf):.1f}x) over {args.seeds} seeds; "
+          f"median cycle_time {statistics.median(cycle):.2f} s (max {max(cycle):.2f} s)")
+    cli = []
+    for seed in range(args.cli):
+        out = subprocess.run(
+            [sys.executable, "-m", "orchestrator.cli", "run", "pick_place", "--seed", str(seed), "--json"],
+            capture_output=True, text=True, check=False,
+        )
+        r = json.loads(out.stdout)
+        cli.append(r["sim_time"] / r["wall_time"])
+    if cli:
+        print(f"CLI process : median RTF {statistics.median(cli):5.1f}x  "
+              f"(min {min(cli):.1f}x, max {max(cli):.1f}x) over {args.cli} runs (cold caches)")
+
+
+if __name__ == "__main__":
+    main()
