@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import yaml
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 from orchestrator.executor import Executor
@@ -186,6 +186,7 @@ def test_mutated_bundled_files_exit_2_or_run_never_a_traceback(tmp_path_factory,
     assert res.exception is None, f"traceback for mutation of {which}: {res.exception!r}"
     assert "Traceback" not in res.stderr
     assert res.exit_code in (0, 1, 2, 3)
+    event(f"exit {res.exit_code}")
     if res.exit_code == 2:
         assert res.stderr.strip(), "exit 2 without a message"
     else:
