@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import typer
 from rich.console import Console
@@ -129,6 +129,87 @@ def list_() -> None:
     out.print(table)
     out.print("[bold]guards[/]:    " + ", ".join(sorted(GUARDS)))
     out.print("[bold]robots[/]:    " + ", ".join(sorted(ROBOTS)))
+
+
+@app.command()
+def batch(
+    scenario: Annotated[str, typer.Argument(help="Scenario file or bundled name.")],
+    episodes: Annotated[int, typer.Option("-n", "--episodes", min=1, help="Number of episodes.")],
+    seed_base: Annotated[int, typer.Option(help="Episode i runs seed SEED_BASE + i.")] = 0,
+    workers: Annotated[
+        int | None, typer.Option(min=1, help="Worker processes / Ray CPUs (default: every core).")
+    ] = None,
+    backend: Annotated[
+        Literal["local", "ray"], typer.Option(help="Local worker processes, or Ray tasks.")
+    ] = "local",
+    address: Annotated[
+        str | None, typer.Option(help="Ray address (default: $RAY_ADDRESS, else a local Ray).")
+    ] = None,
+    out_dir: Annotated[
+        Path | None, typer.Option("--out", help="Batch directory (default: runs/SCENARIO-TIME).")
+    ] = None,
+    resume: Annotated[bool, typer.Option(help="Skip seeds already in DIR/results.jsonl.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print summary.json only.")] = False,
+    set_: Annotated[
+        list[str] | None,
+        typer.Option("--set", help="Override a blackboard key or scenario value (KEY=VALUE)."),
+    ] = None,
+    record: Annotated[
+        Literal["failures", "all", "none"] | None,
+        typer.Option(help="Save DIR/episodes/seed_S.rrd for these episodes (default: failures)."),
+    ] = None,
+) -> None:
+    """Run N seeded episodes in parallel: exit 0 all ran, 1 some raised, 2 invalid input."""
+    import time as _time
+
+    from .batch import BatchConfig, BatchError, run_batch
+    from .batch.progress import NullProgress, RichProgress
+    from .batch.report import print_summary
+
+    if resume and out_dir is None:
+        err.print("error: --resume needs --out DIR (the batch to continue)", markup=False)
+        raise typer.Exit(EXIT_INVALID)
+    if out_dir is None:
+        out_dir = Path("runs") / f"{Path(scenario).stem}-{_time.strftime('%Y%m%d-%H%M%S')}"
+    config = BatchConfig(
+        scenario=scenario,
+        episodes=episodes,
+        out_dir=out_dir,
+        seed_base=seed_base,
+        workers=workers,
+        backend=backend,
+        address=address,
+        resume=resume,
+        overrides=tuple(set_ or ()),
+        record=record,
+    )
+    show = sys.stdout.isatty() and not as_json
+    progress = RichProgress(out, label=Path(scenario).stem) if show else NullProgress()
+
+    def warn(message: str) -> None:
+        err.print(f"warning: {message}", markup=False, soft_wrap=True)
+
+    try:
+        summary = run_batch(config, progress, warn=warn)
+    except ConfigError as exc:
+        _fail_config(exc)
+        return
+    except (BatchError, OrchestratorError) as exc:
+        err.print(f"error: {exc}", markup=False, soft_wrap=True)
+        raise typer.Exit(EXIT_INVALID) from None
+    except KeyboardInterrupt:
+        err.print(
+            f"interrupted; finished episodes are in {out_dir / 'results.jsonl'}: continue "
+            f"with the same command plus --resume --out {out_dir}",
+            markup=False,
+            soft_wrap=True,
+        )
+        raise typer.Exit(130) from None
+    if as_json:
+        sys.stdout.write(json.dumps(summary.to_json_dict()) + "\n")
+    else:
+        print_summary(summary, out)
+    raise typer.Exit(1 if summary.errors else 0)
 
 
 def main() -> None:

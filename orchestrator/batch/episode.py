@@ -1,0 +1,80 @@
+"""The worker side: run one episode, never raise, return its results.jsonl line.
+
+Workers import this module once (the local backend preloads it in its fork server) and load
+each scenario once per process from (reference, overrides), then reuse it for every seed.
+"""
+
+from __future__ import annotations
+
+import traceback
+from typing import Any
+
+from ..result import RunResult
+from ..runner import Observer, run_episode
+from ..scenario_loading import LoadedScenario, load_scenario
+from .task import EpisodeTask, error_line, rrd_name
+
+__all__ = ["loaded_scenario", "run_task", "same_episode"]
+
+_LOADED: dict[tuple[str, tuple[str, ...]], LoadedScenario] = {}
+
+
+def loaded_scenario(ref: str, overrides: tuple[str, ...]) -> LoadedScenario:
+    """The scenario `ref` with `overrides`, loaded once per process."""
+    key = (ref, overrides)
+    if key not in _LOADED:
+        _LOADED[key] = load_scenario(ref, list(overrides))
+    return _LOADED[key]
+
+
+def same_episode(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    """Two result lines describe the same episode: equal in everything but wall time."""
+    return {k: v for k, v in a.items() if k != "wall_time"} == {
+        k: v for k, v in b.items() if k != "wall_time"
+    }
+
+
+def run_task(task: EpisodeTask) -> dict[str, Any]:
+    """Run `task` and return its line: the RunResult's JSON (which includes `seed`), plus
+    `rrd` when a recording was saved; outcome `error` with the traceback if anything raised.
+    """
+    try:
+        loaded = loaded_scenario(task.scenario, task.overrides)
+        if task.record == "all":
+            result = run_episode(loaded, task.seed, [_recorder(task)])
+            line = result.to_json_dict()
+            line["rrd"] = rrd_name(task.seed)
+            return line
+        result = run_episode(loaded, task.seed)
+        line = result.to_json_dict()
+    except Exception as exc:  # crash isolation: whatever went wrong is this episode's error
+        return error_line(task, type(exc).__name__, _one_line(exc), traceback.format_exc())
+    if task.record == "failures" and result.outcome != "succeeded":
+        line.update(_record_again(loaded, task, result))
+    return line
+
+
+def _record_again(loaded: LoadedScenario, task: EpisodeTask, result: RunResult) -> dict[str, Any]:
+    """Re-run a failed episode with a recorder; episodes are deterministic, so it is the same."""
+    try:
+        again = run_episode(loaded, task.seed, [_recorder(task)])
+    except Exception as exc:  # the episode's result stands; say why there is no recording
+        return {"rrd_error": f"{type(exc).__name__}: {_one_line(exc)}"}
+    extra: dict[str, Any] = {"rrd": rrd_name(task.seed)}
+    if not same_episode(again.to_json_dict(), result.to_json_dict()):
+        extra["rrd_error"] = "the recorded re-run differed from the episode (not deterministic)"
+    return extra
+
+
+def _recorder(task: EpisodeTask) -> Observer:
+    from ..recording import RerunRecorder  # type: ignore[import-not-found]
+
+    path = task.rrd_path()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    recorder: Observer = RerunRecorder(path=path, spawn=False)
+    return recorder
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__

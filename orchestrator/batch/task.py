@@ -1,0 +1,64 @@
+"""One episode to run, and the result line of an episode that could not produce a result."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .config import RecordMode
+
+__all__ = ["ERROR", "EpisodeTask", "error_line", "rrd_name"]
+
+ERROR = "error"
+"""The outcome of an episode that raised, or whose worker process died."""
+
+
+def rrd_name(seed: int) -> str:
+    """Where the recording of `seed` goes, relative to the batch directory."""
+    return f"episodes/seed_{seed}.rrd"
+
+
+@dataclass(frozen=True)
+class EpisodeTask:
+    """Everything a worker needs to run one episode; small and picklable.
+
+    Attributes:
+        scenario: Scenario file (absolute path) or bundled name, loaded by the worker.
+        overrides: `--set` texts applied when the worker loads the scenario.
+        seed: The episode's seed.
+        record: `all` records the episode; `failures` re-runs a failed or aborted episode
+            with a recorder (same seed, same episode); `none` records nothing.
+        out_dir: Absolute batch directory; recordings go to `out_dir/episodes/`.
+    """
+
+    scenario: str
+    overrides: tuple[str, ...]
+    seed: int
+    record: RecordMode = "none"
+    out_dir: str | None = None
+
+    def rrd_path(self) -> Path:
+        """Absolute path of this episode's recording."""
+        if self.out_dir is None:
+            raise ValueError("this task has no out_dir to record into")
+        return Path(self.out_dir) / rrd_name(self.seed)
+
+
+def error_line(task: EpisodeTask, kind: str, message: str, traceback: str | None) -> dict[str, Any]:
+    """The results.jsonl line of an episode that ended in an exception or a dead worker.
+
+    Args:
+        task: The episode.
+        kind: The exception type (or `WorkerDied`).
+        message: One line saying what happened.
+        traceback: The formatted traceback, when there is one.
+    """
+    return {
+        "scenario": None,
+        "seed": task.seed,
+        "outcome": ERROR,
+        "final_state": None,
+        "reason": None,
+        "error": {"type": kind, "message": message, "traceback": traceback},
+    }
