@@ -273,6 +273,9 @@ def test_invalid_input_exits_2_before_anything_runs(cli, tmp_path):
     assert res.exit_code == 2 and "--resume needs --out" in res.stderr
     res = cli("batch", "pick_place", "-n", "0", "--out", str(out))
     assert res.exit_code == 2
+    res = cli("batch", "pick_place", "-n", "1", "--out", str(out), "--address", "10.0.0.1:6379")
+    assert res.exit_code == 2 and "add --backend ray" in res.stderr
+    assert not out.exists()
 
 
 def test_an_existing_batch_is_never_overwritten_and_resumed_only_as_itself(cli, tmp_path):

@@ -55,6 +55,8 @@ def run_batch(
         BatchError: The batch directory or backend cannot be used as asked.
     """
     progress = progress or NullProgress()
+    if config.address and config.backend != "ray":
+        raise BatchError(f"--address {config.address} is a Ray cluster: add --backend ray")
     loaded = load_scenario(config.scenario, list(config.overrides))
     ref = portable_ref(config.scenario)
     no_recording = recording_unavailable()
