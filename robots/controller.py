@@ -26,7 +26,9 @@ class ControlMode(enum.Enum):
     tau = Kp (q_d - q) + Kd (qd_d - qd) + M(q) qdd_d + C(q, qd) qd + g(q).
     Between setpoints, q_d advances along qd_d every physics step."""
     CARTESIAN = "cartesian"
-    """Cartesian impedance: tau = J^T (K e - D xdot) + g(q) + nullspace posture term."""
+    """Cartesian impedance: tau = J^T (K e - D xdot) + g(q) + nullspace posture term.
+    Meanwhile q_d follows the measured joints, so that `hold(q_d)` or a joint move starting
+    from q_d afterwards continues from where the arm is."""
     HOLD = "hold"
     """Joint impedance to the pose captured when hold() was called, zero velocity."""
 
@@ -136,6 +138,7 @@ class Controller:
         if self.mode is ControlMode.CARTESIAN:
             g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
             tau = self._cartesian(q, qd) + g
+            self.q_d[:] = q[:n]
         elif self.mode is ControlMode.HOLD:
             g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
             tau = self.kp * (self.q_d - q[:n]) - self.kd * qd[:n] + g

@@ -60,7 +60,11 @@ class Panda(Robot):
     hand_body: ClassVar[str] = "panda_hand"
     root_body: ClassVar[str] = "panda_link0"
     finger_bodies: ClassVar[tuple[str, str]] = ("panda_leftfinger", "panda_rightfinger")
-    tcp_frame: ClassVar[str] = "panda_hand_tcp"
+    hand_tcp_frame: ClassVar[str] = "panda_hand_tcp"
+    """URDF frame of the bare hand's TCP, between the fingertips."""
+    hand_tcp_site: ClassVar[str] = "tcp"
+    """Site at `hand_tcp_frame` (the TCP unless a tool is mounted: see robots/tool.py)."""
+    tcp_frame: ClassVar[str] = hand_tcp_frame
     home: ClassVar[tuple[float, ...]] = (0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785)
     gripper_open_m: ClassVar[float] = 0.04
     gripper_force_n: ClassVar[float] = 20.0
@@ -143,7 +147,8 @@ class Panda(Robot):
         act.forcerange = [-2 * self.gripper_force_n, 2 * self.gripper_force_n]
 
     def _add_sites_and_sensors(self, spec: mujoco.MjSpec) -> None:
-        spec.body(self.tcp_frame).add_site(name=self.tcp_site, size=[0.005, 0.005, 0.005])
+        hand_tcp = spec.body(self.hand_tcp_frame)
+        hand_tcp.add_site(name=self.hand_tcp_site, size=[0.005, 0.005, 0.005])
         spec.body(self.hand_body).add_site(name=self.wrist_site, size=[0.005, 0.005, 0.005])
         force = spec.add_sensor(name=self.force_sensor, type=mujoco.mjtSensor.mjSENS_FORCE)
         force.objtype, force.objname = mujoco.mjtObj.mjOBJ_SITE, self.wrist_site
