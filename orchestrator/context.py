@@ -14,6 +14,7 @@ from .pose import Pose
 if TYPE_CHECKING:
     import mujoco
 
+    from .guards.path_deviation import PlannedPath
     from .robots import Controller, Robot
     from .scenario import Scenario
     from .world import World
@@ -67,6 +68,8 @@ class Context:
         """The IK solver motion skills share (`orchestrator.skills.ik.IKSolver`)."""
         self.ik_target: Pose | None = None
         """The pose the active motion skill is driving the TCP to (for guards and recording)."""
+        self.planned_path: PlannedPath | None = None
+        """The path the active skill is moving the TCP along (for `path_deviation`)."""
 
     # -- time ---------------------------------------------------------------------------
     @property
@@ -110,6 +113,11 @@ class Context:
         f_site = d.sensordata[w.force_adr : w.force_adr + 3]
         rot = d.site_xmat[w.wrist_site].reshape(3, 3)
         return w.wrist_bias_world - rot @ f_site
+
+    def zero_wrist_force(self, offset: np.ndarray) -> None:
+        """Zero the wrist sensor: `offset` [N] (world frame, shape (3,), e.g. the mean reading
+        at rest with a tool mounted) is removed from every later `wrist_force()` reading."""
+        self.world.wrist_bias_world -= np.asarray(offset, dtype=float)
 
     # -- commands -----------------------------------------------------------------------
     def set_gripper(self, opening_m: float) -> None:

@@ -84,9 +84,7 @@ def run_episode(
         np.random.default_rng([seed, 1]),
         dt_control,
     )
-    ctx.ik = IKSolver(
-        world.robot, robot_only_model(world.robot.name), dt_control, scn.robot.base_pos
-    )
+    ctx.ik = IKSolver(world.robot, robot_only_model(world.robot), dt_control, scn.robot.base_pos)
     executor = Executor(loaded.machine, ctx, make_guards(scn.guards, ctx), scn.physics.safe_stop_s)
 
     q_idx, v_idx = as_index(world.robot_qpos), as_index(world.robot_dof)

@@ -11,12 +11,16 @@ from .machine import GuardRef
 __all__ = [
     "Marker",
     "ObjectSpec",
+    "Obstacle",
+    "Phantom",
     "Physics",
     "RobotRef",
     "Scenario",
     "SceneSpec",
     "SuccessCheck",
     "Table",
+    "ToolSpec",
+    "Zone",
 ]
 
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
@@ -100,17 +104,117 @@ class Marker(_Strict):
     )
 
 
+class PhantomRandomize(_Strict):
+    """Uniform per-seed variation of the phantom: position offsets and a stiffness scale."""
+
+    x: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
+    y: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
+    stiffness_scale: Range = Field(
+        default_factory=lambda: [1.0, 1.0],
+        description="True stiffness = nominal stiffness x a factor drawn from this range.",
+    )
+
+    @model_validator(mode="after")
+    def _ordered(self) -> PhantomRandomize:
+        for name in ("x", "y", "stiffness_scale"):
+            lo, hi = getattr(self, name)
+            if lo > hi:
+                raise ValueError(f"{name}: lower bound {lo} is above upper bound {hi}")
+        if self.stiffness_scale[0] <= 0.0:
+            raise ValueError(f"stiffness_scale must be positive, got {self.stiffness_scale}")
+        return self
+
+
+class Phantom(_Strict):
+    """A tissue phantom: a fixed box on the table whose surface yields like a spring.
+
+    The stiffness is set through MuJoCo's solref/solimp so that the tool tip pressed into it
+    with F newtons indents it by F / stiffness metres at rest. Its frame (the `phantom` frame of
+    zones and obstacles) is the centre of its top surface, z up, turned by `yaw_deg`.
+    """
+
+    name: str = "phantom"
+    size: Vec3 = Field(description="Full edge lengths [m].")
+    xy: Annotated[list[float], Field(min_length=2, max_length=2)] = Field(
+        description="Nominal position of its centre on the table [m]."
+    )
+    yaw_deg: float = 0.0
+    stiffness_n_per_m: PositiveFloat = Field(
+        default=500.0, description="Nominal (registered) stiffness of the surface [N/m]."
+    )
+    damping_n_s_per_m: PositiveFloat = Field(
+        default=20.0, description="Damping of the surface [N s/m]."
+    )
+    friction: PositiveFloat = 0.1
+    randomize: PhantomRandomize = Field(default_factory=PhantomRandomize)
+    rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
+        default_factory=lambda: [0.93, 0.7, 0.66, 1.0]
+    )
+
+    @model_validator(mode="after")
+    def _positive_size(self) -> Phantom:
+        if min(self.size) <= 0:
+            raise ValueError(f"size must be positive, got {self.size}")
+        return self
+
+
+class _SceneBox(_Strict):
+    name: str
+    size: Vec3 = Field(description="Full edge lengths [m].")
+    center: Vec3 = Field(description="Centre in `frame` [m].")
+    frame: Literal["world", "phantom"] = Field(
+        default="world",
+        description="`world`, or `phantom` (its top-surface centre: moves with the phantom).",
+    )
+
+    @model_validator(mode="after")
+    def _positive_size(self) -> _SceneBox:
+        if min(self.size) <= 0:
+            raise ValueError(f"size must be positive, got {self.size}")
+        return self
+
+
+class Zone(_SceneBox):
+    """A no-go zone (a critical structure): a box no robot or tool geom may enter. It is drawn
+    but has no collision: the `no_go_zone` guard watches it."""
+
+    rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
+        default_factory=lambda: [0.85, 0.1, 0.1, 0.35]
+    )
+
+
+class Obstacle(_SceneBox):
+    """A rigid fixed box (e.g. a hard inclusion on the phantom that registration missed)."""
+
+    rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
+        default_factory=lambda: [0.95, 0.95, 0.85, 1.0]
+    )
+
+
 class SceneSpec(_Strict):
     table: Table = Field(default_factory=Table)
     objects: list[ObjectSpec] = Field(default_factory=list)
     markers: list[Marker] = Field(default_factory=list)
+    phantom: Phantom | None = Field(default=None, description="A compliant tissue phantom.")
+    zones: list[Zone] = Field(default_factory=list, description="No-go zones.")
+    obstacles: list[Obstacle] = Field(default_factory=list, description="Fixed rigid boxes.")
 
     @model_validator(mode="after")
     def _unique_names(self) -> SceneSpec:
         names = [o.name for o in self.objects] + [m.name for m in self.markers]
+        names += [b.name for b in (*self.zones, *self.obstacles)]
+        names += [self.phantom.name] if self.phantom is not None else []
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValueError(f"scene names must be unique; repeated: {', '.join(dup)}")
+        return self
+
+    @model_validator(mode="after")
+    def _phantom_frame(self) -> SceneSpec:
+        if self.phantom is None:
+            for box in (*self.zones, *self.obstacles):
+                if box.frame == "phantom":
+                    raise ValueError(f"{box.name!r} is placed in the phantom frame: add a phantom")
         return self
 
 
@@ -154,12 +258,50 @@ class Perception(_Strict):
     yaw_noise_deg: float = Field(default=0.0, ge=0.0, description="Std. dev. [deg].")
 
 
+class ToolSpec(_Strict):
+    """A probe mounted on the flange: a shaft along the flange z axis ending in a ball tip.
+
+    The tip becomes the TCP of every motion skill, of the Cartesian controller and of the
+    guards; the wrist force/torque sensor feels the tool's weight until it is zeroed.
+    """
+
+    name: str = "probe"
+    mass_kg: PositiveFloat = Field(default=0.25, description="[kg]")
+    length_m: PositiveFloat = Field(
+        default=0.2, le=0.5, description="From the flange to the tip [m]."
+    )
+    shaft_radius_m: PositiveFloat = Field(default=0.004, le=0.05, description="[m]")
+    tip_radius_m: PositiveFloat = Field(default=0.0025, le=0.05, description="[m]")
+    com_m: PositiveFloat | None = Field(
+        default=None, description="Centre of mass on the axis, from the flange [m] (default: L/2)."
+    )
+    friction: PositiveFloat = Field(default=0.1, description="Sliding friction of the tip.")
+    rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
+        default_factory=lambda: [0.75, 0.78, 0.82, 1.0]
+    )
+    controller_payload: bool = Field(
+        default=True,
+        description="The controller's model knows the tool's mass (false: an unmodelled payload).",
+    )
+
+    @model_validator(mode="after")
+    def _geometry(self) -> ToolSpec:
+        if self.length_m <= 2.0 * self.tip_radius_m:
+            raise ValueError(
+                f"length_m {self.length_m} must exceed the tip diameter {2 * self.tip_radius_m}"
+            )
+        if self.com_m is not None and self.com_m > self.length_m:
+            raise ValueError(f"com_m {self.com_m} lies beyond the tip (length_m {self.length_m})")
+        return self
+
+
 class Scenario(_Strict):
     """One runnable episode family: everything but the seed."""
 
     name: str
     description: str | None = None
     robot: RobotRef = Field(default_factory=RobotRef)
+    tool: ToolSpec | None = Field(default=None, description="A tool on the flange (a probe).")
     scene: SceneSpec = Field(default_factory=SceneSpec)
     machine: str = Field(description="Machine file (relative to this file) or bundled name.")
     blackboard: dict[str, Any] = Field(default_factory=dict, description="Overrides defaults.")

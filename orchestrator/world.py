@@ -12,9 +12,10 @@ import numpy as np
 from .pose import quat_from_yaw
 from .robots import Robot, get_robot
 from .robots.panda.model import WORLD_CONAFFINITY, WORLD_CONTYPE
-from .scenario import Scenario
+from .robots.tool import TISSUE_CONAFFINITY, TISSUE_CONTYPE, Tool, mount_tool
+from .scenario import Scenario, ToolSpec
 
-__all__ = ["ObjectHandle", "World", "as_index", "robot_only_model"]
+__all__ = ["ObjectHandle", "PhantomHandle", "World", "as_index", "robot_only_model"]
 
 
 @dataclass(frozen=True)
@@ -29,10 +30,41 @@ class ObjectHandle:
     half_size: np.ndarray
 
 
+@dataclass(frozen=True)
+class PhantomHandle:
+    """The tissue phantom of one episode (ground truth: perception skills add noise).
+
+    Attributes:
+        name: Its name in the scenario.
+        body_id: Its body in the compiled model.
+        geom_id: Its box geom.
+        size: Full edge lengths [m]. Shape (3,).
+        surface_pos: Centre of its top surface in the world [m]. Shape (3,).
+        yaw: Its heading about world z [rad].
+        stiffness_n_per_m: The true stiffness of this episode [N/m].
+    """
+
+    name: str
+    body_id: int
+    geom_id: int
+    size: np.ndarray
+    surface_pos: np.ndarray
+    yaw: float
+    stiffness_n_per_m: float
+
+
+def robot_only_model(robot: str | Robot) -> mujoco.MjModel:
+    """The robot alone (with its tool, if it carries one), compiled once per process: the
+    kinematic model IK works on."""
+    if isinstance(robot, str):
+        return _robot_only_model(robot, None)
+    return _robot_only_model(robot.name, getattr(robot, "tool", None))
+
+
 @functools.cache
-def robot_only_model(robot_name: str) -> mujoco.MjModel:
-    """The robot alone, compiled once per process: the kinematic model IK works on."""
-    return get_robot(robot_name).build_spec().compile()
+def _robot_only_model(robot_name: str, tool: Tool | None) -> mujoco.MjModel:
+    robot = get_robot(robot_name)
+    return (mount_tool(robot, tool) if tool is not None else robot).build_spec().compile()
 
 
 class World:
@@ -74,7 +106,10 @@ class World:
             g for g in range(m.ngeom) if _is_descendant(m, int(m.geom_bodyid[g]), robot_root)
         )
         gravity = -m.opt.gravity
-        self.wrist_bias_world = float(m.body_subtreemass[self.hand_body]) * gravity
+        tool: Tool | None = getattr(robot, "tool", None)
+        # the sensor's own calibration knows the hand, not a tool mounted on it
+        hand_mass = float(m.body_subtreemass[self.hand_body]) - (tool.mass_kg if tool else 0.0)
+        self.wrist_bias_world = hand_mass * gravity
         """Force [N] the arm exerts on the hand at rest (its weight), removed from readings."""
         self.objects: dict[str, ObjectHandle] = {}
         for spec in scenario.scene.objects:
@@ -93,6 +128,12 @@ class World:
             mk.name: np.array([*mk.xy, table.height]) for mk in scenario.scene.markers
         }
         self.table_height = table.height
+        self.phantom: PhantomHandle | None = _phantom_handle(m, scenario, seed)
+        self.zones: dict[str, int] = {z.name: m.geom(z.name).id for z in scenario.scene.zones}
+        """No-go zone name -> its (collision-free) box geom."""
+        self.obstacles: dict[str, int] = {
+            o.name: m.geom(o.name).id for o in scenario.scene.obstacles
+        }
         self.home = np.array(robot.home, dtype=float)
         self.reset()
 
@@ -100,6 +141,8 @@ class World:
     def build(cls, scenario: Scenario, seed: int) -> World:
         """Assemble robot + table + objects + markers with MjSpec and compile them."""
         robot = get_robot(scenario.robot.name)
+        if scenario.tool is not None:
+            robot = mount_tool(robot, _tool(scenario.tool))
         spec = robot.build_spec()
         for key in list(spec.keys):
             spec.delete(key)  # the world sets its initial state itself
@@ -110,7 +153,10 @@ class World:
         spec.option.impratio = 10.0
         spec.body(robot.root_body).pos = scenario.robot.base_pos
         _add_scene(spec, scenario, seed)
-        return cls(scenario, seed, robot, spec.compile())
+        _add_phantom_scene(spec, scenario, seed)
+        model = spec.compile()
+        _set_tissue_stiffness(model, scenario, seed, robot)
+        return cls(scenario, seed, robot, model)
 
     def reset(self) -> None:
         """Robot at home with the gripper open, objects at their seeded poses, at rest."""
@@ -123,6 +169,10 @@ class World:
             h = self.objects[name]
             d.qpos[h.qpos_adr : h.qpos_adr + 3] = pos
             d.qpos[h.qpos_adr + 3 : h.qpos_adr + 7] = quat
+        mujoco.mj_forward(m, d)
+        # Sensors at t = 0 read the arm held still, as it is from the first step on (with zero
+        # torques they would read it falling); the runner sets the torques before stepping.
+        d.ctrl[self.arm_act] = d.qfrc_bias[self.arm_dof]
         mujoco.mj_forward(m, d)
 
 
@@ -196,3 +246,120 @@ def _add_scene(spec: mujoco.MjSpec, scenario: Scenario, seed: int) -> None:
         g.friction = [obj.friction, 0.005, 0.0001]
         g.condim = 4
         g.contype, g.conaffinity = WORLD_CONTYPE, WORLD_CONAFFINITY
+
+
+# -- tool, phantom, zones, obstacles ----------------------------------------------------------
+
+TISSUE_IMPEDANCE = 0.1
+"""MuJoCo constraint impedance d of tissue contacts (solimp dmin = dmax). A soft constraint
+resists acceleration like an added mass of d / ((1 - d) A), A the inverse inertia at the
+contact: at MuJoCo's default d ~ 0.9 that is ~60 kg at the Panda's tool tip and a phantom
+pressed with a few newtons rings at ~1 Hz; at 0.1 it is ~0.7 kg."""
+
+
+ZONE_CONTYPE = 16
+"""Collision bit of no-go zones, set in no other geom. A geom with contype = conaffinity = 0
+counts as visual-only and `compiler.discardvisual` drops it; the no_go_zone guard needs it."""
+
+
+def _tool(spec: ToolSpec) -> Tool:
+    return Tool(
+        name=spec.name,
+        mass_kg=spec.mass_kg,
+        length_m=spec.length_m,
+        shaft_radius_m=spec.shaft_radius_m,
+        tip_radius_m=spec.tip_radius_m,
+        com_m=spec.com_m if spec.com_m is not None else spec.length_m / 2.0,
+        friction=spec.friction,
+        rgba=(spec.rgba[0], spec.rgba[1], spec.rgba[2], spec.rgba[3]),
+        controller_payload=spec.controller_payload,
+    )
+
+
+def phantom_state(scenario: Scenario, seed: int) -> tuple[np.ndarray, float, float]:
+    """Per-seed surface centre [m] (shape (3,)), yaw [rad] and true stiffness [N/m] of the
+    phantom: nominal + uniform offsets from the seed (its own random stream)."""
+    ph = scenario.scene.phantom
+    assert ph is not None
+    rng = np.random.default_rng([seed, 0xFA27])
+    r = ph.randomize
+    dx = rng.uniform(r.x[0], r.x[1])
+    dy = rng.uniform(r.y[0], r.y[1])
+    scale = rng.uniform(r.stiffness_scale[0], r.stiffness_scale[1])
+    top = scenario.scene.table.height + ph.size[2]
+    pos = np.array([ph.xy[0] + dx, ph.xy[1] + dy, top])
+    return pos, math.radians(ph.yaw_deg), float(ph.stiffness_n_per_m * scale)
+
+
+def _phantom_handle(m: mujoco.MjModel, scenario: Scenario, seed: int) -> PhantomHandle | None:
+    ph = scenario.scene.phantom
+    if ph is None:
+        return None
+    pos, yaw, stiffness = phantom_state(scenario, seed)
+    return PhantomHandle(
+        name=ph.name,
+        body_id=m.body(ph.name).id,
+        geom_id=m.geom(ph.name).id,
+        size=np.asarray(ph.size, float),
+        surface_pos=pos,
+        yaw=yaw,
+        stiffness_n_per_m=stiffness,
+    )
+
+
+def _add_phantom_scene(spec: mujoco.MjSpec, scenario: Scenario, seed: int) -> None:
+    """The phantom (a fixed compliant box), the zones (drawn, no collision) and obstacles."""
+    scene = scenario.scene
+    ph = scene.phantom
+    body = spec.worldbody
+    if ph is not None:
+        surface, yaw, _ = phantom_state(scenario, seed)
+        centre = surface - [0.0, 0.0, ph.size[2] / 2.0]
+        body = spec.worldbody.add_body(
+            name=ph.name, pos=centre.tolist(), quat=quat_from_yaw(yaw).tolist()
+        )
+        g = body.add_geom(
+            name=ph.name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[v / 2 for v in ph.size]
+        )
+        g.rgba = ph.rgba
+        g.friction = [ph.friction, 0.005, 0.0001]
+        g.contype, g.conaffinity = TISSUE_CONTYPE, TISSUE_CONAFFINITY
+        g.priority = 1  # its solref, solimp and friction win over the other geom's
+        g.solimp = [TISSUE_IMPEDANCE, TISSUE_IMPEDANCE, 0.001, 0.5, 2.0]
+    for box, colliding in [(z, False) for z in scene.zones] + [(o, True) for o in scene.obstacles]:
+        if box.frame == "phantom":
+            assert ph is not None
+            parent, pos = body, [box.center[0], box.center[1], box.center[2] + ph.size[2] / 2]
+        else:
+            parent, pos = spec.worldbody, box.center
+        g = parent.add_geom(
+            name=box.name, type=mujoco.mjtGeom.mjGEOM_BOX, pos=pos, size=[v / 2 for v in box.size]
+        )
+        g.rgba = box.rgba
+        if colliding:
+            g.contype, g.conaffinity = WORLD_CONTYPE, WORLD_CONAFFINITY
+        else:  # a bit no other geom has: collides with nothing, yet compiled with the model
+            g.contype, g.conaffinity = ZONE_CONTYPE, ZONE_CONTYPE
+
+
+def _set_tissue_stiffness(
+    model: mujoco.MjModel, scenario: Scenario, seed: int, robot: Robot
+) -> None:
+    """Direct solref (-stiffness, -damping) of the phantom for its true stiffness [N/m].
+
+    At rest MuJoCo's soft contact satisfies R f = k d r with R = (1 - d) / d * A0 and
+    k = S / d^2 for solref[0] = -S (dmin = dmax = d), A0 the contact's approximate inverse
+    inertia (`body_invweight0` of the two bodies; the phantom is fixed). So f = S r / ((1 - d)
+    A0): S = stiffness (1 - d) A0, exact for contacts of the TCP's body (the tool tip).
+    """
+    ph = scenario.scene.phantom
+    if ph is None:
+        return
+    _, _, stiffness = phantom_state(scenario, seed)
+    tcp_body = int(model.site_bodyid[model.site(robot.tcp_site).id])
+    inv_weight = float(model.body_invweight0[tcp_body, 0])
+    scale = (1.0 - TISSUE_IMPEDANCE) * inv_weight
+    model.geom_solref[model.geom(ph.name).id] = [
+        -stiffness * scale,
+        -ph.damping_n_s_per_m * scale,
+    ]

@@ -33,13 +33,13 @@ class ContactForce(Guard):
         # floats on views bound once (MjData never reallocates).
         self._f_site = ctx.data.sensordata[w.force_adr : w.force_adr + 3]
         self._rot = ctx.data.site_xmat[w.wrist_site]
-        self._bias = w.wrist_bias_world.tolist()
+        self._bias = w.wrist_bias_world  # a view: zeroing the sensor updates it in place
         self._max_sq = self.params.max_n * self.params.max_n
 
     def check(self, ctx: Context) -> Violation | None:
         f0, f1, f2 = self._f_site.tolist()
         r = self._rot.tolist()
-        bx, by, bz = self._bias
+        bx, by, bz = self._bias.tolist()
         fx = bx - (r[0] * f0 + r[1] * f1 + r[2] * f2)
         fy = by - (r[3] * f0 + r[4] * f1 + r[5] * f2)
         fz = bz - (r[6] * f0 + r[7] * f1 + r[8] * f2)
