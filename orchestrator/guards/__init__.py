@@ -6,9 +6,13 @@ from ..exceptions import OrchestratorError
 from ..guard import Guard
 from .contact_force import ContactForce
 from .joint_limits import JointLimits
+from .no_go_zone import NoGoZone
+from .path_deviation import PathDeviation
 from .workspace import Workspace
 
-GUARDS: dict[str, type[Guard]] = {g.name: g for g in (JointLimits, Workspace, ContactForce)}
+GUARDS: dict[str, type[Guard]] = {
+    g.name: g for g in (JointLimits, Workspace, ContactForce, NoGoZone, PathDeviation)
+}
 
 
 class UnknownGuardError(OrchestratorError):
@@ -25,4 +29,13 @@ def get_guard(name: str) -> type[Guard]:
         ) from None
 
 
-__all__ = ["GUARDS", "ContactForce", "JointLimits", "UnknownGuardError", "Workspace", "get_guard"]
+__all__ = [
+    "GUARDS",
+    "ContactForce",
+    "JointLimits",
+    "NoGoZone",
+    "PathDeviation",
+    "UnknownGuardError",
+    "Workspace",
+    "get_guard",
+]

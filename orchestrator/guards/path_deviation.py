@@ -1,0 +1,112 @@
+"""`path_deviation`: the tool tip stays within a distance of the path the active skill planned.
+
+A skill that follows a path publishes it on `ctx.planned_path` while it follows it (the
+`contact` skill does while tracing); the guard checks nothing while no path is published.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+from pydantic import Field, PositiveFloat
+
+from ..guard import Guard, GuardParams, Violation
+
+if TYPE_CHECKING:
+    from ..context import Context
+
+__all__ = ["PathDeviation", "PlannedPath"]
+
+
+@dataclass(frozen=True)
+class PlannedPath:
+    """A polyline the tool tip is meant to follow, in the world frame.
+
+    With a `normal`, deviation is measured in the plane perpendicular to it: along the normal
+    the tip is force-controlled (it indents a surface by an amount the stiffness sets), so only
+    the lateral distance is a path error.
+
+    Attributes:
+        points: Waypoints [m]. Shape (k, 3), k >= 2.
+        normal: Unit vector along which distance does not count, or None. Shape (3,).
+    """
+
+    points: np.ndarray
+    normal: np.ndarray | None = None
+    _start: np.ndarray = field(init=False, repr=False)
+    _seg: np.ndarray = field(init=False, repr=False)
+    _len_sq: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        pts = np.array(self.points, dtype=float).reshape(-1, 3)
+        if len(pts) < 2:
+            raise ValueError(f"a planned path needs at least 2 points, got {len(pts)}")
+        normal = None
+        if self.normal is not None:
+            n = np.asarray(self.normal, dtype=float)
+            normal = n / np.linalg.norm(n)
+            pts = pts - np.outer(pts @ normal, normal)  # project onto the plane
+        seg = pts[1:] - pts[:-1]
+        object.__setattr__(self, "points", pts)
+        object.__setattr__(self, "normal", normal)
+        object.__setattr__(self, "_start", pts[:-1])
+        object.__setattr__(self, "_seg", seg)
+        object.__setattr__(self, "_len_sq", np.maximum(np.einsum("ij,ij->i", seg, seg), 1e-18))
+
+    @property
+    def length(self) -> float:
+        """Total length of the path [m]."""
+        return float(np.sum(np.sqrt(self._len_sq)))
+
+    def deviation(self, point: np.ndarray) -> float:
+        """Distance [m] from `point` (shape (3,)) to the nearest point of the path (laterally,
+        if the path has a normal)."""
+        p = np.asarray(point, dtype=float)
+        if self.normal is not None:
+            p = p - (p @ self.normal) * self.normal
+        rel = p - self._start
+        s = np.clip(np.einsum("ij,ij->i", rel, self._seg) / self._len_sq, 0.0, 1.0)
+        d = rel - s[:, None] * self._seg
+        return math.sqrt(float(np.min(np.einsum("ij,ij->i", d, d))))
+
+
+class PathDeviationParams(GuardParams):
+    max_m: PositiveFloat = Field(
+        default=0.001, description="Largest allowed distance of the TCP from the path [m]."
+    )
+
+
+class PathDeviation(Guard):
+    """Fires when the TCP (the tool tip) is farther than `max_m` from the published path."""
+
+    name: ClassVar[str] = "path_deviation"
+    Params: ClassVar[type[GuardParams]] = PathDeviationParams
+
+    params: PathDeviationParams
+
+    def bind(self, ctx: Context) -> None:
+        self._tcp = ctx.data.site_xpos[ctx.world.tcp_site]  # a view: MjData never reallocates
+
+    def check(self, ctx: Context) -> Violation | None:
+        path = ctx.planned_path
+        if path is None:
+            return None
+        dev = path.deviation(self._tcp)
+        if dev <= self.params.max_m:
+            return None
+        return Violation(
+            self.name,
+            f"tool tip {dev * 1000:.3f} mm from the planned path exceeds "
+            f"{self.params.max_m * 1000:.3f} mm",
+            round(dev, 7),
+            self.params.max_m,
+        )
+
+    def monitored(self, ctx: Context) -> tuple[float, float] | None:
+        path = ctx.planned_path
+        if path is None:
+            return None
+        return path.deviation(self._tcp), self.params.max_m
