@@ -61,6 +61,16 @@ class PlannedPath:
         """Total length of the path [m]."""
         return float(np.sum(np.sqrt(self._len_sq)))
 
+    def point_at(self, distance: float) -> np.ndarray:
+        """The point `distance` [m] along the path from its start, clamped to its ends (in the
+        plane perpendicular to the normal, if any). Shape (3,)."""
+        lengths = np.sqrt(self._len_sq)
+        for start, seg, length in zip(self._start, self._seg, lengths, strict=True):
+            if distance <= length:
+                return start + max(distance, 0.0) / length * seg
+            distance -= length
+        return self.points[-1].copy()
+
     def deviation(self, point: np.ndarray) -> float:
         """Distance [m] from `point` (shape (3,)) to the nearest point of the path (laterally,
         if the path has a normal)."""
