@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import functools
 import time
+from array import array
 from collections.abc import Callable
 from typing import Any
 
@@ -30,51 +31,64 @@ from orchestrator.guards import GUARDS
 from orchestrator.runner import run_episode
 from orchestrator.scenario_loading import load_scenario
 
-Sample = tuple[int, int]
-"""(wall, CPU) time of one call [ns]."""
 
-STEP: list[Sample] = []
+class Samples:
+    """Wall and CPU times of one kind of call [ns], kept in arrays the GC never scans (a list
+    of tuples would make the collector's pauses part of the figures)."""
+
+    def __init__(self) -> None:
+        self.wall = array("q")
+        self.cpu = array("q")
+
+    def append(self, wall_ns: int, cpu_ns: int) -> None:
+        self.wall.append(wall_ns)
+        self.cpu.append(cpu_ns)
+
+    def add_to_last(self, wall_ns: int, cpu_ns: int) -> None:
+        self.wall[-1] += wall_ns
+        self.cpu[-1] += cpu_ns
+
+    def clear(self) -> None:
+        del self.wall[:], self.cpu[:]
+
+
+STEP = Samples()
 """Per physics step: controller + guards."""
-MJ_STEP: list[Sample] = []
+MJ_STEP = Samples()
 """Per physics step: mujoco.mj_step."""
-TICK: list[Sample] = []
+TICK = Samples()
 """Per control tick: Executor.tick."""
 
 
-def _timed(fn: Callable[..., Any], sink: Callable[[Sample], None]) -> Callable[..., Any]:
+def _timed(fn: Callable[..., Any], sink: Callable[[int, int], None]) -> Callable[..., Any]:
     wall, cpu = time.perf_counter_ns, time.thread_time_ns
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         w0, c0 = wall(), cpu()
         out = fn(*args, **kwargs)
-        sink((wall() - w0, cpu() - c0))
+        sink(wall() - w0, cpu() - c0)
         return out
 
     return wrapper
-
-
-def _add_to_step(sample: Sample) -> None:
-    w, c = STEP[-1]
-    STEP[-1] = (w + sample[0], c + sample[1])
 
 
 def instrument() -> None:
     """Wrap the controller, the guards, mj_step and the executor's tick with timers."""
     Controller.compute = _timed(Controller.compute, STEP.append)  # type: ignore[method-assign]
     for cls in GUARDS.values():
-        cls.check = _timed(cls.check, _add_to_step)  # type: ignore[method-assign]
+        cls.check = _timed(cls.check, STEP.add_to_last)  # type: ignore[method-assign]
     mujoco.mj_step = _timed(mujoco.mj_step, MJ_STEP.append)
     Executor.tick = _timed(Executor.tick, TICK.append)  # type: ignore[method-assign]
 
 
-def _row(name: str, samples: list[Sample]) -> str:
+def _row(name: str, samples: Samples) -> str:
     cells = []
-    for k in (0, 1):
-        us = np.asarray([s[k] for s in samples], float) / 1000.0
+    for ns in (samples.wall, samples.cpu):
+        us = np.frombuffer(ns, dtype=np.int64) / 1000.0
         p50, p99 = np.percentile(us, [50, 99])
         cells.append(f"{p50:7.1f} {p99:7.1f} {us.max():8.1f}")
-    return f"{name:36s} {len(samples):7d}   {cells[0]}   {cells[1]}"
+    return f"{name:36s} {len(samples.wall):7d}   {cells[0]}   {cells[1]}"
 
 
 def main() -> None:
