@@ -1,0 +1,222 @@
+"""The surgical flow end to end: the tool, SETUP, the traced incision, and complications."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from orchestrator.robots import Controller, get_robot
+from orchestrator.robots.tool import TIP_SITE
+
+from orchestrator.runner import run_episode
+from orchestrator.scenario_loading import load_scenario
+from orchestrator.world import World, robot_only_model
+
+DEFAULT_SEEDS = [0, 7, 13]
+INCISION_M = 0.06
+
+
+@pytest.fixture(scope="module")
+def surgical():
+    return load_scenario("surgical")
+
+
+@pytest.fixture(scope="module")
+def complication():
+    return load_scenario("surgical_complication")
+
+
+class Recorder:
+    """Per control tick: state, time, tip, wrist force, joint speeds; the registration."""
+
+    def on_start(self, ctx, executor):
+        self.rows = []
+
+    def on_tick(self, ctx, executor):
+        f = ctx.wrist_force()
+        self.rows.append(
+            (
+                executor.leaf,
+                ctx.t,
+                ctx.tcp_pos.copy(),
+                float(np.linalg.norm(f)),
+                np.abs(ctx.qd).max(),
+            )
+        )
+
+    def on_end(self, ctx, executor, result):
+        self.phantom = ctx.world.phantom
+        self.registered = ctx.blackboard.get("phantom_pose")
+
+    def where(self, state: str) -> list[tuple]:
+        return [r for r in self.rows if r[0] == state]
+
+
+def _check_success(result, rec: Recorder) -> None:
+    assert result.outcome == "succeeded", (result.transitions, result.reason)
+    m = result.metrics
+    # acceptance: force RMS error <= 0.2 N, peak <= 3 N, path RMS <= 0.5 mm; we hold the goals
+    assert m["force_rms_error_n"] <= 0.1
+    assert m["peak_force_n"] <= 3.0
+    assert m["path_deviation_rms_mm"] <= 0.1
+    assert m["path_deviation_max_mm"] <= 1.0
+    # the tip traced the whole line on the tissue: 6 cm along it, indented all the way
+    trace = rec.where("EXECUTE.TRACE")
+    start, end = trace[0][2], trace[-1][2]
+    assert np.linalg.norm((end - start)[:2]) == pytest.approx(INCISION_M, abs=1e-3)
+    surface = rec.phantom.surface_pos[2]
+    assert max(r[2][2] for r in trace) < surface
+    # registration within 2 mm of where the phantom really is
+    error = np.linalg.norm(np.asarray(rec.registered.pos) - rec.phantom.surface_pos)
+    assert error <= 0.002
+
+
+@pytest.mark.parametrize("seed", DEFAULT_SEEDS)
+def test_surgical_flow_traces_the_incision_at_2_n(surgical, seed):
+    rec = Recorder()
+    result = run_episode(surgical, seed, [rec])
+    _check_success(result, rec)
+    states = [t["to"] for t in result.transitions]
+    assert states == [
+        "SETUP.INSTRUMENT",
+        "SETUP.ZERO",
+        "SETUP.REGISTER",
+        "SETUP.READY",
+        "NAVIGATE",
+        "EXECUTE.CONTACT",
+        "EXECUTE.TRACE",
+        "EXECUTE.LIFT",
+        "EXECUTE.RETRACT",
+        "EXECUTE.EXECUTED",
+        "DONE",
+    ]
+
+
+@pytest.mark.slow
+def test_surgical_flow_over_20_seeds(surgical):
+    outcomes = []
+    for seed in range(20):
+        rec = Recorder()
+        result = run_episode(surgical, seed, [rec])
+        outcomes.append(result.outcome)
+        if result.outcome == "succeeded":
+            _check_success(result, rec)
+    assert outcomes.count("succeeded") >= 19, outcomes
+
+
+def test_same_seed_gives_the_same_result_bit_for_bit(surgical):
+    a = run_episode(surgical, 3).to_json_dict()
+    b = run_episode(surgical, 3).to_json_dict()
+    a.pop("wall_time"), b.pop("wall_time")
+    assert a == b
+
+
+def test_complication_exits_3_naming_the_guard(cli):
+    res = cli("run", "surgical_complication", "--json")
+    assert res.exit_code == 3, res.stderr
+    data = res.json
+    assert data["outcome"] == "aborted"
+    assert data["reason"]["guard"] == "contact_force"
+    assert data["reason"]["limit"] == 5.0  # EXECUTE's own limit, not a run-wide one
+    assert data["final_state"] == "ABORTED"
+
+
+def test_complication_stops_the_arm_in_150_ms_then_holds_and_backs_out(complication):
+    rec = Recorder()
+    result = run_episode(complication, 0, [rec])
+    assert result.outcome == "aborted"
+    abort = next(t for t in result.transitions if t["trigger"] == "abort")
+    assert abort["from"] == "EXECUTE.TRACE" and abort["to"] == "SAFE_HOLD.STOP"
+    t_v = abort["t"]
+    # stopped within 150 ms, and still for the rest of the 0.5 s hold
+    hold = rec.where("SAFE_HOLD.STOP")
+    assert hold[-1][1] - hold[0][1] == pytest.approx(0.5, abs=0.011)
+    still = [r for r in hold if r[1] >= t_v + 0.15]
+    assert still and max(r[4] for r in still) < 0.05
+    tip = np.array([r[2] for r in still])
+    assert np.linalg.norm(tip[-1] - tip[0]) < 0.5e-3
+    # peak force: at the violation (physics step) and every tick to the end
+    assert result.reason["value"] <= 6.0
+    after_contact = [r[3] for r in rec.rows if r[1] >= rec.where("EXECUTE.CONTACT")[0][1]]
+    assert max(after_contact) <= 6.0
+    # then backed out 2 cm along the tool axis (up): clear of the tissue
+    back = rec.where("SAFE_HOLD.BACK_OUT")
+    rise = back[-1][2][2] - hold[-1][2][2]
+    assert rise == pytest.approx(0.02, abs=0.003)
+    assert back[-1][3] < 0.1
+
+
+def test_setup_fails_without_the_instrument():
+    result = run_episode(load_scenario("surgical", ["tool=null"]), 0)
+    assert result.outcome == "failed"
+    assert ("SETUP.NO_INSTRUMENT", "FAILED", "no_instrument") in [
+        (t["from"], t["to"], t["trigger"]) for t in result.transitions
+    ]
+
+
+def test_setup_fails_when_the_registration_is_not_accurate_enough():
+    # 1 cm perception noise: the fiducials no longer fit the phantom within 2 mm
+    result = run_episode(load_scenario("surgical", ["perception.position_noise_m=0.01"]), 0)
+    assert result.outcome == "failed"
+    assert result.transitions[-1]["trigger"] == "not_registered"
+    assert result.metrics["registration_fre_mm"] > 2.0
+
+
+def test_setup_fails_when_another_instrument_is_mounted():
+    result = run_episode(load_scenario("surgical", ["tool.name=scalpel"]), 0)
+    assert result.outcome == "failed"
+    assert result.transitions[-1]["trigger"] == "no_instrument"
+
+
+def test_setup_weighs_the_instrument():
+    result = run_episode(load_scenario("surgical", ["tool.mass_kg=0.4"]), 0)
+    assert result.metrics["tool_weight_n"] == pytest.approx(0.4 * 9.81, rel=1e-3)
+    assert result.metrics["ft_offset_n"] == pytest.approx(0.4 * 9.81, rel=1e-3)
+
+
+# -- the tool ---------------------------------------------------------------------------------
+
+
+def test_the_tool_tip_is_the_tcp_for_mujoco_ik_and_the_controller(surgical):
+    world = World.build(surgical.scenario, seed=0)
+    robot = world.robot
+    assert robot.tcp_site == TIP_SITE and robot.tcp_frame == TIP_SITE
+    ctrl = Controller(robot)
+    ik_model = robot_only_model(robot)
+    assert ik_model.site(TIP_SITE).id >= 0
+    rng = np.random.default_rng(0)
+    m, d = world.model, world.data
+    import mujoco
+
+    for _ in range(5):
+        d.qpos[world.arm_qpos] = world.home + rng.uniform(-0.5, 0.5, 7)
+        mujoco.mj_forward(m, d)
+        pos, rot = ctrl.tcp_pose(d.qpos[world.robot_qpos].copy())
+        np.testing.assert_allclose(pos, d.site_xpos[world.tcp_site], atol=1e-9)
+        np.testing.assert_allclose(rot, d.site_xmat[world.tcp_site].reshape(3, 3), atol=1e-9)
+    # 20 cm from the flange, along its z axis
+    flange = d.xpos[m.body("panda_link8").id]
+    axis = d.xmat[m.body("panda_link8").id].reshape(3, 3)[:, 2]
+    np.testing.assert_allclose(d.site_xpos[world.tcp_site], flange + 0.2 * axis, atol=1e-9)
+
+
+def test_the_controller_model_carries_the_payload(surgical):
+    robot = World.build(surgical.scenario, seed=0).robot
+    bare = get_robot("panda").pinocchio_model()
+    tooled = robot.pinocchio_model()
+    assert sum(i.mass for i in tooled.inertias) - sum(i.mass for i in bare.inertias) == (
+        pytest.approx(0.25)
+    )
+    q = pin.neutral(bare)
+    g_bare = pin.computeGeneralizedGravity(bare, bare.createData(), q)
+    g_tool = pin.computeGeneralizedGravity(tooled, tooled.createData(), q)
+    assert np.abs(g_tool - g_bare).max() > 0.1  # it compensates the probe's weight
+
+
+def test_no_tool_leaves_the_robot_as_it_was(pick_place):
+    world = World.build(pick_place.scenario, seed=0)
+    assert type(world.robot) is type(get_robot("panda"))
+    assert world.robot.tcp_site == "tcp"
+    assert robot_only_model(world.robot) is robot_only_model("panda")
+    with pytest.raises(KeyError):
+        robot_only_model("panda").site(TIP_SITE)
