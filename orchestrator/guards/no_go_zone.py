@@ -16,6 +16,7 @@ from pydantic import Field, NonNegativeFloat
 
 from ..exceptions import OrchestratorError
 from ..guard import Guard, GuardParams, Violation
+from ..world import as_index
 
 if TYPE_CHECKING:
     from ..context import Context
@@ -46,7 +47,7 @@ class NoGoZone(Guard):
     params: NoGoZoneParams
 
     def bind(self, ctx: Context) -> None:
-        m, w = ctx.model, ctx.world
+        m, d, w = ctx.model, ctx.data, ctx.world
         names = self.params.zones if self.params.zones is not None else list(w.zones)
         unknown = [n for n in names if n not in w.zones]
         if unknown:
@@ -54,25 +55,45 @@ class NoGoZone(Guard):
                 f"no_go_zone: no zone {', '.join(map(repr, unknown))} in the scene "
                 f"(valid: {', '.join(sorted(w.zones)) or 'none: add scene.zones'})"
             )
+        margin = self.params.margin_m
         self.zone_names = names
         self.zone_geoms = [w.zones[n] for n in names]
-        self.half = [m.geom_size[g].copy() for g in self.zone_geoms]
-        self.geoms = np.array(sorted(w.robot_geoms), dtype=int)
-        self.radius = m.geom_rbound[self.geoms] + self.params.margin_m
+        # zones hang on fixed bodies (the world, the phantom): their poses never change
+        self.zones = [
+            (d.geom_xpos[g].copy(), d.geom_xmat[g].reshape(3, 3).copy(), m.geom_size[g].copy())
+            for g in self.zone_geoms
+        ]
+        geoms = np.array(sorted(w.robot_geoms), dtype=int)
+        self.geoms = geoms
+        self.radius = m.geom_rbound[geoms] + margin
+        self.sphere_sq = [
+            (self.radius + float(np.linalg.norm(half))) ** 2 for _, _, half in self.zones
+        ]
+        index = as_index(geoms)
+        # a view bound once (MjData never reallocates) when the robot's geoms are contiguous
+        self._centres = d.geom_xpos[index] if isinstance(index, slice) else None
         self._fromto = np.zeros(6)
 
     def _nearest(self, ctx: Context) -> tuple[float, int, int] | None:
-        """(distance [m], robot geom, zone index) of the closest pair the cull lets through."""
-        d = ctx.data
-        centres = d.geom_xpos[self.geoms]
+        """(distance [m], robot geom, zone index) of the closest pair the cull lets through.
+
+        Cull: bounding spheres of the robot's geoms against each zone's bounding sphere, then
+        against the zone box itself; the exact distance only for what is left.
+        """
+        centres = self._centres if self._centres is not None else ctx.data.geom_xpos[self.geoms]
         best: tuple[float, int, int] | None = None
-        for k, zg in enumerate(self.zone_geoms):
-            rot = d.geom_xmat[zg].reshape(3, 3)
-            local = np.abs((centres - d.geom_xpos[zg]) @ rot) - self.half[k]
+        for k, (zc, rot, half) in enumerate(self.zones):
+            rel = centres - zc
+            near = np.einsum("ij,ij->i", rel, rel) < self.sphere_sq[k]
+            if not near.any():
+                continue
+            local = np.abs(rel[near] @ rot) - half
             gap = np.linalg.norm(np.maximum(local, 0.0), axis=1)
-            for g in self.geoms[gap < self.radius]:
+            for g in self.geoms[near][gap < self.radius[near]]:
                 limit = self.params.margin_m + 0.01
-                dist = mujoco.mj_geomDistance(ctx.model, d, int(g), zg, limit, self._fromto)
+                dist = mujoco.mj_geomDistance(
+                    ctx.model, ctx.data, int(g), self.zone_geoms[k], limit, self._fromto
+                )
                 if best is None or dist < best[0]:
                     best = (float(dist), int(g), k)
         return best
@@ -82,12 +103,13 @@ class NoGoZone(Guard):
         if hit is None or hit[0] > self.params.margin_m:
             return None
         dist, geom, k = hit
-        geom_name = ctx.model.geom(geom).name or f"geom {geom}"
+        m = ctx.model
+        part = m.geom(geom).name or m.body(int(m.geom_bodyid[geom])).name
         where = "inside" if dist <= 0.0 else f"{dist * 1000:.1f} mm from"
         return Violation(
             self.name,
-            f"{geom_name} is {where} no-go zone {self.zone_names[k]!r}",
-            {"zone": self.zone_names[k], "geom": geom_name, "distance_m": round(dist, 6)},
+            f"{part} is {where} no-go zone {self.zone_names[k]!r}",
+            {"zone": self.zone_names[k], "geom": part, "distance_m": round(dist, 6)},
             self.params.margin_m,
         )
 

@@ -39,6 +39,9 @@ class PlannedPath:
     _start: np.ndarray = field(init=False, repr=False)
     _seg: np.ndarray = field(init=False, repr=False)
     _len_sq: np.ndarray = field(init=False, repr=False)
+    _segments: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
+    """Per segment, plain floats (the guard's per-step path): start, direction, length^2."""
+    _n: tuple[float, float, float] | None = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         pts = np.array(self.points, dtype=float).reshape(-1, 3)
@@ -54,7 +57,12 @@ class PlannedPath:
         object.__setattr__(self, "normal", normal)
         object.__setattr__(self, "_start", pts[:-1])
         object.__setattr__(self, "_seg", seg)
-        object.__setattr__(self, "_len_sq", np.maximum(np.einsum("ij,ij->i", seg, seg), 1e-18))
+        len_sq = np.maximum(np.einsum("ij,ij->i", seg, seg), 1e-18)
+        object.__setattr__(self, "_len_sq", len_sq)
+        rows = np.hstack([pts[:-1], seg, len_sq[:, None]])
+        object.__setattr__(self, "_segments", tuple(tuple(r) for r in rows.tolist()))
+        n3 = None if normal is None else (float(normal[0]), float(normal[1]), float(normal[2]))
+        object.__setattr__(self, "_n", n3)
 
     @property
     def length(self) -> float:
@@ -73,14 +81,24 @@ class PlannedPath:
 
     def deviation(self, point: np.ndarray) -> float:
         """Distance [m] from `point` (shape (3,)) to the nearest point of the path (laterally,
-        if the path has a normal)."""
-        p = np.asarray(point, dtype=float)
-        if self.normal is not None:
-            p = p - (p @ self.normal) * self.normal
-        rel = p - self._start
-        s = np.clip(np.einsum("ij,ij->i", rel, self._seg) / self._len_sq, 0.0, 1.0)
-        d = rel - s[:, None] * self._seg
-        return math.sqrt(float(np.min(np.einsum("ij,ij->i", d, d))))
+        if the path has a normal).
+
+        Plain floats, not numpy: the `path_deviation` guard calls this every physics step and
+        a path has a few segments; this costs a fraction of the small-array numpy version.
+        """
+        px, py, pz = point.tolist() if isinstance(point, np.ndarray) else point
+        if self._n is not None:
+            nx, ny, nz = self._n
+            along = px * nx + py * ny + pz * nz
+            px, py, pz = px - along * nx, py - along * ny, pz - along * nz
+        best = math.inf
+        for sx, sy, sz, dx, dy, dz, len_sq in self._segments:
+            rx, ry, rz = px - sx, py - sy, pz - sz
+            u = (rx * dx + ry * dy + rz * dz) / len_sq
+            u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else u)
+            ex, ey, ez = rx - u * dx, ry - u * dy, rz - u * dz
+            best = min(best, ex * ex + ey * ey + ez * ez)
+        return math.sqrt(best)
 
 
 class PathDeviationParams(GuardParams):
