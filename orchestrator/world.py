@@ -36,8 +36,6 @@ class PhantomHandle:
 
     Attributes:
         name: Its name in the scenario.
-        body_id: Its body in the compiled model.
-        geom_id: Its box geom.
         size: Full edge lengths [m]. Shape (3,).
         surface_pos: Centre of its top surface in the world [m]. Shape (3,).
         yaw: Its heading about world z [rad].
@@ -45,8 +43,6 @@ class PhantomHandle:
     """
 
     name: str
-    body_id: int
-    geom_id: int
     size: np.ndarray
     surface_pos: np.ndarray
     yaw: float
@@ -128,12 +124,9 @@ class World:
             mk.name: np.array([*mk.xy, table.height]) for mk in scenario.scene.markers
         }
         self.table_height = table.height
-        self.phantom: PhantomHandle | None = _phantom_handle(m, scenario, seed)
+        self.phantom: PhantomHandle | None = _phantom_handle(scenario, seed)
         self.zones: dict[str, int] = {z.name: m.geom(z.name).id for z in scenario.scene.zones}
         """No-go zone name -> its (collision-free) box geom."""
-        self.obstacles: dict[str, int] = {
-            o.name: m.geom(o.name).id for o in scenario.scene.obstacles
-        }
         self.home = np.array(robot.home, dtype=float)
         self.reset()
 
@@ -291,15 +284,13 @@ def phantom_state(scenario: Scenario, seed: int) -> tuple[np.ndarray, float, flo
     return pos, math.radians(ph.yaw_deg), float(ph.stiffness_n_per_m * scale)
 
 
-def _phantom_handle(m: mujoco.MjModel, scenario: Scenario, seed: int) -> PhantomHandle | None:
+def _phantom_handle(scenario: Scenario, seed: int) -> PhantomHandle | None:
     ph = scenario.scene.phantom
     if ph is None:
         return None
     pos, yaw, stiffness = phantom_state(scenario, seed)
     return PhantomHandle(
         name=ph.name,
-        body_id=m.body(ph.name).id,
-        geom_id=m.geom(ph.name).id,
         size=np.asarray(ph.size, float),
         surface_pos=pos,
         yaw=yaw,

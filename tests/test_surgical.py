@@ -133,10 +133,9 @@ def test_complication_stops_the_arm_in_150_ms_then_holds_and_backs_out(complicat
     assert hold[-1][1] - hold[0][1] == pytest.approx(0.5, abs=0.011)
     still = [r for r in hold if r[1] >= t_v + 0.15]
     assert still and max(r[4] for r in still) < 0.05
-    # the hold is compliant (2000 N/m at the measured pose): the tissue, relieved of the 2 N
-    # preload, lifts the tip by a fraction of a millimetre, no more
+    # the tissue, relieved of the 2 N preload, may lift the tip a little against the hold
     tip = np.array([r[2] for r in still])
-    assert np.linalg.norm(tip[-1] - tip[0]) < 1e-3
+    assert np.linalg.norm(tip[-1] - tip[0]) < 0.5e-3
     # peak force: at the violation (physics step) and every tick to the end
     assert result.reason["value"] <= 6.0
     after_contact = [r[3] for r in rec.rows if r[1] >= rec.where("EXECUTE.CONTACT")[0][1]]
