@@ -111,7 +111,7 @@ def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenari
         ]
         problems += validate_guards(raw_guards, doc.source, ("guards",))
     if scenario is not None and machine is not None and not problems:
-        problems += _check_scene_names(machine, scenario)
+        problems += _check_scene_names(machine, scenario, doc.source)
     if scenario is not None:
         problems += _check_scenario_refs(scenario, doc.source)
         if machine is not None:
@@ -156,41 +156,70 @@ def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagn
     return diag
 
 
-def _check_scene_names(machine: MachineNode, scenario: Scenario) -> list[Diagnostic]:
-    """Skill parameters that name scene objects or markers — given literally or through a
-    `$key` whose value is known before the run — must name ones this scenario has."""
+def _check_scene_names(
+    machine: MachineNode, scenario: Scenario, source: SourceMap
+) -> list[Diagnostic]:
+    """Skill and guard parameters that name scene objects, markers or zones — given literally
+    or through a `$key` whose value is known before the run — must name ones this scenario has.
+    """
     from .blackboard import parse_ref
+    from .guards import GUARDS
+    from .machine import guard_entries
     from .runner import initial_blackboard
     from .skills import SKILLS, skill_names
 
     skill_names()  # discover the skills
     objects = [o.name for o in scenario.scene.objects]
-    targets = objects + [m.name for m in scenario.scene.markers]
+    names = {
+        "object": ("scene object", objects),
+        "target": ("object or marker", objects + [m.name for m in scenario.scene.markers]),
+        "zone": ("no-go zone", [z.name for z in getattr(scenario.scene, "zones", [])]),
+    }
     values = initial_blackboard(machine, scenario.blackboard).as_dict()
-    out = []
-    for node in machine.nodes():
-        specs = [((*node.at, "states", n), st.skill, st.with_) for n, st in node.states.items()]
-        specs += [((*node.at, "states", s, "parallel", b), br.skill, br.with_)
-                  for s, b, br in node.skill_branches()]
-        for at, skill, params in specs:
-            cls = SKILLS.get(skill or "")
-            if cls is None:
+
+    def check(src: SourceMap, at: tuple, model, params: dict) -> list[Diagnostic]:
+        found = []
+        for field, info in model.model_fields.items():
+            extra = info.json_schema_extra
+            kind = extra.get("scene_ref") if isinstance(extra, dict) else None
+            if kind is None or field not in params:
                 continue
-            for field, info in cls.Params.model_fields.items():
-                extra = info.json_schema_extra
-                kind = extra.get("scene_ref") if isinstance(extra, dict) else None
-                if kind is None or field not in params:
-                    continue
-                value, via = params[field], ""
-                ref = parse_ref(value)
-                if ref is not None and not ref[1]:
-                    value, via = values.get(ref[0]), f" (the value of ${ref[0]})"
-                valid = objects if kind == "object" else targets
-                if isinstance(value, str) and value not in valid:
-                    what = "scene object" if kind == "object" else "object or marker"
-                    out.append(node.source.diag(
-                        (*at, "with", field), f"no {what} {value!r} in scenario "
-                        f"{scenario.name!r}{via}", tuple(valid)))
+            value, via = params[field], ""
+            ref = parse_ref(value)
+            if ref is not None and not ref[1]:
+                value, via = values.get(ref[0]), f" (the value of ${ref[0]})"
+            what, valid = names[kind]
+            for item in value if isinstance(value, list) else [value]:
+                if isinstance(item, str) and item not in valid:
+                    none = "" if valid else f"; it has no {what}s at all"
+                    found.append(src.diag(
+                        (*at, field),
+                        f"no {what} {item!r} in scenario {scenario.name!r}{via}{none}",
+                        tuple(valid)))
+        return found
+
+    def guards(src: SourceMap, at: tuple, refs) -> list[Diagnostic]:
+        found = []
+        for pos, name, params in guard_entries(refs):
+            if name in GUARDS and isinstance(params, dict):
+                gat = (*at, pos, name) if isinstance(pos, int) else (*at, pos)
+                found += check(src, gat, GUARDS[name].Params, params)
+        return found
+
+    out = guards(source, ("guards",), scenario.guards)
+    for node in machine.nodes():
+        out += guards(node.source, (*node.at, "guards"), node.guards)
+        for n, st in node.states.items():
+            at = (*node.at, "states", n)
+            out += guards(node.source, (*at, "guards"), st.guards)
+            cls = SKILLS.get(st.skill or "")
+            if cls is not None:
+                out += check(node.source, (*at, "with"), cls.Params, st.with_)
+        for s, b, br in node.skill_branches():
+            cls = SKILLS.get(br.skill or "")
+            if cls is not None:
+                at = (*node.at, "states", s, "parallel", b, "with")
+                out += check(node.source, at, cls.Params, br.with_)
     return out
 
 

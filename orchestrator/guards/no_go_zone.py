@@ -30,7 +30,9 @@ class UnknownZoneError(OrchestratorError):
 
 class NoGoZoneParams(GuardParams):
     zones: list[str] | None = Field(
-        default=None, description="Zones to watch, by name (default: every zone of the scene)."
+        default=None,
+        description="Zones to watch, by name (default: every zone of the scene).",
+        json_schema_extra={"scene_ref": "zone"},
     )
     margin_m: NonNegativeFloat = Field(
         default=0.0, description="Fire when a geom comes closer to a zone than this [m]."
