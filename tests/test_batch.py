@@ -407,16 +407,39 @@ def test_results_do_not_depend_on_the_worker_count(local_results, pick_place):
     assert one[21] == direct
 
 
-def test_results_do_not_depend_on_the_backend(local_results, tmp_path):
+@pytest.fixture(scope="module")
+def local_ray():
+    """A local Ray with 2 CPUs, shared by the Ray tests of this module."""
     ray = pytest.importorskip(
         "ray", reason="the Ray backend is an optional extra: pip install -e '.[ray]'"
     )
-    ray.init(num_cpus=2, include_dashboard=False, logging_level="WARNING", log_to_driver=False)
-    try:
-        on_ray = _batch(tmp_path, "ray", backend="ray", workers=2)
-    finally:
-        ray.shutdown()
+    here = Path(__file__).resolve().parent  # Ray workers import this module's run functions
+    ray.init(
+        num_cpus=2,
+        include_dashboard=False,
+        logging_level="WARNING",
+        log_to_driver=False,
+        runtime_env={"env_vars": {"PYTHONPATH": os.pathsep.join([str(here.parent), str(here)])}},
+    )
+    yield ray
+    ray.shutdown()
+
+
+def test_results_do_not_depend_on_the_backend(local_results, local_ray, tmp_path):
+    on_ray = _batch(tmp_path, "ray", backend="ray", workers=2)
     assert on_ray == local_results[1]
+
+
+def test_a_dead_ray_worker_is_retried_once_then_an_error(local_ray, tmp_path):
+    from orchestrator.batch.backends.ray import RayBackend
+
+    config = BatchConfig("pick_place", 4, tmp_path / "b", record="none")
+    summary = run_batch(config, backend=RayBackend(2, run_fn=crashing_run))
+    lines = {ln["seed"]: ln for ln in _lines(tmp_path / "b" / "results.jsonl")}
+    assert sorted(lines) == [0, 1, 2, 3]
+    assert lines[2]["outcome"] == "succeeded"  # Ray re-ran it once
+    assert lines[1]["outcome"] == "error" and lines[1]["error"]["type"] == "WorkerCrashedError"
+    assert (summary.succeeded, summary.errors) == (3, 1)
 
 
 # -- recording ----------------------------------------------------------------------------

@@ -56,6 +56,7 @@ class BatchSummary(BaseModel):
     results: str = Field(description="Path of results.jsonl.")
 
     def to_json_dict(self) -> dict[str, Any]:
+        """The summary as plain JSON types (what summary.json holds)."""
         return self.model_dump(mode="json")
 
 
