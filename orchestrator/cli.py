@@ -32,7 +32,8 @@ def _fail_config(exc: ConfigError) -> None:
     for diag in exc.diagnostics:
         err.print(str(diag), markup=False, soft_wrap=True)
     n = len(exc.diagnostics)
-    err.print(f"{n} error{'s' if n != 1 else ''}; nothing was simulated.", style="red")
+    what = "the run was stopped" if exc.during_run else "nothing was simulated"
+    err.print(f"{n} error{'s' if n != 1 else ''}; {what}.", style="red")
     raise typer.Exit(EXIT_INVALID)
 
 
@@ -108,6 +109,41 @@ def validate(
         _fail_config(ConfigError(problems))
     for kind, name in checked:
         out.print(f"ok  {kind:8} {name}")
+
+
+@app.command()
+def graph(
+    machine: Annotated[str, typer.Argument(help="Machine file or bundled name.")],
+    fmt: Annotated[
+        str, typer.Option("--format", help="mermaid (no system package needed) or dot (Graphviz).")
+    ] = "mermaid",
+) -> None:
+    """Draw a machine: states, outcome-labelled transitions, nested clusters, the abort path."""
+    from .graph import to_dot, to_mermaid
+    from .loading import load_machine
+
+    if fmt not in ("mermaid", "dot"):
+        err.print(f"--format: unknown format {fmt!r} (valid: mermaid, dot)")
+        raise typer.Exit(EXIT_INVALID)
+    try:
+        node = load_machine(machine)
+    except ConfigError as exc:
+        _fail_config(exc)
+        return
+    sys.stdout.write(to_mermaid(node) if fmt == "mermaid" else to_dot(node))
+
+
+@app.command()
+def schema(
+    kind: Annotated[str, typer.Argument(help="machine or scenario")],
+) -> None:
+    """Print the JSON Schema (draft 7) of machine or scenario files, for yaml-language-server."""
+    from .schema_gen import schema_text
+
+    if kind not in ("machine", "scenario"):
+        err.print(f"unknown schema {kind!r} (valid: machine, scenario)")
+        raise typer.Exit(EXIT_INVALID)
+    sys.stdout.write(schema_text(kind))
 
 
 @app.command(name="list")
