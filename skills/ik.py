@@ -51,7 +51,7 @@ class IKSolver:
         self.damping = damping
         self.velocity = np.zeros(self.n)
         self.acceleration = np.zeros(self.n)
-        self.error = np.zeros(6)
+        self._error: np.ndarray | None = np.zeros(6)
 
     @property
     def q(self) -> np.ndarray:
@@ -66,22 +66,31 @@ class IKSolver:
         self.posture_task.set_target(q)
         self.velocity[:] = 0.0
         self.acceleration[:] = 0.0
+        self._error = None
 
     def tcp_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """World TCP position [m] and rotation at the IK's joint angles."""
         T = self.config.get_transform_frame_to_world(self.robot.tcp_site, "site")
         return T.translation() + self.base_pos, T.rotation().as_matrix()
 
-    def step(self, pos: np.ndarray, rot: np.ndarray) -> np.ndarray:
-        """One control tick towards the world pose (`pos` [m], `rot` 3x3).
+    @property
+    def error(self) -> np.ndarray:
+        """Frame-task error after the last `step` (position [m], then rotation [rad]). Shape (6,).
+
+        Computed when read: most ticks never look at it."""
+        if self._error is None:
+            self._error = self.frame_task.compute_error(self.config)
+        return self._error
+
+    def step(self, pos: np.ndarray, rot: np.ndarray | mink.SO3) -> np.ndarray:
+        """One control tick towards the world pose (`pos` [m], `rot` a 3x3 matrix or an SO3).
 
         Returns:
             The new joint angles [rad]; `velocity` and `acceleration` hold the joint speeds
             that led there and their change over the tick.
         """
-        target = mink.SE3.from_rotation_and_translation(
-            mink.SO3.from_matrix(rot), np.asarray(pos) - self.base_pos
-        )
+        so3 = rot if isinstance(rot, mink.SO3) else mink.SO3.from_matrix(rot)
+        target = mink.SE3.from_rotation_and_translation(so3, np.asarray(pos) - self.base_pos)
         self.frame_task.set_target(target)
         v = mink.solve_ik(
             self.config,
@@ -94,5 +103,5 @@ class IKSolver:
         self.config.integrate_inplace(v, self.dt)
         self.acceleration[:] = (v[: self.n] - self.velocity) / self.dt
         self.velocity[:] = v[: self.n]
-        self.error[:] = self.frame_task.compute_error(self.config)
+        self._error = None
         return self.q

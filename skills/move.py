@@ -107,13 +107,15 @@ class Move(Skill):
             return "unreachable"
         p = self.params
         elapsed = ctx.t - self.t0
-        pos, rot = self.line.sample(elapsed)
+        pos, rot = self.line.sample_so3(elapsed)
         q = ctx.ik.step(pos, rot)
         ctx.controller.set_joint_target(q, ctx.ik.velocity, ctx.ik.acceleration)
-        tcp_speed = float(np.linalg.norm(ctx.tcp_pos - self.last_tcp)) / ctx.dt_control
-        self.last_tcp[:] = ctx.tcp_pos
+        tcp = ctx.tcp_pos
         if elapsed < self.line.duration:
+            self.last_tcp[:] = tcp
             return None
+        tcp_speed = float(np.linalg.norm(tcp - self.last_tcp)) / ctx.dt_control
+        self.last_tcp[:] = tcp
         pos_err, ang_err = self.tcp_error(ctx)
         if pos_err <= p.tolerance_m and ang_err <= math.radians(p.tolerance_deg):
             if tcp_speed < _AT_REST_MPS:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import mink
 import numpy as np
@@ -25,7 +26,7 @@ class Trapezoid:
     v_max: float
     a_max: float
 
-    @property
+    @cached_property
     def _cruise(self) -> tuple[float, float]:
         t_acc = self.v_max / self.a_max
         if self.a_max * t_acc * t_acc >= self.distance:  # never reaches v_max
@@ -87,7 +88,15 @@ class CartesianLine:
 
     def sample(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Position [m] and rotation matrix at time `t` [s] after the start."""
+        pos, rot = self.sample_so3(t)
+        return pos, rot.as_matrix()
+
+    def sample_so3(self, t: float) -> tuple[np.ndarray, mink.SO3]:
+        """Position [m] and rotation (as an SO3, no matrix round trip) at time `t` [s]."""
         s, _ = self.profile.progress(t)
-        pos = self.pos0 + s * (self.pos1 - self.pos0)
-        rot = (self.rot0 @ mink.SO3.exp(s * self.delta)).as_matrix()
-        return pos, rot
+        pos = self.pos0 + s * self._span
+        return pos, self.rot0 @ mink.SO3.exp(s * self.delta)
+
+    @cached_property
+    def _span(self) -> np.ndarray:
+        return self.pos1 - self.pos0
