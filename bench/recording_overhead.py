@@ -1,0 +1,133 @@
+"""Wall-time overhead of Rerun recording on an episode: paired runs, several seeds, median ratio.
+
+Two measurements, both printed:
+
+* `episode` (the figure the 1.3x bound is checked on): `run_episode` in this process, with and
+  without a `RerunRecorder` writing a `.rrd` file; the recording is finished and the file
+  complete when the call returns. One warm-up pair first, so the once-per-process costs
+  (imports, Rerun's first sink) are not counted: this is what recording adds to a run, and
+  what a batch worker pays per episode.
+* `cli`: the whole `orchestrator run SCENARIO --seed N [--rrd PATH]` command in a fresh
+  process. On top of the episode's overhead it pays the one-time `import rerun` (~0.35 s),
+  which a command that does not record never does.
+
+Each pair runs both variants back to back in alternating order (ABBA), so drift on a shared,
+noisy machine cancels; the figure is the median of the per-pair ratios (with / without).
+
+Usage:
+    python bench/recording_overhead.py                 # both, 5 seeds x 3 pairs
+    python bench/recording_overhead.py --mode episode --seeds 0 1 2 --pairs 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+MAX_RATIO = 1.3
+"""The acceptance bound: a recorded run takes at most this many times the plain run."""
+
+
+def _paired(
+    seeds: list[int], pairs: int, plain: Callable[[int], float], recorded: Callable[[int], float]
+) -> tuple[list[float], list[float], list[float]]:
+    """Run `pairs` ABBA pairs per seed; return the plain and recorded times [s] and ratios."""
+    t_plain: list[float] = []
+    t_rec: list[float] = []
+    ratios: list[float] = []
+    for seed in seeds:
+        for k in range(pairs):
+            if k % 2 == 0:
+                a = plain(seed)
+                b = recorded(seed)
+            else:
+                b = recorded(seed)
+                a = plain(seed)
+            t_plain.append(a)
+            t_rec.append(b)
+            ratios.append(b / a)
+    return t_plain, t_rec, ratios
+
+
+def bench_episode(scenario: str, seeds: list[int], pairs: int, out: Path) -> float:
+    """In-process episodes; returns the median ratio."""
+    from orchestrator.recording import RerunRecorder
+    from orchestrator.runner import run_episode
+    from orchestrator.scenario_loading import load_scenario
+
+    loaded = load_scenario(scenario)
+
+    def plain(seed: int) -> float:
+        t0 = time.perf_counter()
+        run_episode(loaded, seed)
+        return time.perf_counter() - t0
+
+    def recorded(seed: int) -> float:
+        t0 = time.perf_counter()
+        run_episode(loaded, seed, [RerunRecorder(path=out / f"episode_{seed}.rrd")])
+        return time.perf_counter() - t0
+
+    plain(seeds[0]), recorded(seeds[0])  # warm-up: imports, caches, Rerun's first sink
+    return _report("episode", *_paired(seeds, pairs, plain, recorded))
+
+
+def bench_cli(scenario: str, seeds: list[int], pairs: int, out: Path) -> float:
+    """Fresh `orchestrator run` processes; returns the median ratio."""
+
+    def run(seed: int, *extra: str) -> float:
+        cmd = [sys.executable, "-m", "orchestrator.cli", "run", scenario, "--seed", str(seed)]
+        t0 = time.perf_counter()
+        proc = subprocess.run([*cmd, *extra], capture_output=True, text=True, check=False)
+        wall = time.perf_counter() - t0
+        if proc.returncode not in (0, 1, 3):
+            raise SystemExit(f"{' '.join(cmd)} exited {proc.returncode}:\n{proc.stderr}")
+        return wall
+
+    def recorded(seed: int) -> float:
+        return run(seed, "--rrd", str(out / f"cli_{seed}.rrd"))
+
+    return _report("cli", *_paired(seeds, pairs, run, recorded))
+
+
+def _report(name: str, t_plain: list[float], t_rec: list[float], ratios: list[float]) -> float:
+    median = statistics.median(ratios)
+    q = statistics.quantiles(ratios, n=4) if len(ratios) > 1 else [median] * 3
+    extra = statistics.median(b - a for a, b in zip(t_plain, t_rec, strict=True))
+    print(
+        f"{name:8s} pairs {len(ratios):3d}  without {statistics.median(t_plain):.3f} s  "
+        f"with --rrd {statistics.median(t_rec):.3f} s  (+{extra * 1e3:.0f} ms)  "
+        f"ratio median {median:.3f} (IQR {q[0]:.3f}-{q[2]:.3f})",
+        flush=True,
+    )
+    return median
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenario", default="pick_place")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
+    parser.add_argument("--pairs", type=int, default=3, help="Pairs per seed.")
+    parser.add_argument("--mode", choices=("episode", "cli", "both"), default="both")
+    args = parser.parse_args(argv)
+    episode = None
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp)
+        if args.mode in ("episode", "both"):
+            episode = bench_episode(args.scenario, args.seeds, args.pairs, out)
+        if args.mode in ("cli", "both"):
+            bench_cli(args.scenario, args.seeds, args.pairs, out)
+    if episode is None:
+        return 0
+    verdict = "ok" if episode <= MAX_RATIO else "OVER THE BOUND"
+    print(f"recording overhead ratio (episode) {episode:.3f}, bound {MAX_RATIO}: {verdict}")
+    return 0 if episode <= MAX_RATIO else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,72 @@
+"""Entity paths and timeline names of a recording: the layout the blueprint and tests rely on."""
+
+from __future__ import annotations
+
+import re
+
+__all__ = [
+    "ACTIVE_STATE",
+    "BODIES",
+    "EVENTS",
+    "GEOMS",
+    "GRAPH",
+    "GUARDS",
+    "LEVELS",
+    "SIGNALS",
+    "SIM_TIME",
+    "STATE_MACHINE",
+    "TARGETS",
+    "TICK",
+    "WORLD",
+    "body_path",
+    "geom_path",
+    "level_path",
+    "part",
+]
+
+SIM_TIME = "sim_time"
+"""Duration timeline: simulated time since the episode started (the primary timeline)."""
+TICK = "tick"
+"""Sequence timeline: control tick index (100 Hz by default)."""
+
+WORLD = "world"
+BODIES = f"{WORLD}/bodies"
+"""`<BODIES>/<body>`: one MuJoCo body's pose in the world frame."""
+GEOMS = "geoms"
+"""`<BODIES>/<body>/<GEOMS>/<geom>`: one geom, posed relative to its body."""
+TARGETS = f"{WORLD}/targets"
+"""`<TARGETS>/ik_target` and one frame per scene marker."""
+STATE_MACHINE = "state_machine"
+ACTIVE_STATE = f"{STATE_MACHINE}/active"
+"""StateChange of the active leaf state, by dotted path (`PICK.SEARCH`)."""
+LEVELS = f"{STATE_MACHINE}/levels"
+"""`<LEVELS>/<region>`: StateChange of each machine level (`root`, `PICK`, ...)."""
+GRAPH = f"{STATE_MACHINE}/graph"
+"""GraphNodes/GraphEdges of the machine tree, the active states highlighted over time."""
+SIGNALS = "signals"
+GUARDS = "guards"
+"""`<GUARDS>/<guard>`: each guard's monitored value next to its limit."""
+EVENTS = "events"
+"""`<EVENTS>/<kind>`: TextLog per event kind (transition, outcome, retry, violation, ...)."""
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9_\-.]")
+
+
+def part(name: str) -> str:
+    """One entity-path part from a free-form name (characters outside `[A-Za-z0-9_-.]` -> `_`)."""
+    return _UNSAFE.sub("_", name) or "_"
+
+
+def body_path(name: str) -> str:
+    """Entity path of a body's frame."""
+    return f"{BODIES}/{part(name)}"
+
+
+def geom_path(body: str, geom: str) -> str:
+    """Entity path of a geom under its body."""
+    return f"{body_path(body)}/{GEOMS}/{part(geom)}"
+
+
+def level_path(region: str) -> str:
+    """Entity path of a machine level's state lane (`""` is the top level: `root`)."""
+    return f"{LEVELS}/{part(region) if region else 'root'}"

@@ -1,0 +1,212 @@
+"""RerunRecorder: the run observer that writes an episode to a Rerun recording."""
+
+from __future__ import annotations
+
+import uuid
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import rerun as rr
+
+from .batches import StaticBatch, TemporalBatch
+from .blueprint import default_blueprint
+from .events import EventLog
+from .exceptions import RecordingError
+from .geometry_chunks import geometry_chunks
+from .machine_graph import build_graph
+from .paths import WORLD
+from .poses import BodyPoses
+from .signals import GuardSignals, RobotSignals
+from .state_log import StateLog
+from .targets import Targets
+from .timeline import Rows
+
+if TYPE_CHECKING:
+    from ..context import Context, Event
+    from ..executor import Executor
+    from ..result import RunResult
+
+__all__ = ["APPLICATION_ID", "RerunRecorder"]
+
+APPLICATION_ID = "embodied_orchestrator"
+"""Rerun application id of every recording: the viewer keeps one blueprint per application."""
+
+_RESULT_LEVEL = {"succeeded": "INFO", "failed": "WARN", "aborted": "ERROR"}
+
+
+class RerunRecorder:
+    """Records one episode at a time to Rerun; pass it to `run_episode` as an observer.
+
+    Each episode gets its own `rr.RecordingStream` (never the global one, so batch workers
+    record episodes independently). Nothing is logged row by row on the control loop: static
+    geometry, frames and the machine graph are prepared in `on_start`; body poses, signals,
+    guard margins, state changes and events are buffered every control tick and sent as
+    column batches every `flush_every_ticks` ticks and at the end.
+
+    The stream opens at the first send: at once with `spawn` (the viewer shows the scene from
+    the start), else at the first flush (for most episodes `on_end`), so Rerun's writer
+    threads never compete with the simulation. `on_end` closes it: the file is complete when
+    `run_episode` returns. Construction has no side effects. A recorder may be reused for
+    consecutive episodes (each gets a new recording; a fixed `path` is overwritten).
+
+    Args:
+        path: Save the recording to this `.rrd` file (parent directories are created).
+        spawn: Start a Rerun viewer and stream to it live.
+        application_id: Rerun application id.
+        recording_id: Id of the recording (default: a fresh random id per episode).
+        flush_every_ticks: Send buffered data every N control ticks. Default: 10 with `spawn`
+            (the viewer follows the run live), else 1000 (bounds memory on long episodes).
+        port: TCP port of the spawned viewer.
+
+    Raises:
+        RecordingError: Neither `path` nor `spawn` was given.
+    """
+
+    def __init__(
+        self,
+        path: str | Path | None = None,
+        spawn: bool = False,
+        *,
+        application_id: str = APPLICATION_ID,
+        recording_id: str | None = None,
+        flush_every_ticks: int | None = None,
+        port: int = 9876,
+    ) -> None:
+        if path is None and not spawn:
+            raise RecordingError("nothing to record to: pass path=<file.rrd> or spawn=True")
+        if flush_every_ticks is not None and flush_every_ticks < 1:
+            raise RecordingError(f"flush_every_ticks must be >= 1 (got {flush_every_ticks})")
+        self.path = Path(path) if path is not None else None
+        self.spawn = spawn
+        self.application_id = application_id
+        self.recording_id = recording_id
+        self.flush_every_ticks = flush_every_ticks or (10 if spawn else 1000)
+        self.port = port
+        self.rec: rr.RecordingStream | None = None
+
+    # -- observer hooks -------------------------------------------------------------------
+    def on_start(self, ctx: Context, executor: Executor) -> None:
+        """Prepare everything static (world, frames, machine graph); open the stream if live."""
+        self._ctx, self._executor = ctx, executor
+        self.rec = None
+        model = ctx.model
+        static = StaticBatch()
+        static.log(WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
+        geometry = geometry_chunks(model)
+        self._poses = BodyPoses(model, geometry.bodies)
+        self._targets = Targets()
+        self._targets.log_static(static, ctx, self._poses)
+        self._poses.log_static(static, ctx.data)
+        self._states = StateLog(build_graph(executor.root))
+        self._states.log_static(static)
+        self._signals = RobotSignals(ctx)
+        self._signals.log_static(static)
+        self._static = [*geometry.chunks, *static.chunks()]
+        # the per-tick table: one row per control tick, shared by poses and signals
+        self._rows = Rows({**self._poses.fields, **self._signals.fields})
+        self._guards = GuardSignals()
+        self._events = EventLog()
+        for g in geometry.skipped:
+            self._events.add_text(
+                ctx.tick, ctx.t, "recorder", f"geom {g}: an SDF without a mesh is not drawn", "WARN"
+            )
+        self._seen = 0
+        self._last_tick = -1
+        self._states.enter(ctx.tick, ctx.t, self._states.graph.initial_leaf)
+        ctx.listeners.append(self._on_event)
+        if self.spawn:
+            self._flush()
+
+    def on_tick(self, ctx: Context, executor: Executor) -> None:
+        """Buffer this control tick: poses, signals, guard margins, target changes."""
+        if self._seen < len(executor.transitions):
+            self._catch_up(ctx.tick)
+        self._sample(ctx, executor)
+        if self._rows.n >= self.flush_every_ticks:
+            self._flush()
+
+    def on_end(self, ctx: Context, executor: Executor, result: RunResult) -> None:
+        """Log the final state and the result, send everything and close the recording."""
+        self._catch_up(ctx.tick)
+        if self._last_tick != ctx.tick:
+            self._sample(ctx, executor)
+        text = f"{result.outcome} in {result.final_state} after {result.sim_time:.3f} s"
+        if result.reason:
+            text += f", aborted by {result.reason.get('guard')}: {result.reason.get('message')}"
+        self._events.add_text(ctx.tick, ctx.t, "result", text, _RESULT_LEVEL[result.outcome])
+        self._flush()
+        if self._on_event in ctx.listeners:
+            ctx.listeners.remove(self._on_event)
+        self.close()
+
+    def close(self) -> None:
+        """Flush and close the sinks (the `.rrd` file is complete afterwards)."""
+        if self.rec is not None:
+            self.rec.disconnect()  # flushes, then closes: the file is complete
+            self.rec = None
+
+    # -- internals ------------------------------------------------------------------------
+    def _open(self, ctx: Context) -> rr.RecordingStream:
+        rec = rr.RecordingStream(
+            self.application_id,
+            recording_id=self.recording_id or uuid.uuid4().hex,
+            send_properties=False,  # they carry the wall-clock start time: not reproducible
+        )
+        sinks: list[rr.FileSink | rr.GrpcSink] = []
+        if self.spawn:
+            rr.spawn(port=self.port, connect=False)
+            sinks.append(rr.GrpcSink(f"rerun+http://127.0.0.1:{self.port}/proxy"))
+        if self.path is not None:
+            try:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise RecordingError(f"cannot write the recording to {self.path}: {exc}") from None
+            sinks.append(rr.FileSink(str(self.path)))
+        rec.set_sinks(*sinks, default_blueprint=default_blueprint(ctx.model))
+        rec.send_recording_name(f"{ctx.scenario.name} seed {ctx.world.seed}")
+        return rec
+
+    def _on_event(self, event: Event) -> None:
+        tick = self._ctx.tick
+        self._catch_up(tick)
+        self._events.add(tick, event)
+
+    def _catch_up(self, tick: int) -> None:
+        """Turn transitions recorded since the last call into state entries at `tick`."""
+        transitions = self._executor.transitions
+        while self._seen < len(transitions):
+            tr = transitions[self._seen]
+            self._seen += 1
+            self._states.enter(tick, float(tr["t"]), str(tr["to"]))
+
+    def _sample(self, ctx: Context, executor: Executor) -> None:
+        tick, t = ctx.tick, float(ctx.data.time)
+        i = self._rows.append(tick, t)
+        self._poses.sample(self._rows, i, ctx.data)
+        self._signals.sample(self._rows, i, ctx)
+        self._guards.sample(tick, t, ctx, executor.active_guards)
+        self._targets.sample(tick, t, ctx)
+        self._last_tick = tick
+
+    def _flush(self) -> None:
+        """Send everything buffered as chunks: on the first call open the stream and send the
+        static data; then the per-tick table (the largest, so Rerun's writer starts on it
+        while the rest is built), then guards, targets, states and events in one call."""
+        if self.rec is None:
+            self.rec = self._open(self._ctx)
+            self.rec.send_chunks(self._static)
+            self._static = []
+        if self._rows.n:
+            ticks, t_s, values = self._rows.take()
+            table = TemporalBatch(ticks, t_s)
+            self._poses.add_columns(table, values)
+            error = self._signals.add_columns(table, values, t_s, ticks)
+            chunks = table.chunks()
+            if error is not None:
+                chunks += error.chunks()
+            self.rec.send_chunks(chunks)
+        chunks = self._guards.chunks()
+        chunks += self._targets.chunks()
+        chunks += self._states.chunks()
+        chunks += self._events.chunks()
+        self.rec.send_chunks(chunks)
