@@ -62,6 +62,7 @@ class Context:
         self.gripper_target = world.robot.gripper_open_m
         self.events: list[Event] = []
         self.listeners: list[Callable[[Event], None]] = []
+        self._wrist_views: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.metrics: dict[str, Any] = {}
         """Figures skills add to the result's `metrics` (e.g. force RMS error of a trace)."""
         self.ik: Any = None
@@ -109,10 +110,32 @@ class Context:
 
     def wrist_force(self) -> np.ndarray:
         """External force on the hand in the world frame [N], hand weight removed. Shape (3,)."""
-        d, w = self.data, self.world
-        f_site = d.sensordata[w.force_adr : w.force_adr + 3]
-        rot = d.site_xmat[w.wrist_site].reshape(3, 3)
-        return w.wrist_bias_world - rot @ f_site
+        return np.array(self._wrist_force_xyz())
+
+    def wrist_force_norm_sq(self) -> float:
+        """Squared norm of `wrist_force()` [N^2], cheap enough for every physics step."""
+        fx, fy, fz = self._wrist_force_xyz()
+        return fx * fx + fy * fy + fz * fz
+
+    def _wrist_force_xyz(self) -> tuple[float, float, float]:
+        # Plain floats on views bound once (MjData never reallocates): a 3x3 matrix-vector
+        # product in numpy costs more in call overhead than in arithmetic.
+        if self._wrist_views is None:
+            d, w = self.data, self.world
+            self._wrist_views = (
+                d.sensordata[w.force_adr : w.force_adr + 3],
+                d.site_xmat[w.wrist_site],
+                w.wrist_bias_world,  # updated in place by zero_wrist_force()
+            )
+        f_site, rot, bias = self._wrist_views
+        f0, f1, f2 = f_site.tolist()
+        r = rot.tolist()
+        bx, by, bz = bias.tolist()
+        return (
+            bx - (r[0] * f0 + r[1] * f1 + r[2] * f2),
+            by - (r[3] * f0 + r[4] * f1 + r[5] * f2),
+            bz - (r[6] * f0 + r[7] * f1 + r[8] * f2),
+        )
 
     def zero_wrist_force(self, offset: np.ndarray) -> None:
         """Zero the wrist sensor: `offset` [N] (world frame, shape (3,), e.g. the mean reading

@@ -28,7 +28,13 @@ __all__ = ["Observer", "run_episode"]
 
 SETTLE_S = 0.2
 """Simulated time kept running after the machine finishes, before success is judged [s]."""
-_BADQACC = int(mujoco.mjtWarning.mjWARN_BADQACC)
+_DIVERGED = tuple(
+    int(w) for w in (
+        mujoco.mjtWarning.mjWARN_BADQACC,  # MuJoCo resets the state itself on these three,
+        mujoco.mjtWarning.mjWARN_BADQPOS,  # so a finite qpos alone does not prove health
+        mujoco.mjtWarning.mjWARN_BADQVEL,
+    )
+)
 
 
 class Observer(Protocol):
@@ -126,9 +132,8 @@ def run_episode(
                     guards = executor.active_guards  # none while the safety response runs
                     break
         ctx.tick += 1
-        f = ctx.wrist_force()
-        max_force_sq = max(max_force_sq, float(f @ f))
-        if not np.isfinite(qpos).all() or warnings[_BADQACC]:
+        max_force_sq = max(max_force_sq, ctx.wrist_force_norm_sq())
+        if not np.isfinite(qpos).all() or any(warnings[w] for w in _DIVERGED):
             diverged = f"physics diverged at t={ctx.t:.3f} s (state {executor.leaf})"
             break
         if ctx.t >= time_limit and not executor.done:

@@ -54,3 +54,25 @@ def test_missed_grasps_are_retried_then_the_run_fails():
     retried = [t for t in result.transitions if t.get("retry")]
     assert [t["retry"] for t in retried] == [1, 2]
     assert all(t["to"] == "PICK.SEARCH" for t in retried)
+
+
+def test_physics_divergence_ends_the_run_failed_with_the_reason(pick_place):
+    import mujoco
+
+    class Diverge:
+        """Raise MuJoCo's bad-velocity warning (MuJoCo resets the state itself on it)."""
+
+        def on_start(self, ctx, executor):
+            pass
+
+        def on_tick(self, ctx, executor):
+            if ctx.tick == 50:
+                ctx.data.warning[mujoco.mjtWarning.mjWARN_BADQVEL].number = 1
+
+        def on_end(self, ctx, executor, result):
+            pass
+
+    result = run_episode(pick_place, 0, [Diverge()])
+    assert result.outcome == "failed"
+    assert result.metrics["error"].startswith("physics diverged at t=0.5")
+    assert result.success == {"cube_on_target": False, "gripper_clear": False}
