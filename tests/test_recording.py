@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import socket
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,7 +27,9 @@ from orchestrator.recording import (
 from orchestrator.recording.geometry_chunks import geometry_chunks
 from orchestrator.recording.machine_graph import KIND_COLORS
 from orchestrator.recording.state_log import StateLog
+from orchestrator.recording.static_scene import static_scene
 from orchestrator.recording.timeline import Rows, seconds_to_ns
+from orchestrator.recording.viewer import spawn_viewer
 from orchestrator.result import RunResult
 from orchestrator.runner import run_episode
 from orchestrator.scenario_loading import LoadedScenario, load_scenario
@@ -293,6 +296,27 @@ def test_geometry_chunks_are_cached_by_content(pick_place):
     assert len(a.chunks) == len(visible_geoms(World.build(pick_place.scenario, 1).model))
 
 
+def test_the_static_scene_is_shared_by_episodes_of_one_scenario(pick_place):
+    scenes = []
+
+    class Probe:
+        def on_start(self, ctx, executor):
+            scenes.append(static_scene(ctx, executor.root))
+
+        def on_tick(self, ctx, executor):
+            raise StopIteration  # enough: the scene is built before the first tick
+
+        def on_end(self, ctx, executor, result):
+            pass
+
+    for loaded, seed in ((pick_place, 1), (pick_place, 2), (load_scenario("pick_place"), 1)):
+        with pytest.raises(StopIteration):
+            run_episode(loaded, seed, [Probe()])
+    assert scenes[0] is scenes[1]  # another cube pose: same static scene
+    assert scenes[2] is not scenes[0]  # another machine object: built anew
+    assert len(scenes[2].chunks) == len(scenes[0].chunks)
+
+
 def test_machine_graph_kinds_lanes_and_edges(pick_place):
     graph = build_graph(pick_place.machine)
     assert graph.states["DONE"].kind == "success"
@@ -358,6 +382,39 @@ def test_flushing_in_batches_records_the_same_rows(pick_place, recorded, tmp_pat
         return {e: sorted(rs, key=lambda r: (r["tick"], sorted(r))) for e, rs in temporal.items()}
 
     assert canonical(batched.temporal) == canonical(recorded.temporal)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_spawn_viewer_tells_whether_a_viewer_listens(monkeypatch):
+    monkeypatch.setattr(rr.RecordingStream, "spawn", lambda self, **kw: None)
+    rec = rr.RecordingStream("test_viewer")
+    assert not spawn_viewer(rec, _free_port(), timeout_s=0.1)
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen()
+        assert spawn_viewer(rec, server.getsockname()[1], timeout_s=0.5)
+
+
+def test_spawn_without_a_viewer_keeps_recording_to_the_file(monkeypatch, pick_place, tmp_path):
+    monkeypatch.setattr(rr.RecordingStream, "spawn", lambda self, **kw: None)
+    path = tmp_path / "live.rrd"
+    recorder = RerunRecorder(path=path, spawn=True, port=_free_port())
+    with pytest.warns(RuntimeWarning, match="no Rerun viewer came up"):
+        result = run_episode(pick_place, 0, [recorder])
+    temporal, _ = read_rrd(path)
+    states = [r["StateChange:state"][0] for r in temporal["/state_machine/active"]]
+    assert states[1:] == [t["to"] for t in result.transitions]
+
+
+def test_spawn_without_a_viewer_or_a_file_is_an_error(monkeypatch, pick_place):
+    monkeypatch.setattr(rr.RecordingStream, "spawn", lambda self, **kw: None)
+    with pytest.raises(RecordingError, match="--rrd PATH"):
+        run_episode(pick_place, 0, [RerunRecorder(spawn=True, port=_free_port())])
 
 
 def test_recordings_use_their_own_stream_not_the_global_one(recorded):

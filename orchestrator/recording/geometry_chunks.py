@@ -25,8 +25,13 @@ _FIELDS = (
     "mesh_faceadr", "mesh_facenum", "mesh_normaladr", "mesh_normalnum", "mesh_vert",
     "mesh_face", "mesh_normal", "mesh_facenormal", "hfield_size", "hfield_nrow",
     "hfield_ncol", "hfield_adr", "hfield_data", "name_bodyadr", "name_geomadr", "names",
+    "body_parentid", "body_weldid", "body_mocapid", "body_jntnum", "site_pos", "site_quat",
+    "site_bodyid", "name_siteadr",
 )  # fmt: skip
-"""Everything `model_geometry` reads: equal arrays mean equal geometry."""
+"""Everything the static scene is built from (geometry, frames on bodies, and `body_pos` /
+`body_quat` of bodies without joints, which fix static poses and welded offsets): equal
+arrays mean an equal static scene. The initial pose of a free object (a per-seed cube
+position) is not part of it."""
 _CACHE_SIZE = 8
 
 
@@ -49,10 +54,13 @@ _cache: OrderedDict[str, StaticGeometry] = OrderedDict()
 
 
 def model_signature(model: mujoco.MjModel) -> str:
-    """A digest of the model arrays the geometry is built from."""
+    """A digest of the model arrays the static scene is built from (see `_FIELDS`)."""
     h = hashlib.blake2b(digest_size=16)
     for name in _FIELDS:
         h.update(np.ascontiguousarray(getattr(model, name)).tobytes())
+    jointless = model.body_jntnum == 0
+    h.update(np.ascontiguousarray(model.body_pos[jointless]).tobytes())
+    h.update(np.ascontiguousarray(model.body_quat[jointless]).tobytes())
     h.update(np.float64(model.stat.extent).tobytes())
     return h.hexdigest()
 

@@ -73,11 +73,14 @@ class BodyPoses:
 
     def add_columns(self, batch: TemporalBatch, values: dict[str, np.ndarray]) -> None:
         """Add rows of the per-tick table to `batch`: a Transform3D per moving body."""
-        xyzw = values["quat"][:, :, [1, 2, 3, 0]]
-        for b in self.moving:
+        # body-major float32 copies: each body's rows are then contiguous
+        pos = np.ascontiguousarray(values["pos"][:, self.moving].transpose(1, 0, 2), np.float32)
+        xyzw = values["quat"][:, self.moving][:, :, [1, 2, 3, 0]].transpose(1, 0, 2)
+        xyzw = np.ascontiguousarray(xyzw, np.float32)
+        for j, b in enumerate(self.moving):
             path = self.paths[int(b)]
-            batch.add(path, _TRANSLATION, fixed_size_lists(values["pos"][:, b]))
-            batch.add(path, _QUATERNION, fixed_size_lists(xyzw[:, b]))
+            batch.add(path, _TRANSLATION, fixed_size_lists(pos[j]))
+            batch.add(path, _QUATERNION, fixed_size_lists(xyzw[j]))
 
 
 def _transform(pos: np.ndarray, quat_wxyz: np.ndarray) -> rr.Transform3D:

@@ -3,23 +3,22 @@
 from __future__ import annotations
 
 import uuid
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import rerun as rr
 
-from .batches import StaticBatch, TemporalBatch
+from .batches import TemporalBatch
 from .blueprint import default_blueprint
 from .events import EventLog
 from .exceptions import RecordingError
-from .geometry_chunks import geometry_chunks
-from .machine_graph import build_graph
-from .paths import WORLD
-from .poses import BodyPoses
 from .signals import GuardSignals, RobotSignals
 from .state_log import StateLog
+from .static_scene import static_scene
 from .targets import Targets
 from .timeline import Rows
+from .viewer import spawn_viewer, viewer_url
 
 if TYPE_CHECKING:
     from ..context import Context, Event
@@ -54,7 +53,7 @@ class RerunRecorder:
         spawn: Start a Rerun viewer and stream to it live.
         application_id: Rerun application id.
         recording_id: Id of the recording (default: a fresh random id per episode).
-        flush_every_ticks: Send buffered data every N control ticks. Default: 10 with `spawn`
+        flush_every_ticks: Send buffered data every N control ticks. Default: 20 with `spawn`
             (the viewer follows the run live), else 1000 (bounds memory on long episodes).
         port: TCP port of the spawned viewer.
 
@@ -80,7 +79,7 @@ class RerunRecorder:
         self.spawn = spawn
         self.application_id = application_id
         self.recording_id = recording_id
-        self.flush_every_ticks = flush_every_ticks or (10 if spawn else 1000)
+        self.flush_every_ticks = flush_every_ticks or (20 if spawn else 1000)
         self.port = port
         self.rec: rr.RecordingStream | None = None
 
@@ -89,24 +88,17 @@ class RerunRecorder:
         """Prepare everything static (world, frames, machine graph); open the stream if live."""
         self._ctx, self._executor = ctx, executor
         self.rec = None
-        model = ctx.model
-        static = StaticBatch()
-        static.log(WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
-        geometry = geometry_chunks(model)
-        self._poses = BodyPoses(model, geometry.bodies)
-        self._targets = Targets()
-        self._targets.log_static(static, ctx, self._poses)
-        self._poses.log_static(static, ctx.data)
-        self._states = StateLog(build_graph(executor.root))
-        self._states.log_static(static)
+        scene = static_scene(ctx, executor.root)
+        self._static = scene.chunks
+        self._poses = scene.poses
+        self._states = StateLog(scene.graph)
         self._signals = RobotSignals(ctx)
-        self._signals.log_static(static)
-        self._static = [*geometry.chunks, *static.chunks()]
+        self._targets = Targets()
         # the per-tick table: one row per control tick, shared by poses and signals
         self._rows = Rows({**self._poses.fields, **self._signals.fields})
         self._guards = GuardSignals()
         self._events = EventLog()
-        for g in geometry.skipped:
+        for g in scene.skipped:
             self._events.add_text(
                 ctx.tick, ctx.t, "recorder", f"geom {g}: an SDF without a mesh is not drawn", "WARN"
             )
@@ -154,15 +146,26 @@ class RerunRecorder:
         )
         sinks: list[rr.FileSink | rr.GrpcSink] = []
         if self.spawn:
-            rr.spawn(port=self.port, connect=False)
-            sinks.append(rr.GrpcSink(f"rerun+http://127.0.0.1:{self.port}/proxy"))
+            if spawn_viewer(rec, self.port):
+                sinks.append(rr.GrpcSink(viewer_url(self.port)))
+            elif self.path is None:
+                raise RecordingError(
+                    f"no Rerun viewer came up on port {self.port} (is there a display?);"
+                    " save the recording with --rrd PATH and open it with `rerun PATH`"
+                )
+            else:
+                warnings.warn(
+                    f"no Rerun viewer came up on port {self.port}; recording to {self.path} only",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
         if self.path is not None:
             try:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
             except OSError as exc:
                 raise RecordingError(f"cannot write the recording to {self.path}: {exc}") from None
             sinks.append(rr.FileSink(str(self.path)))
-        rec.set_sinks(*sinks, default_blueprint=default_blueprint(ctx.model))
+        rec.set_sinks(*sinks)
         rec.send_recording_name(f"{ctx.scenario.name} seed {ctx.world.seed}")
         return rec
 
@@ -189,22 +192,25 @@ class RerunRecorder:
         self._last_tick = tick
 
     def _flush(self) -> None:
-        """Send everything buffered as chunks: on the first call open the stream and send the
-        static data; then the per-tick table (the largest, so Rerun's writer starts on it
-        while the rest is built), then guards, targets, states and events in one call."""
-        if self.rec is None:
-            self.rec = self._open(self._ctx)
-            self.rec.send_chunks(self._static)
-            self._static = []
+        """Send everything buffered as chunks. The per-tick table (the largest) goes first, so
+        Rerun's writer thread encodes it while the rest is built; on the first call the stream
+        is opened just before it, and the blueprint and the static data follow it."""
+        chunks = []
         if self._rows.n:
             ticks, t_s, values = self._rows.take()
             table = TemporalBatch(ticks, t_s)
             self._poses.add_columns(table, values)
             error = self._signals.add_columns(table, values, t_s, ticks)
-            chunks = table.chunks()
-            if error is not None:
-                chunks += error.chunks()
-            self.rec.send_chunks(chunks)
+            chunks = table.chunks() + (error.chunks() if error is not None else [])
+        first = self.rec is None
+        if self.rec is None:
+            self.rec = self._open(self._ctx)
+        self.rec.send_chunks(chunks)
+        if first:
+            self.rec.send_blueprint(
+                default_blueprint(self._ctx.model), make_active=False, make_default=True
+            )
+            self.rec.send_chunks(self._static)
         chunks = self._guards.chunks()
         chunks += self._targets.chunks()
         chunks += self._states.chunks()

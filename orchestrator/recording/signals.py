@@ -12,6 +12,8 @@ from .batches import StaticBatch, TemporalBatch, scalar_lists
 from .paths import GUARDS, SIGNALS, part
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from ..context import Context
     from ..guard import Guard
     from .timeline import Rows
@@ -118,27 +120,28 @@ class GuardSignals:
         """Guard key -> (tick, t [s], value, limit) rows."""
         self._styled: set[str] = set()
         self._active: tuple[Guard, ...] = ()
-        self._buffers: list[tuple[Guard, list[tuple[int, float, float, float]]]] = []
+        self._calls: list[tuple[Callable, Callable]] = []
+        """(guard.monitored, rows.append) of each active guard."""
 
     def sample(self, tick: int, t_s: float, ctx: Context, guards: list[Guard]) -> None:
         """Record `guard.monitored(ctx)` of every guard in `guards` that has a scalar."""
         if tuple(guards) != self._active:
             self._plan(guards)
-        for guard, rows in self._buffers:
-            watched = guard.monitored(ctx)
+        for monitored, append in self._calls:
+            watched = monitored(ctx)
             if watched is not None:
-                rows.append((tick, t_s, watched[0], watched[1]))
+                append((tick, t_s, watched[0], watched[1]))
 
     def _plan(self, guards: list[Guard]) -> None:
         """Key and buffer of each guard in a new set of active guards."""
         self._active = tuple(guards)
         seen: dict[str, int] = {}
-        self._buffers = []
+        self._calls = []
         for guard in guards:
             count = seen.get(guard.name, 0) + 1
             seen[guard.name] = count
             key = guard.name if count == 1 else f"{guard.name}_{count}"
-            self._buffers.append((guard, self._rows.setdefault(key, [])))
+            self._calls.append((guard.monitored, self._rows.setdefault(key, []).append))
 
     def chunks(self) -> list[Chunk]:
         """The buffered rows (two series per guard: value and limit) as chunks; the buffer is
