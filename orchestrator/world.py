@@ -251,8 +251,8 @@ pressed with a few newtons rings at ~1 Hz; at 0.1 it is ~0.7 kg."""
 
 
 ZONE_CONTYPE = 16
-"""Collision bit of no-go zones, set in no other geom. A geom with contype = conaffinity = 0
-counts as visual-only and `compiler.discardvisual` drops it; the no_go_zone guard needs it."""
+"""Collision bit of no-go zones, set in no other geom's conaffinity: zones collide with
+nothing; the no_go_zone guard measures distances to them itself."""
 
 
 def _tool(spec: ToolSpec) -> Tool:

@@ -40,27 +40,17 @@ class Targets:
         self._rows: list[tuple[int, float, list[float] | None, list[float] | None]] = []
 
     def log_static(self, static: StaticBatch, ctx: Context, poses: BodyPoses) -> None:
-        """Markers (`world/targets/<name>`: frame + footprint) and the TCP frame, hung from
-        the logged body it is rigidly attached to (`<body>/tcp`)."""
-        sizes = {mk.name: mk for mk in ctx.scenario.scene.markers}
+        """Markers (`world/targets/<name>`: a labelled frame; their footprint is a model geom,
+        logged with the world) and the TCP frame, hung from the logged body it is rigidly
+        attached to (`<body>/tcp`)."""
         for name, pos in ctx.world.markers.items():
             entity = f"{TARGETS}/{part(name)}"
             static.log(
                 entity,
                 rr.Transform3D(translation=np.asarray(pos, dtype=np.float64)),
                 rr.TransformAxes3D(_MARKER_AXIS_M),
+                rr.Points3D([[0.0, 0.0, 0.0]], labels=[name], radii=[0.002]),
             )
-            marker = sizes.get(name)
-            if marker is not None:
-                rgba = np.clip(np.rint(np.asarray(marker.rgba) * 255), 0, 255).astype(np.uint8)
-                static.log(
-                    entity,
-                    rr.Boxes3D(
-                        half_sizes=[[marker.size_xy[0] / 2, marker.size_xy[1] / 2, 0.0005]],
-                        colors=[rgba],
-                        labels=[name],
-                    ),
-                )
         m, d = ctx.model, ctx.data
         site = ctx.world.tcp_site
         body = poses.anchor(int(m.site_bodyid[site]))

@@ -86,7 +86,10 @@ class Panda(Robot):
         text = urdf.read_text()
         spec = mujoco.MjSpec.from_string(text)
         spec.modelname = "panda"
-        spec.compiler.discardvisual = True
+        # The URDF parser already left out the <visual> meshes (MuJoCo cannot read the DAE
+        # files); discarding visual geoms at compile time would also drop the scene's
+        # collision-free geoms (place pads, zones), so keep them.
+        spec.compiler.discardvisual = False
         spec.compiler.fusestatic = False  # panda_hand stays a body: the wrist sensor needs it
         spec.compiler.balanceinertia = True
         for mesh in spec.meshes:
