@@ -32,20 +32,35 @@ def main() -> None:
         r = run_episode(loaded, seed)
         rtf.append(r.sim_time / r.wall_time)
         cycle.append(r.metrics["cycle_time"])
-    print(f"in-process  : median RTF {statistics.median(rtf):5.1f}x  "
-          f"(min {min(rtf):.1f}x, max {max(rtf):.1f}x) over {args.seeds} seeds; "
-          f"median cycle_time {statistics.median(cycle):.2f} s (max {max(cycle):.2f} s)")
+    print(
+        f"in-process  : median RTF {statistics.median(rtf):5.1f}x  "
+        f"(min {min(rtf):.1f}x, max {max(rtf):.1f}x) over {args.seeds} seeds; "
+        f"median cycle_time {statistics.median(cycle):.2f} s (max {max(cycle):.2f} s)"
+    )
     cli = []
     for seed in range(args.cli):
         out = subprocess.run(
-            [sys.executable, "-m", "orchestrator.cli", "run", "pick_place", "--seed", str(seed), "--json"],
-            capture_output=True, text=True, check=False,
+            [
+                sys.executable,
+                "-m",
+                "orchestrator.cli",
+                "run",
+                "pick_place",
+                "--seed",
+                str(seed),
+                "--json",
+            ],
+            capture_output=True,
+            text=True,
+            check=False,
         )
         r = json.loads(out.stdout)
         cli.append(r["sim_time"] / r["wall_time"])
     if cli:
-        print(f"CLI process : median RTF {statistics.median(cli):5.1f}x  "
-              f"(min {min(cli):.1f}x, max {max(cli):.1f}x) over {args.cli} runs (cold caches)")
+        print(
+            f"CLI process : median RTF {statistics.median(cli):5.1f}x  "
+            f"(min {min(cli):.1f}x, max {max(cli):.1f}x) over {args.cli} runs (cold caches)"
+        )
 
 
 if __name__ == "__main__":

@@ -39,12 +39,16 @@ def _fail_config(exc: ConfigError) -> None:
 
 @app.command()
 def run(
-    scenario: Annotated[str, typer.Argument(help="Scenario file or bundled name (e.g. pick_place).")],
+    scenario: Annotated[
+        str, typer.Argument(help="Scenario file or bundled name (e.g. pick_place).")
+    ],
     seed: Annotated[int, typer.Option(help="Episode seed: randomization and noise.")] = 0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the RunResult as JSON.")] = False,
     set_: Annotated[
         list[str] | None,
-        typer.Option("--set", help="Override a blackboard key or scenario value: KEY=VALUE (YAML)."),
+        typer.Option(
+            "--set", help="Override a blackboard key or scenario value: KEY=VALUE (YAML)."
+        ),
     ] = None,
     rrd: Annotated[Path | None, typer.Option(help="Save a Rerun recording to this file.")] = None,
     spawn: Annotated[bool, typer.Option(help="Stream live to a spawned Rerun viewer.")] = False,
@@ -76,10 +80,11 @@ def run(
 
 def _print_result(result) -> None:
     style = {"succeeded": "green", "failed": "yellow", "aborted": "red"}[result.outcome]
+    rtf = result.sim_time / max(result.wall_time, 1e-9)
     out.print(
         f"[bold]{result.scenario}[/] seed {result.seed}: [{style}]{result.outcome}[/] in "
         f"{result.final_state} after {result.sim_time:.2f} s simulated "
-        f"({result.wall_time:.2f} s wall, {result.sim_time / max(result.wall_time, 1e-9):.0f}x real time)"
+        f"({result.wall_time:.2f} s wall, {rtf:.0f}x real time)"
     )
     table = Table("t [s]", "from", "to", "trigger", box=None, pad_edge=False)
     for tr in result.transitions:
@@ -87,7 +92,10 @@ def _print_result(result) -> None:
     out.print(table)
     if result.reason:
         r = result.reason
-        out.print(f"[red]aborted by {r['guard']}[/]: {r['message']} (value {r['value']}, limit {r['limit']})")
+        out.print(
+            f"[red]aborted by {r['guard']}[/]: {r['message']} "
+            f"(value {r['value']}, limit {r['limit']})"
+        )
     if result.success:
         marks = ", ".join(f"{k} {'ok' if v else 'FAILED'}" for k, v in result.success.items())
         out.print(f"success: {marks}")
@@ -99,7 +107,9 @@ def _print_result(result) -> None:
 
 @app.command()
 def validate(
-    paths: Annotated[list[str], typer.Argument(help="Machine or scenario files (or bundled names).")],
+    paths: Annotated[
+        list[str], typer.Argument(help="Machine or scenario files (or bundled names).")
+    ],
 ) -> None:
     """Check machines and scenarios without simulating: all errors at once, exit 2 if any."""
     from .validate_paths import validate_paths

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 import time
+from collections.abc import Sequence
 from typing import Any, Protocol
 
 import mujoco
@@ -29,7 +29,8 @@ __all__ = ["Observer", "run_episode"]
 SETTLE_S = 0.2
 """Simulated time kept running after the machine finishes, before success is judged [s]."""
 _DIVERGED = tuple(
-    int(w) for w in (
+    int(w)
+    for w in (
         mujoco.mjtWarning.mjWARN_BADQACC,  # MuJoCo resets the state itself on these three,
         mujoco.mjtWarning.mjWARN_BADQPOS,  # so a finite qpos alone does not prove health
         mujoco.mjtWarning.mjWARN_BADQVEL,

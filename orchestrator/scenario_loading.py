@@ -192,10 +192,13 @@ def _check_scene_names(
             for item in value if isinstance(value, list) else [value]:
                 if isinstance(item, str) and item not in valid:
                     none = "" if valid else f"; it has no {what}s at all"
-                    found.append(src.diag(
-                        (*at, field),
-                        f"no {what} {item!r} in scenario {scenario.name!r}{via}{none}",
-                        tuple(valid)))
+                    found.append(
+                        src.diag(
+                            (*at, field),
+                            f"no {what} {item!r} in scenario {scenario.name!r}{via}{none}",
+                            tuple(valid),
+                        )
+                    )
         return found
 
     def guards(src: SourceMap, at: tuple, refs) -> list[Diagnostic]:

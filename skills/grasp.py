@@ -21,7 +21,9 @@ _STILL_MPS = 0.005
 
 
 class GraspParams(SkillParams):
-    object: str = Field(description="Name of the scene object to grasp.", json_schema_extra=SCENE_OBJECT)
+    object: str = Field(
+        description="Name of the scene object to grasp.", json_schema_extra=SCENE_OBJECT
+    )
     min_force_n: PositiveFloat = Field(
         default=5.0, description="Normal force each finger must press with for `grasped` [N]."
     )

@@ -19,7 +19,9 @@ __all__ = ["Search"]
 
 
 class SearchParams(SkillParams):
-    object: str = Field(description="Name of the scene object to look for.", json_schema_extra=SCENE_OBJECT)
+    object: str = Field(
+        description="Name of the scene object to look for.", json_schema_extra=SCENE_OBJECT
+    )
     into: str = Field(default="object_pose", description="Blackboard key the pose is written to.")
     duration_s: NonNegativeFloat = Field(default=0.1, description="Time the perception takes [s].")
 

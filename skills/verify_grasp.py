@@ -17,7 +17,9 @@ __all__ = ["VerifyGrasp"]
 
 
 class VerifyGraspParams(SkillParams):
-    object: str = Field(description="Name of the scene object that should be held.", json_schema_extra=SCENE_OBJECT)
+    object: str = Field(
+        description="Name of the scene object that should be held.", json_schema_extra=SCENE_OBJECT
+    )
     min_force_n: PositiveFloat = Field(
         default=5.0, description="Normal force each finger must still press with [N]."
     )

@@ -55,7 +55,8 @@ def cli_process():
     def invoke(*args: str, cwd: Path | None = None) -> CliResult:
         proc = subprocess.run(
             [sys.executable, "-m", "orchestrator.cli", *args],
-            check=False, capture_output=True,
+            check=False,
+            capture_output=True,
             text=True,
             cwd=cwd,
             timeout=300,

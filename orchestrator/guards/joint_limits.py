@@ -44,8 +44,7 @@ class JointLimits(Guard):
     def check(self, ctx: Context) -> Violation | None:
         q_list = ctx.data.qpos[self.idx].tolist()
         if not (
-            any(map(operator.lt, q_list, self._lower))
-            or any(map(operator.gt, q_list, self._upper))
+            any(map(operator.lt, q_list, self._lower)) or any(map(operator.gt, q_list, self._upper))
         ):  # NaN compares false: divergence is the runner's to report, not a violation
             return None
         q = ctx.data.qpos[self.idx]

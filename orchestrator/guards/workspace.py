@@ -50,9 +50,12 @@ class Workspace(Guard):
     def check(self, ctx: Context) -> Violation | None:
         x, y, z = self._tcp.tolist()
         if not (
-            x < self._x_lo or x > self._x_hi
-            or y < self._y_lo or y > self._y_hi
-            or z < self._z_lo or z > self._z_hi
+            x < self._x_lo
+            or x > self._x_hi
+            or y < self._y_lo
+            or y > self._y_hi
+            or z < self._z_lo
+            or z > self._z_hi
         ):  # NaN compares false: divergence is the runner's to report, not a violation
             return None
         p = ctx.data.site_xpos[self.site]
