@@ -170,7 +170,8 @@ def list_() -> None:
     table = Table("skill", "outcomes", "description", box=None, pad_edge=False)
     for name in sorted(SKILLS):
         cls = SKILLS[name]
-        doc = (cls.__doc__ or "").strip().splitlines()[0]
+        text = " ".join((cls.__doc__ or "").split())
+        doc = text.split(". ")[0].rstrip(".") + "." if text else ""
         table.add_row(name, ", ".join(cls.outcomes), doc)
     out.print(table)
     out.print("[bold]guards[/]:    " + ", ".join(sorted(GUARDS)))
