@@ -15,6 +15,19 @@ from orchestrator.cli import app
 from orchestrator.scenario_loading import LoadedScenario, load_scenario
 
 DATA = Path(__file__).parent / "data"
+RESULT_KEYS = (
+    "scenario",
+    "seed",
+    "outcome",
+    "final_state",
+    "reason",
+    "sim_time",
+    "wall_time",
+    "transitions",
+    "metrics",
+    "success",
+)
+"""The keys of `run --json`, in the order DESIGN.md fixes (the contract checks rely on)."""
 REPO = Path(__file__).resolve().parent.parent
 
 

@@ -24,6 +24,8 @@ from orchestrator.batch.store import ResultsStore
 from orchestrator.batch.summary import rerun_command, summarize
 from orchestrator.batch.task import EpisodeTask
 
+from .conftest import RESULT_KEYS
+
 FAIL_GRASP = "grasp_offset=[0.0, 0.12, 0.0]"
 """Every grasp closes on air beside the cube: the episode fails (quickly) after retries."""
 
@@ -178,18 +180,7 @@ def test_batch_writes_a_line_per_episode_and_a_summary(cli, tmp_path, pick_place
     lines = _lines(out / "results.jsonl")
     assert sorted(ln["seed"] for ln in lines) == [5, 6, 7]
     for line in lines:
-        assert list(line)[:10] == [
-            "scenario",
-            "seed",
-            "outcome",
-            "final_state",
-            "reason",
-            "sim_time",
-            "wall_time",
-            "transitions",
-            "metrics",
-            "success",
-        ]
+        assert tuple(line)[: len(RESULT_KEYS)] == RESULT_KEYS
         assert line["scenario"] == "pick_place" and line["outcome"] == "succeeded"
 
 
