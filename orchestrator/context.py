@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .blackboard import Blackboard
+from .exceptions import SkillError
 from .pose import Pose
 
 if TYPE_CHECKING:
@@ -17,7 +18,7 @@ if TYPE_CHECKING:
     from .guards.path_deviation import PlannedPath
     from .robots import Controller, Robot
     from .scenario import Scenario
-    from .world import World
+    from .world import ObjectHandle, World
 
 __all__ = ["Context", "Event"]
 
@@ -149,9 +150,17 @@ class Context:
         self.data.ctrl[self.world.gripper_act] = self.gripper_target
 
     # -- world knowledge (ground truth; perception skills add noise) ---------------------
+    def object_handle(self, name: str) -> ObjectHandle:
+        """Indices of a scene object; an unknown name is a SkillError listing the valid ones."""
+        try:
+            return self.world.objects[name]
+        except KeyError:
+            valid = ", ".join(sorted(self.world.objects)) or "none"
+            raise SkillError(f"unknown object {name!r} (valid: {valid})") from None
+
     def object_pose(self, name: str) -> Pose:
         """True pose of a scene object."""
-        h = self.world.objects[name]
+        h = self.object_handle(name)
         q = self.data.qpos
         return Pose(
             pos=q[h.qpos_adr : h.qpos_adr + 3].tolist(),

@@ -46,11 +46,7 @@ class Grasp(Skill):
     params: GraspParams
 
     def start(self, ctx: Context) -> None:
-        if self.params.object not in ctx.world.objects:
-            from orchestrator.exceptions import SkillError
-
-            valid = ", ".join(sorted(ctx.world.objects))
-            raise SkillError(f"grasp: unknown object {self.params.object!r} (valid: {valid})")
+        self.handle = ctx.object_handle(self.params.object)
         self.t0 = ctx.t
         self.still_ticks = 0
         ctx.controller.hold(ctx.controller.q_d.copy())
@@ -63,7 +59,7 @@ class Grasp(Skill):
         self.still_ticks = self.still_ticks + 1 if finger_speed < _STILL_MPS else 0
         if elapsed < p.settle_s or (self.still_ticks < 3 and elapsed < p.close_timeout_s):
             return None
-        handle = ctx.world.objects[p.object]
+        handle = self.handle
         left, right = finger_contact_forces(ctx, handle.geom_id)
         between = _between_fingers(ctx, p.object)
         held = min(left, right) >= p.min_force_n and between

@@ -45,19 +45,13 @@ class VerifyGrasp(Skill):
     params: VerifyGraspParams
 
     def start(self, ctx: Context) -> None:
-        if self.params.object not in ctx.world.objects:
-            from orchestrator.exceptions import SkillError
-
-            valid = ", ".join(sorted(ctx.world.objects))
-            raise SkillError(
-                f"verify_grasp: unknown object {self.params.object!r} (valid: {valid})"
-            )
+        self.handle = ctx.object_handle(self.params.object)
         self.t0 = ctx.t
         ctx.controller.hold(ctx.controller.q_d.copy())
 
     def step(self, ctx: Context) -> str | None:
         p = self.params
-        handle = ctx.world.objects[p.object]
+        handle = self.handle
         left, right = finger_contact_forces(ctx, handle.geom_id)
         pos = np.asarray(ctx.object_pose(p.object).pos)
         offset = float(np.linalg.norm(pos - ctx.tcp_pos))
