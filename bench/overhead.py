@@ -22,9 +22,9 @@ import mujoco
 import numpy as np
 from orchestrator.robots import Controller
 
-from orchestrator.runner import run_episode
-from orchestrator.scenario import Scenario
-from orchestrator.scenario_loading import LoadedScenario, load_scenario
+from orchestrator.engine.runner import run_episode
+from orchestrator.language.load import LoadedScenario, load_scenario
+from orchestrator.language.scenario import Scenario
 from orchestrator.world import World, as_index, robot_only_model
 
 DOWN = np.diag([1.0, -1.0, -1.0])

@@ -22,8 +22,8 @@ def main() -> None:
     parser.add_argument("--cli", type=int, default=5, help="episodes run as fresh processes")
     args = parser.parse_args()
 
-    from orchestrator.runner import run_episode
-    from orchestrator.scenario_loading import load_scenario
+    from orchestrator.engine.runner import run_episode
+    from orchestrator.language.load import load_scenario
 
     loaded = load_scenario("pick_place")
     run_episode(loaded, 10_000)  # warm the caches once, as a batch worker would

@@ -57,9 +57,9 @@ def _paired(
 
 def bench_episode(scenario: str, seeds: list[int], pairs: int, out: Path) -> float:
     """In-process episodes; returns the median ratio."""
+    from orchestrator.engine.runner import run_episode
+    from orchestrator.language.load import load_scenario
     from orchestrator.recording import RerunRecorder
-    from orchestrator.runner import run_episode
-    from orchestrator.scenario_loading import load_scenario
 
     loaded = load_scenario(scenario)
 

@@ -26,10 +26,10 @@ import mujoco
 import numpy as np
 from orchestrator.robots import Controller
 
-from orchestrator.executor import Executor
+from orchestrator.engine.executor import Executor
+from orchestrator.engine.runner import run_episode
 from orchestrator.guards import GUARDS
-from orchestrator.runner import run_episode
-from orchestrator.scenario_loading import load_scenario
+from orchestrator.language.load import load_scenario
 
 
 class Samples:

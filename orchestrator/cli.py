@@ -54,8 +54,8 @@ def run(
     spawn: Annotated[bool, typer.Option(help="Stream live to a spawned Rerun viewer.")] = False,
 ) -> None:
     """Run one episode. Exit 0 succeeded, 1 failed, 2 invalid input, 3 aborted by a guard."""
-    from .runner import run_episode
-    from .scenario_loading import load_scenario
+    from .engine.runner import run_episode
+    from .language.load import load_scenario
 
     try:
         loaded = load_scenario(scenario, set_ or [])
@@ -112,7 +112,7 @@ def validate(
     ],
 ) -> None:
     """Check machines and scenarios without simulating: all errors at once, exit 2 if any."""
-    from .validate_paths import validate_paths
+    from .language.validate_paths import validate_paths
 
     problems, checked = validate_paths(paths)
     if problems:
@@ -129,8 +129,8 @@ def graph(
     ] = "mermaid",
 ) -> None:
     """Draw a machine: states, outcome-labelled transitions, nested clusters, the abort path."""
-    from .graph import to_dot, to_mermaid
-    from .loading import load_machine
+    from .language.graph import to_dot, to_mermaid
+    from .language.load import load_machine
 
     if fmt not in ("mermaid", "dot"):
         err.print(f"--format: unknown format {fmt!r} (valid: mermaid, dot)")
@@ -148,7 +148,7 @@ def schema(
     kind: Annotated[str, typer.Argument(help="machine or scenario")],
 ) -> None:
     """Print the JSON Schema (draft 7) of machine or scenario files, for yaml-language-server."""
-    from .schema_gen import schema_text
+    from .language.schema_gen import schema_text
 
     if kind not in ("machine", "scenario"):
         err.print(f"unknown schema {kind!r} (valid: machine, scenario)")
@@ -159,8 +159,8 @@ def schema(
 @app.command(name="list")
 def list_() -> None:
     """Bundled scenarios and machines, available skills, guards and robots."""
-    from .bundled import bundled_names
     from .guards import GUARDS
+    from .language.bundled import bundled_names
     from .robots import ROBOTS
     from .skills import SKILLS, skill_names
 

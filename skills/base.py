@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, ClassVar
 from pydantic import BaseModel, ConfigDict
 
 if TYPE_CHECKING:
-    from orchestrator.context import Context
+    from orchestrator.engine.context import Context
 
 __all__ = ["SCENE_OBJECT", "SCENE_TARGET", "Skill", "SkillParams"]
 

@@ -23,15 +23,15 @@ import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat, field_validator, model_validator
 
 from orchestrator.exceptions import SkillError
-from orchestrator.guards.path_deviation import PlannedPath
-from orchestrator.pose import Pose
+from orchestrator.world.path import PlannedPath
+from orchestrator.world.pose import Pose
 
 from . import impedance
 from .base import Skill, SkillParams
 from .trajectory import Trapezoid
 
 if TYPE_CHECKING:
-    from orchestrator.context import Context
+    from orchestrator.engine.context import Context
 
 __all__ = ["Contact", "ContactParams"]
 

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 
 if TYPE_CHECKING:
-    from orchestrator.context import Context
+    from orchestrator.engine.context import Context
 
 __all__ = ["finger_contact_forces"]
 

@@ -13,7 +13,7 @@ import numpy as np
 from orchestrator.robots.controller import CartesianGains, ControlMode
 
 if TYPE_CHECKING:
-    from orchestrator.context import Context
+    from orchestrator.engine.context import Context
 
 __all__ = ["APPARENT_INERTIA", "APPARENT_MASS_KG", "command", "gains", "setpoint"]
 

@@ -8,14 +8,14 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal
 import numpy as np
 from pydantic import Field, PositiveFloat
 
-from orchestrator.pose import Pose
+from orchestrator.world.pose import Pose
 
 from .base import SCENE_TARGET, Skill, SkillParams
 from .targets import resolve_target, rot_down, yaw_of_rot
 from .trajectory import CartesianLine
 
 if TYPE_CHECKING:
-    from orchestrator.context import Context
+    from orchestrator.engine.context import Context
 
 __all__ = ["Move"]
 

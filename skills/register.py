@@ -8,12 +8,12 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat, PositiveInt
 
-from orchestrator.pose import Pose, quat_from_yaw
+from orchestrator.world.pose import Pose, quat_from_yaw
 
 from .base import Skill, SkillParams
 
 if TYPE_CHECKING:
-    from orchestrator.context import Context
+    from orchestrator.engine.context import Context
 
 __all__ = ["Register"]
 

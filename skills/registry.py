@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib
 import importlib.metadata
 import pkgutil
+from pathlib import Path
 
 from orchestrator.exceptions import OrchestratorError
 
@@ -25,9 +26,8 @@ class UnknownSkillError(OrchestratorError):
 def _discover() -> None:
     if SKILLS:
         return
-    from . import __name__ as pkg_name
-    from . import __path__ as pkg_path
-
+    pkg_name = __name__.rsplit(".", 1)[0]  # this package, without importing it from itself
+    pkg_path = [str(Path(__file__).parent)]
     classes: list[type[Skill]] = []
     for info in pkgutil.iter_modules(pkg_path):
         if info.name in _NOT_SKILLS or info.name.startswith("_"):

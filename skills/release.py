@@ -9,7 +9,7 @@ from pydantic import Field, PositiveFloat
 from .base import Skill, SkillParams
 
 if TYPE_CHECKING:
-    from orchestrator.context import Context
+    from orchestrator.engine.context import Context
 
 __all__ = ["Release"]
 

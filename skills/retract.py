@@ -12,7 +12,7 @@ from .base import Skill, SkillParams
 from .trajectory import Trapezoid
 
 if TYPE_CHECKING:
-    from orchestrator.context import Context
+    from orchestrator.engine.context import Context
 
 __all__ = ["Retract"]
 

@@ -9,10 +9,10 @@ import numpy as np
 from pydantic import ValidationError
 
 from orchestrator.exceptions import SkillError
-from orchestrator.pose import Pose
+from orchestrator.world.pose import Pose
 
 if TYPE_CHECKING:
-    from orchestrator.context import Context
+    from orchestrator.engine.context import Context
 
 __all__ = ["DOWN", "resolve_target", "rot_down", "yaw_of_rot"]
 

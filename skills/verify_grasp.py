@@ -11,7 +11,7 @@ from .base import SCENE_OBJECT, Skill, SkillParams
 from .gripper import finger_contact_forces
 
 if TYPE_CHECKING:
-    from orchestrator.context import Context
+    from orchestrator.engine.context import Context
 
 __all__ = ["VerifyGrasp"]
 

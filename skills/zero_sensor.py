@@ -10,7 +10,7 @@ from pydantic import Field, PositiveFloat
 from .base import Skill, SkillParams
 
 if TYPE_CHECKING:
-    from orchestrator.context import Context
+    from orchestrator.engine.context import Context
 
 __all__ = ["ZeroSensor"]
 

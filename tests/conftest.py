@@ -12,7 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from orchestrator.scenario_loading import LoadedScenario, load_scenario
+from orchestrator.language.load import LoadedScenario, load_scenario
 
 DATA = Path(__file__).parent / "data"
 RESULT_KEYS = (

@@ -8,9 +8,9 @@ import numpy as np
 from orchestrator.skills import SKILLS, Skill, SkillParams
 from pydantic import Field
 
-from orchestrator.blackboard import Blackboard
-from orchestrator.context import Event
-from orchestrator.guard import Guard, GuardParams, Violation
+from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.context import Event
+from orchestrator.guards.base import Guard, GuardParams, Violation
 
 
 class ScriptedParams(SkillParams):

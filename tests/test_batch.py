@@ -391,7 +391,7 @@ def test_results_do_not_depend_on_the_worker_count(local_results, pick_place):
     assert sorted(one) == [20, 21, 22]
     assert one == two
     # ... nor on running in a worker at all
-    from orchestrator.runner import run_episode
+    from orchestrator.engine.runner import run_episode
 
     direct = run_episode(pick_place, 21).to_json_dict()
     direct.pop("wall_time")

@@ -86,8 +86,8 @@ def test_guard_violation_exits_3_with_guard_value_and_limit(cli):
 
 
 def test_abort_stops_the_arm(pick_place):
-    from orchestrator.runner import run_episode
-    from orchestrator.scenario_loading import load_scenario
+    from orchestrator.engine.runner import run_episode
+    from orchestrator.language.load import load_scenario
 
     class Speeds:
         def on_start(self, ctx, ex):

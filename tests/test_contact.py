@@ -11,8 +11,8 @@ import pytest
 from orchestrator.skills.contact import ContactParams
 from pydantic import ValidationError
 
-from orchestrator.runner import run_episode
-from orchestrator.scenario_loading import load_scenario
+from orchestrator.engine.runner import run_episode
+from orchestrator.language.load import load_scenario
 
 # At home the probe tip (20 cm from the flange) is at x = 0.307 m, z = 0.390 m.
 MACHINE = """\

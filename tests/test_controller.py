@@ -8,7 +8,7 @@ import pytest
 from orchestrator.robots import Controller, Panda
 from orchestrator.robots.controller import CartesianGains
 
-from orchestrator.scenario import Scenario
+from orchestrator.language.scenario import Scenario
 from orchestrator.world import World
 
 
@@ -53,8 +53,8 @@ def test_pinocchio_model_agrees_with_mujoco_kinematics():
 
 
 def test_wrist_sensor_reads_zero_external_force_at_rest():
-    from orchestrator.blackboard import Blackboard
-    from orchestrator.context import Context
+    from orchestrator.engine.blackboard import Blackboard
+    from orchestrator.engine.context import Context
 
     world = _world()
     ctrl = Controller(world.robot, world.model.opt.timestep)
@@ -67,8 +67,8 @@ def test_wrist_sensor_reads_zero_external_force_at_rest():
 @pytest.mark.parametrize("stiffness", [500.0])
 def test_cartesian_impedance_pressing_2cm_into_a_rigid_surface(stiffness):
     """K = 500 N/m, setpoint 2 cm inside a rigid surface -> 10 N +- 10 % at the wrist."""
-    from orchestrator.blackboard import Blackboard
-    from orchestrator.context import Context
+    from orchestrator.engine.blackboard import Blackboard
+    from orchestrator.engine.context import Context
 
     # a table whose top is 1 cm below the open fingertips at home
     world = _world(table={"center_xy": [0.35, 0.0], "size_xy": [0.3, 0.3], "height": 0.466})

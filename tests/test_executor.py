@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator.executor import Executor
-from orchestrator.loading import load_machine
-from orchestrator.runner import initial_blackboard
+from orchestrator.engine.executor import Executor
+from orchestrator.engine.runner import initial_blackboard
+from orchestrator.language.load import load_machine
 
 from .scripted import FakeContext, Scripted, register
 
@@ -285,7 +285,7 @@ def test_abort_goes_to_on_abort_from_any_state_and_ends_aborted(tmp_path):
 def test_abort_without_on_abort_holds_the_pose_in_the_safe_stop(tmp_path):
     d = Driver(_machine(tmp_path, SEQUENCE.replace("with: {ticks: 3}", "with: {ticks: 30}")))
     d.tick(2)
-    from orchestrator.guard import Violation
+    from orchestrator.guards.base import Violation
 
     d.ex.abort(Violation("flag", "test", 1, 0))
     assert d.ex.transitions[-1]["to"] == "SAFE_STOP"

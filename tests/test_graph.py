@@ -6,8 +6,8 @@ import re
 
 import pytest
 
-from orchestrator.graph import _id
-from orchestrator.loading import load_machine
+from orchestrator.language.graph import _id
+from orchestrator.language.load import load_machine
 
 NODE = re.compile(r"^\s*(\w+)(\[\"|\(\(|\(\[\"|\{\{)")
 SUBGRAPH = re.compile(r"^\s*subgraph (\w+)\[\"")

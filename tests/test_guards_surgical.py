@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 from orchestrator.robots import Controller
 
-from orchestrator.blackboard import Blackboard
-from orchestrator.context import Context
+from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.context import Context
+from orchestrator.engine.runner import run_episode
 from orchestrator.guards import ContactForce, NoGoZone, PathDeviation
 from orchestrator.guards.no_go_zone import UnknownZoneError
-from orchestrator.guards.path_deviation import PlannedPath
-from orchestrator.runner import run_episode
-from orchestrator.scenario_loading import load_scenario
+from orchestrator.language.load import load_scenario
 from orchestrator.world import World
+from orchestrator.world.path import PlannedPath
 
 TIP_AT_HOME = np.array([0.30702, 0.0, 0.39027])
 """Where the probe tip of the surgical scenario is at home [m]."""

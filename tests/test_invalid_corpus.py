@@ -12,8 +12,8 @@ import jsonschema
 import pytest
 import yaml
 
-from orchestrator.bundled import bundled_path
-from orchestrator.schema_gen import SCHEMA_DIR
+from orchestrator.language.bundled import bundled_path
+from orchestrator.language.schema_gen import SCHEMA_DIR
 
 CORPUS = Path(__file__).parent / "corpus"
 FILES = sorted(CORPUS.glob("*.yaml"))
@@ -61,7 +61,7 @@ def test_schema_rejects_exactly_the_schema_level_mistakes(path):
 
 
 def _bundled() -> list[tuple[str, Path]]:
-    from orchestrator.bundled import bundled_names
+    from orchestrator.language.bundled import bundled_names
 
     out = []
     for kind in ("machines", "scenarios"):
@@ -84,7 +84,7 @@ def test_schema_accepts_every_bundled_file_and_it_has_the_modeline(kind, path):
 
 @pytest.mark.parametrize("kind", ["machine", "scenario"])
 def test_generated_schemas_are_not_stale(kind):
-    from orchestrator.schema_gen import schema_text
+    from orchestrator.language.schema_gen import schema_text
 
     on_disk = (SCHEMA_DIR / f"{kind}.schema.json").read_text()
     assert on_disk == schema_text(kind), (

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from orchestrator.runner import run_episode
-from orchestrator.scenario_loading import load_scenario
+from orchestrator.engine.runner import run_episode
+from orchestrator.language.load import load_scenario
 
 MACHINE = """\
 name: one_move

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from orchestrator.runner import run_episode
-from orchestrator.scenario_loading import load_scenario
+from orchestrator.engine.runner import run_episode
+from orchestrator.language.load import load_scenario
 
 SEEDS = list(range(10))
 

@@ -8,9 +8,9 @@ import yaml
 from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
-from orchestrator.executor import Executor
-from orchestrator.loading import load_machine
-from orchestrator.runner import initial_blackboard
+from orchestrator.engine.executor import Executor
+from orchestrator.engine.runner import initial_blackboard
+from orchestrator.language.load import load_machine
 
 from .scripted import FakeContext, Scripted, register
 

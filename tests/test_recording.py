@@ -14,8 +14,11 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
-from orchestrator.bundled import bundled_names
-from orchestrator.executor import SAFE_STOP
+from orchestrator.engine.result import RunResult
+from orchestrator.engine.runner import run_episode
+from orchestrator.language.bundled import bundled_names
+from orchestrator.language.load import LoadedScenario, load_scenario
+from orchestrator.language.machine import SAFE_STOP
 from orchestrator.recording import (
     RecordingError,
     RerunRecorder,
@@ -30,9 +33,6 @@ from orchestrator.recording.state_log import StateLog
 from orchestrator.recording.static_scene import static_scene
 from orchestrator.recording.timeline import Rows, seconds_to_ns
 from orchestrator.recording.viewer import spawn_viewer
-from orchestrator.result import RunResult
-from orchestrator.runner import run_episode
-from orchestrator.scenario_loading import LoadedScenario, load_scenario
 from orchestrator.world import World
 
 ROW_ID = "rerun.controls.RowId"
@@ -339,7 +339,7 @@ def test_on_abort_state_is_the_abort_colour(write_yaml):
         "  B: {final: succeeded}\n"
         "  HALT: {final: failed}\n",
     )
-    from orchestrator.loading import load_machine
+    from orchestrator.language.load import load_machine
 
     graph = build_graph(load_machine(str(path)))
     assert graph.states["HALT"].kind == "abort"

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from orchestrator.robots import ROBOTS, get_robot
 
-from orchestrator.bundled import bundled_names
-from orchestrator.scenario_loading import load_scenario
+from orchestrator.language.bundled import bundled_names
+from orchestrator.language.load import load_scenario
 from orchestrator.world import World
 
 

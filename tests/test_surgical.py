@@ -8,8 +8,8 @@ import pytest
 from orchestrator.robots import Controller, get_robot
 from orchestrator.robots.tool import TIP_SITE
 
-from orchestrator.runner import run_episode
-from orchestrator.scenario_loading import load_scenario
+from orchestrator.engine.runner import run_episode
+from orchestrator.language.load import load_scenario
 from orchestrator.world import World, robot_only_model
 
 DEFAULT_SEEDS = [0, 7, 13]

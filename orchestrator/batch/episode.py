@@ -9,9 +9,9 @@ from __future__ import annotations
 import traceback
 from typing import Any
 
-from ..result import RunResult
-from ..runner import Observer, run_episode
-from ..scenario_loading import LoadedScenario, load_scenario
+from ..engine.result import RunResult
+from ..engine.runner import Observer, run_episode
+from ..language.load import LoadedScenario, load_scenario
 from .task import EpisodeTask, error_line, rrd_name
 
 __all__ = ["loaded_scenario", "run_task", "same_episode"]

@@ -9,7 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ..scenario_loading import load_scenario
+from ..language.load import load_scenario
 from .backends import Backend, make_backend
 from .config import BatchConfig, RecordMode, portable_ref
 from .exceptions import BatchError

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..exceptions import OrchestratorError
-from ..guard import Guard
+from .base import Guard
 from .contact_force import ContactForce
 from .joint_limits import JointLimits
 from .no_go_zone import NoGoZone

@@ -15,11 +15,11 @@ import numpy as np
 from pydantic import Field, NonNegativeFloat
 
 from ..exceptions import OrchestratorError
-from ..guard import Guard, GuardParams, Violation
-from ..world import as_index
+from ..world.world import as_index
+from .base import Guard, GuardParams, Violation
 
 if TYPE_CHECKING:
-    from ..context import Context
+    from ..engine.context import Context
 
 __all__ = ["NoGoZone", "UnknownZoneError"]
 

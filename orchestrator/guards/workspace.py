@@ -7,10 +7,10 @@ from typing import TYPE_CHECKING, Annotated, ClassVar
 import numpy as np
 from pydantic import Field, model_validator
 
-from ..guard import Guard, GuardParams, Violation
+from .base import Guard, GuardParams, Violation
 
 if TYPE_CHECKING:
-    from ..context import Context
+    from ..engine.context import Context
 
 __all__ = ["Workspace"]
 

@@ -12,7 +12,7 @@ from .paths import EVENTS, part
 from .timeline import time_columns
 
 if TYPE_CHECKING:
-    from ..context import Event
+    from ..engine.context import Event
 
 __all__ = ["EventLog", "event_text", "text_log_level"]
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ..executor import SAFE_STOP
+from ..language.machine import SAFE_STOP
 
 if TYPE_CHECKING:
-    from ..loading import MachineNode
+    from ..language.loading import MachineNode
 
 __all__ = ["KIND_COLORS", "PALETTE", "MachineGraph", "StateInfo", "build_graph", "on_path"]
 

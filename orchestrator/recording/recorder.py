@@ -21,9 +21,9 @@ from .timeline import Rows
 from .viewer import spawn_viewer, viewer_url
 
 if TYPE_CHECKING:
-    from ..context import Context, Event
-    from ..executor import Executor
-    from ..result import RunResult
+    from ..engine.context import Context, Event
+    from ..engine.executor import Executor
+    from ..engine.result import RunResult
 
 __all__ = ["APPLICATION_ID", "RerunRecorder"]
 

@@ -14,8 +14,8 @@ from .paths import GUARDS, SIGNALS, part
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from ..context import Context
-    from ..guard import Guard
+    from ..engine.context import Context
+    from ..guards.base import Guard
     from .timeline import Rows
 
 __all__ = [

@@ -24,8 +24,8 @@ from .state_log import StateLog
 from .targets import Targets
 
 if TYPE_CHECKING:
-    from ..context import Context
-    from ..loading import MachineNode
+    from ..engine.context import Context
+    from ..language.loading import MachineNode
 
 __all__ = ["StaticScene", "static_scene"]
 

@@ -14,7 +14,7 @@ from .paths import TARGETS, body_path, part
 from .timeline import time_columns
 
 if TYPE_CHECKING:
-    from ..context import Context
+    from ..engine.context import Context
     from .batches import StaticBatch
     from .poses import BodyPoses
 

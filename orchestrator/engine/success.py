@@ -7,8 +7,8 @@ import math
 import mujoco
 import numpy as np
 
+from ..language.scenario import SuccessCheck
 from .context import Context
-from .scenario import SuccessCheck
 
 __all__ = ["evaluate"]
 

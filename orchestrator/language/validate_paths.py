@@ -4,11 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..exceptions import ConfigError
 from .bundled import resolve_file
 from .diagnostics import Diagnostic
-from .exceptions import ConfigError
-from .loading import load_machine
-from .scenario_loading import load_scenario
+from .load import load_machine, load_scenario
 from .yamlio import load_yaml
 
 __all__ = ["validate_paths"]

@@ -8,17 +8,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..exceptions import SkillError
+from ..world.pose import Pose
 from .blackboard import Blackboard
-from .exceptions import SkillError
-from .pose import Pose
 
 if TYPE_CHECKING:
     import mujoco
 
-    from .guards.path_deviation import PlannedPath
-    from .robots import Controller, Robot
-    from .scenario import Scenario
-    from .world import ObjectHandle, World
+    from ..language.scenario import Scenario
+    from ..robots import Controller, Robot
+    from ..world.path import PlannedPath
+    from ..world.world import ObjectHandle, World
 
 __all__ = ["Context", "Event"]
 

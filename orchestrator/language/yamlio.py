@@ -8,8 +8,8 @@ from typing import Any
 
 import yaml
 
+from ..exceptions import ConfigError
 from .diagnostics import Diagnostic, format_path
-from .exceptions import ConfigError
 
 __all__ = ["SourceMap", "YamlDocument", "load_yaml", "parse_yaml"]
 

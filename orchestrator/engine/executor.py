@@ -14,22 +14,19 @@ from typing import Any, Protocol
 import transitions
 from pydantic import ValidationError
 
+from ..exceptions import ConfigError, SkillError
+from ..guards import get_guard
+from ..guards.base import Guard, Violation
+from ..language.diagnostics import Diagnostic
+from ..language.loading import MachineNode
+from ..language.machine import ABORT, SAFE_STOP, BranchSpec, StateSpec, guard_entries
+from ..language.validation import branch_outcomes, state_outcomes
+from ..skills import Skill, get_skill
 from .blackboard import BlackboardError
 from .context import Context
-from .diagnostics import Diagnostic
-from .exceptions import ConfigError, SkillError
-from .guard import Guard, Violation
-from .guards import get_guard
-from .loading import MachineNode
-from .machine import BranchSpec, StateSpec, guard_entries
-from .skills import Skill, get_skill
-from .validation import branch_outcomes, state_outcomes
 
-__all__ = ["ABORT", "SAFE_STOP", "Executor"]
+__all__ = ["Executor"]
 
-ABORT = "abort"
-SAFE_STOP = "SAFE_STOP"
-"""The built-in state a guard violation leads to when the machine names no `on_abort`."""
 _EPS = 1e-9
 
 Finished = tuple[str, str]

@@ -10,19 +10,19 @@ from typing import Any, Protocol
 import mujoco
 import numpy as np
 
+from ..guards import get_guard
+from ..guards.base import Guard
+from ..language.load import LoadedScenario
+from ..language.loading import MachineNode, initial_values
+from ..language.machine import guard_entries
+from ..robots import Controller
+from ..skills.ik import IKSolver
+from ..world.world import World, as_index, robot_only_model
 from .blackboard import Blackboard
 from .context import Context
 from .executor import Executor
-from .guard import Guard
-from .guards import get_guard
-from .loading import MachineNode
-from .machine import guard_entries
 from .result import RunResult
-from .robots import Controller
-from .scenario_loading import LoadedScenario
-from .skills.ik import IKSolver
 from .success import evaluate
-from .world import World, as_index, robot_only_model
 
 __all__ = ["Observer", "run_episode"]
 
@@ -48,16 +48,7 @@ class Observer(Protocol):
 
 def initial_blackboard(machine: MachineNode, overrides: dict[str, Any]) -> Blackboard:
     """Defaults declared in the machine tree (outer levels win), then the scenario's values."""
-    values: dict[str, Any] = {}
-
-    def collect(node: MachineNode) -> None:
-        for child in node.children.values():
-            collect(child)
-        values.update(node.blackboard)
-
-    collect(machine)
-    values.update(overrides)
-    return Blackboard(values)
+    return Blackboard(initial_values(machine, overrides))
 
 
 def make_guards(refs, ctx: Context) -> list[Guard]:

@@ -7,7 +7,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from .pose import Pose
+from ..world.pose import Pose
 
 __all__ = ["check_type", "sample_value"]
 

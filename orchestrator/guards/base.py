@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 from pydantic import BaseModel, ConfigDict
 
 if TYPE_CHECKING:
-    from .context import Context
+    from ..engine.context import Context
 
 __all__ = ["Guard", "GuardParams", "Violation"]
 

@@ -7,14 +7,14 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from .blackboard import parse_ref
+from ..guards import GUARDS
+from ..skills import SKILLS, get_skill, skill_names
 from .blackboard_types import check_type, sample_value
 from .diagnostics import Diagnostic
-from .guards import GUARDS
 from .loading import MachineNode
 from .machine import BranchSpec, GuardRef, StateSpec, guard_entries
 from .pydantic_errors import diagnostics_from_validation
-from .skills import SKILLS, get_skill, skill_names
+from .refs import parse_ref
 from .yamlio import SourceMap
 
 __all__ = [

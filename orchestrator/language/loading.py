@@ -8,14 +8,14 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from ..exceptions import ConfigError
 from .bundled import bundled_names, resolve_file
 from .diagnostics import Diagnostic
-from .exceptions import ConfigError
 from .machine import BlackboardKey, BranchSpec, GuardRef, MachineSpec, StateSpec
 from .pydantic_errors import diagnostics_from_validation
 from .yamlio import SourceMap, load_yaml
 
-__all__ = ["Branch", "MachineNode", "load_machine", "load_machine_file"]
+__all__ = ["Branch", "MachineNode", "initial_values", "load_machine_file"]
 
 
 @dataclass
@@ -206,32 +206,16 @@ def _load_nested(
     return included, sub
 
 
-def load_machine(ref: str, base_dir: Path | None = None) -> MachineNode:
-    """Load and statically validate a machine by path or bundled name.
+def initial_values(machine: MachineNode, overrides: dict[str, Any]) -> dict[str, Any]:
+    """Blackboard values at the start of a run: the defaults declared in the machine tree
+    (outer levels win), then `overrides` (the scenario's `blackboard:`)."""
+    values: dict[str, Any] = {}
 
-    Raises:
-        ConfigError: With every problem found, each located in its file.
-    """
-    from .validation import validate_machine
+    def collect(node: MachineNode) -> None:
+        for child in node.children.values():
+            collect(child)
+        values.update(node.blackboard)
 
-    path = resolve_file(ref, "machines", base_dir)
-    if path is None:
-        raise ConfigError(
-            [
-                Diagnostic(
-                    ref,
-                    0,
-                    0,
-                    "<machine>",
-                    "no such machine file or bundled machine",
-                    tuple(bundled_names("machines")),
-                )
-            ]
-        )
-    node, problems = load_machine_file(path)
-    if node is not None:
-        problems += validate_machine(node)
-    if problems:
-        raise ConfigError(problems)
-    assert node is not None
-    return node
+    collect(machine)
+    values.update(overrides)
+    return values

@@ -7,6 +7,8 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, NonNegativeInt, PositiveFloat, model_validator
 
 __all__ = [
+    "ABORT",
+    "SAFE_STOP",
     "BLACKBOARD_TYPES",
     "BlackboardKey",
     "BranchSpec",
@@ -15,6 +17,11 @@ __all__ = [
     "StateSpec",
     "guard_entries",
 ]
+
+ABORT = "abort"
+"""The trigger of the transition a guard violation fires from any state."""
+SAFE_STOP = "SAFE_STOP"
+"""The built-in state a guard violation leads to when the machine names no `on_abort`."""
 
 BLACKBOARD_TYPES = ("any", "str", "int", "float", "bool", "vec3", "pose", "list", "dict")
 BlackboardType = Literal["any", "str", "int", "float", "bool", "vec3", "pose", "list", "dict"]

@@ -9,9 +9,8 @@ from __future__ import annotations
 
 import re
 
-from .executor import SAFE_STOP
 from .loading import MachineNode
-from .machine import BranchSpec, StateSpec
+from .machine import SAFE_STOP, BranchSpec, StateSpec
 
 __all__ = ["to_dot", "to_mermaid"]
 

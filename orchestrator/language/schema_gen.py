@@ -10,14 +10,15 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from .guards import GUARDS
+from ..guards import GUARDS
+from ..skills import SKILLS, skill_names
 from .machine import MachineSpec
 from .scenario import Scenario
-from .skills import SKILLS, skill_names
 
 __all__ = ["SCHEMA_DIR", "machine_schema", "scenario_schema", "schema_text", "write_schemas"]
 
-SCHEMA_DIR = Path(__file__).parent / "schemas"
+SCHEMA_DIR = Path(__file__).resolve().parent.parent / "schemas"
+"""Where the generated schemas ship (package data `orchestrator.schemas`)."""
 DRAFT7 = "http://json-schema.org/draft-07/schema#"
 REF = "#/definitions/{model}"
 REF_PATTERN = r"^\$[A-Za-z_][A-Za-z0-9_]*((\.[A-Za-z_][A-Za-z0-9_]*)|(\[[0-9]+\]))*$"

@@ -1,0 +1,105 @@
+"""Checks of a scenario against its scene: names given to skills, guards and success checks."""
+
+from __future__ import annotations
+
+from ..guards import GUARDS
+from ..robots import ROBOTS
+from ..skills import SKILLS, skill_names
+from .diagnostics import Diagnostic
+from .loading import MachineNode, initial_values
+from .machine import guard_entries
+from .refs import parse_ref
+from .scenario import Scenario
+from .yamlio import SourceMap
+
+__all__ = ["check_scenario_refs", "check_scene_names"]
+
+
+def check_scene_names(
+    machine: MachineNode, scenario: Scenario, source: SourceMap
+) -> list[Diagnostic]:
+    """Skill and guard parameters that name scene objects, markers or zones — given literally
+    or through a `$key` whose value is known before the run — must name ones this scenario has.
+    """
+
+    skill_names()  # discover the skills
+    objects = [o.name for o in scenario.scene.objects]
+    names = {
+        "object": ("scene object", objects),
+        "target": ("object or marker", objects + [m.name for m in scenario.scene.markers]),
+        "zone": ("no-go zone", [z.name for z in getattr(scenario.scene, "zones", [])]),
+    }
+    values = initial_values(machine, scenario.blackboard)
+
+    def check(src: SourceMap, at: tuple, model, params: dict) -> list[Diagnostic]:
+        found = []
+        for field, info in model.model_fields.items():
+            extra = info.json_schema_extra
+            kind = extra.get("scene_ref") if isinstance(extra, dict) else None
+            if kind is None or field not in params:
+                continue
+            value, via = params[field], ""
+            ref = parse_ref(value)
+            if ref is not None and not ref[1]:
+                value, via = values.get(ref[0]), f" (the value of ${ref[0]})"
+            what, valid = names[kind]
+            for item in value if isinstance(value, list) else [value]:
+                if isinstance(item, str) and item not in valid:
+                    none = "" if valid else f"; it has no {what}s at all"
+                    found.append(
+                        src.diag(
+                            (*at, field),
+                            f"no {what} {item!r} in scenario {scenario.name!r}{via}{none}",
+                            tuple(valid),
+                        )
+                    )
+        return found
+
+    def guards(src: SourceMap, at: tuple, refs) -> list[Diagnostic]:
+        found = []
+        for pos, name, params in guard_entries(refs):
+            if name in GUARDS and isinstance(params, dict):
+                gat = (*at, pos, name) if isinstance(pos, int) else (*at, pos)
+                found += check(src, gat, GUARDS[name].Params, params)
+        return found
+
+    out = guards(source, ("guards",), scenario.guards)
+    for node in machine.nodes():
+        out += guards(node.source, (*node.at, "guards"), node.guards)
+        for n, st in node.states.items():
+            at = (*node.at, "states", n)
+            out += guards(node.source, (*at, "guards"), st.guards)
+            cls = SKILLS.get(st.skill or "")
+            if cls is not None:
+                out += check(node.source, (*at, "with"), cls.Params, st.with_)
+        for s, b, br in node.skill_branches():
+            cls = SKILLS.get(br.skill or "")
+            if cls is not None:
+                at = (*node.at, "states", s, "parallel", b, "with")
+                out += check(node.source, at, cls.Params, br.with_)
+    return out
+
+
+def check_scenario_refs(scenario: Scenario, src: SourceMap) -> list[Diagnostic]:
+    """Success checks name existing objects and markers; the robot is a registered one."""
+    out = []
+    objects = [o.name for o in scenario.scene.objects]
+    markers = [m.name for m in scenario.scene.markers]
+    for name, check in scenario.success.items():
+        if check.object not in objects:
+            out.append(
+                src.diag(
+                    ("success", name, "object"), f"no scene object {check.object!r}", tuple(objects)
+                )
+            )
+        if check.target is not None and check.target not in markers:
+            out.append(
+                src.diag(("success", name, "target"), f"no marker {check.target!r}", tuple(markers))
+            )
+    if scenario.robot.name not in ROBOTS:
+        out.append(
+            src.diag(
+                ("robot", "name"), f"unknown robot {scenario.robot.name!r}", tuple(sorted(ROBOTS))
+            )
+        )
+    return out

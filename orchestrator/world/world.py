@@ -1,0 +1,174 @@
+"""World: the scenario's robot and scene compiled into one MuJoCo model (the body)."""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+from ..robots import Robot, get_robot
+from ..robots.tool import Tool, mount_tool
+from .phantom import (
+    PhantomHandle,
+    add_phantom_scene,
+    phantom_handle,
+    set_tissue_stiffness,
+    tool_from_spec,
+)
+from .randomization import object_poses
+from .scene import add_scene
+
+if TYPE_CHECKING:
+    from ..language.scenario import Scenario
+
+__all__ = ["ObjectHandle", "World", "as_index", "robot_only_model"]
+
+
+@dataclass(frozen=True)
+class ObjectHandle:
+    """Indices of one free object in the compiled model."""
+
+    name: str
+    body_id: int
+    qpos_adr: int
+    qvel_adr: int
+    geom_id: int
+    half_size: np.ndarray
+
+
+def robot_only_model(robot: str | Robot) -> mujoco.MjModel:
+    """The robot alone (with its tool, if it carries one), compiled once per process: the
+    kinematic model IK works on."""
+    if isinstance(robot, str):
+        return _robot_only_model(robot, None)
+    return _robot_only_model(robot.name, getattr(robot, "tool", None))
+
+
+@functools.cache
+def _robot_only_model(robot_name: str, tool: Tool | None) -> mujoco.MjModel:
+    robot = get_robot(robot_name)
+    return (mount_tool(robot, tool) if tool is not None else robot).build_spec().compile()
+
+
+class World:
+    """The compiled plant of one episode and the indices the runtime needs.
+
+    Build with `World.build(scenario, seed)`: the seed fixes the randomized object poses.
+    """
+
+    def __init__(self, scenario: Scenario, seed: int, robot: Robot, model: mujoco.MjModel) -> None:
+        self.scenario = scenario
+        self.seed = seed
+        self.robot = robot
+        self.model = model
+        self.data = mujoco.MjData(model)
+        m = model
+        self.arm_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot.arm_joints])
+        self.arm_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot.arm_joints])
+        robot_joints = (*robot.arm_joints, *robot.finger_joints)
+        self.robot_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot_joints])
+        self.robot_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot_joints])
+        self.finger_qpos = self.robot_qpos[robot.n_arm :]
+        self.arm_qpos_index = as_index(self.arm_qpos)
+        """`arm_qpos` as a slice when contiguous: cheaper on the per-step path."""
+        self.arm_act = np.array(
+            [m.actuator(j.replace("joint", "motor")).id for j in robot.arm_joints]
+        )
+        self.gripper_act = m.actuator(robot.gripper_actuator).id
+        self.tcp_site = m.site(robot.tcp_site).id
+        self.wrist_site = m.site(robot.wrist_site).id
+        self.force_adr = m.sensor_adr[m.sensor(robot.force_sensor).id]
+        self.torque_adr = m.sensor_adr[m.sensor(robot.torque_sensor).id]
+        self.hand_body = m.body(robot.hand_body).id
+        self.finger_body_ids = tuple(m.body(b).id for b in robot.finger_bodies)
+        self.finger_geoms = frozenset(
+            g for g in range(m.ngeom) if m.geom_bodyid[g] in self.finger_body_ids
+        )
+        robot_root = m.body(robot.root_body).id
+        self.robot_geoms = frozenset(
+            g for g in range(m.ngeom) if _is_descendant(m, int(m.geom_bodyid[g]), robot_root)
+        )
+        gravity = -m.opt.gravity
+        tool: Tool | None = getattr(robot, "tool", None)
+        # the sensor's own calibration knows the hand, not a tool mounted on it
+        hand_mass = float(m.body_subtreemass[self.hand_body]) - (tool.mass_kg if tool else 0.0)
+        self.wrist_bias_world = hand_mass * gravity
+        """Force [N] the arm exerts on the hand at rest (its weight), removed from readings."""
+        self.objects: dict[str, ObjectHandle] = {}
+        for spec in scenario.scene.objects:
+            body = m.body(spec.name)
+            jnt = m.body_jntadr[body.id]
+            self.objects[spec.name] = ObjectHandle(
+                name=spec.name,
+                body_id=body.id,
+                qpos_adr=int(m.jnt_qposadr[jnt]),
+                qvel_adr=int(m.jnt_dofadr[jnt]),
+                geom_id=int(m.body_geomadr[body.id]),
+                half_size=np.asarray(spec.size) / 2.0,
+            )
+        table = scenario.scene.table
+        self.markers: dict[str, np.ndarray] = {
+            mk.name: np.array([*mk.xy, table.height]) for mk in scenario.scene.markers
+        }
+        self.table_height = table.height
+        self.phantom: PhantomHandle | None = phantom_handle(scenario, seed)
+        self.zones: dict[str, int] = {z.name: m.geom(z.name).id for z in scenario.scene.zones}
+        """No-go zone name -> its (collision-free) box geom."""
+        self.home = np.array(robot.home, dtype=float)
+        self.reset()
+
+    @classmethod
+    def build(cls, scenario: Scenario, seed: int) -> World:
+        """Assemble robot + table + objects + markers with MjSpec and compile them."""
+        robot = get_robot(scenario.robot.name)
+        if scenario.tool is not None:
+            robot = mount_tool(robot, tool_from_spec(scenario.tool))
+        spec = robot.build_spec()
+        for key in list(spec.keys):
+            spec.delete(key)  # the world sets its initial state itself
+        spec.modelname = f"{scenario.name}"
+        spec.option.timestep = scenario.physics.timestep_s
+        spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+        spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+        spec.option.impratio = 10.0
+        spec.body(robot.root_body).pos = scenario.robot.base_pos
+        add_scene(spec, scenario, seed)
+        add_phantom_scene(spec, scenario, seed)
+        model = spec.compile()
+        set_tissue_stiffness(model, scenario, seed, robot)
+        return cls(scenario, seed, robot, model)
+
+    def reset(self) -> None:
+        """Robot at home with the gripper open, objects at their seeded poses, at rest."""
+        m, d = self.model, self.data
+        mujoco.mj_resetData(m, d)
+        d.qpos[self.arm_qpos] = self.home
+        d.qpos[self.finger_qpos] = self.robot.gripper_open_m
+        d.ctrl[self.gripper_act] = self.robot.gripper_open_m
+        for name, pos, quat in object_poses(self.scenario, self.seed):
+            h = self.objects[name]
+            d.qpos[h.qpos_adr : h.qpos_adr + 3] = pos
+            d.qpos[h.qpos_adr + 3 : h.qpos_adr + 7] = quat
+        mujoco.mj_forward(m, d)
+        # Sensors at t = 0 read the arm held still, as it is from the first step on (with zero
+        # torques they would read it falling); the runner sets the torques before stepping.
+        d.ctrl[self.arm_act] = d.qfrc_bias[self.arm_dof]
+        mujoco.mj_forward(m, d)
+
+
+def as_index(idx: np.ndarray) -> slice | np.ndarray:
+    """A slice when the indices are contiguous (cheaper on the hot path)."""
+    if len(idx) and np.all(np.diff(idx) == 1):
+        return slice(int(idx[0]), int(idx[-1]) + 1)
+    return idx
+
+
+def _is_descendant(m: mujoco.MjModel, body: int, root: int) -> bool:
+    while body > 0:
+        if body == root:
+            return True
+        body = int(m.body_parentid[body])
+    return root == 0
