@@ -197,8 +197,10 @@ def test_no_run_time_import_cycles_through_packages():
         parts = imp.target.split(".")
         for i in range(1, len(parts) + 1):
             target = ".".join(parts[:i])
-            if target in MODULES and target != imp.source and not imp.source.startswith(
-                target + "."
+            if (
+                target in MODULES
+                and target != imp.source
+                and not imp.source.startswith(target + ".")
             ):
                 edges.setdefault(imp.source, set()).add(target)
     cycle = _find_cycle(edges)
