@@ -54,11 +54,17 @@ class Robot(abc.ABC):
     """Per-finger opening when fully open in [m]."""
     gripper_force_n: ClassVar[float]
     """Grip force each finger can press with in [N]."""
+    gripper_speed_mps: ClassVar[float] = 0.05
+    """Speed of each finger when opening or closing [m/s]."""
     gains: ClassVar[Gains]
     shoulder_height_m: ClassVar[float]
     """Height of the first pitch axis above the base [m]."""
     reach_m: ClassVar[float]
     """Farthest TCP distance from the shoulder [m]: beyond it a target is unreachable."""
+    acceleration_limits: ClassVar[tuple[float, ...]]
+    """Largest joint acceleration of each arm joint [rad/s^2] (datasheet)."""
+    jerk_limits: ClassVar[tuple[float, ...]]
+    """Largest joint jerk of each arm joint [rad/s^3] (datasheet)."""
 
     @abc.abstractmethod
     def urdf_path(self) -> str:
@@ -71,6 +77,10 @@ class Robot(abc.ABC):
     @property
     def n_arm(self) -> int:
         return len(self.arm_joints)
+
+    def joint_velocity_limits(self) -> np.ndarray:
+        """Speed limit of each arm joint [rad/s] (the URDF's `velocity`). Shape (n_arm,)."""
+        return np.asarray(_pinocchio_model(self.urdf_path()).velocityLimit[: self.n_arm], float)
 
     def pinocchio_model(self) -> pin.Model:
         """The controller's own model of the robot, loaded from the same URDF (cached)."""

@@ -31,6 +31,10 @@ class ControlMode(enum.Enum):
     from q_d afterwards continues from where the arm is."""
     HOLD = "hold"
     """Joint impedance to the pose captured when hold() was called, zero velocity."""
+    BRAKE = "brake"
+    """Controlled stop (IEC 60204-1 stop category 1, like libfranka's reflex): from the
+    measured state, every joint decelerates along a synchronized constant-deceleration profile
+    to zero velocity, tracked like JOINT; then HOLD at the reached pose."""
 
 
 @dataclass(frozen=True)
@@ -85,6 +89,8 @@ class Controller:
         self.q_null = np.array(robot.home, dtype=float)
         self.tau = np.zeros(self.n)
         self._lo = -self.effort_limit
+        self.brake_left_s = 0.0
+        """Time left on the braking profile [s] (0 once it has reached zero velocity)."""
 
     # -- setpoints ----------------------------------------------------------------------
     def set_joint_target(
@@ -106,6 +112,36 @@ class Controller:
         self.q_d[:] = q
         self.qd_d[:] = 0.0
         self.qdd_d[:] = 0.0
+
+    def brake(self, q: np.ndarray, qd: np.ndarray, max_decel: np.ndarray | float) -> float:
+        """Start a controlled stop from the measured state, then hold where it ends.
+
+        The joints decelerate together (synchronized: all reach zero velocity at the same
+        time, so the TCP keeps to its path while it stops), the slowest joint at `max_decel`,
+        the others proportionally less.
+
+        Args:
+            q: Measured arm joint angles [rad]. Shape (n,) (or longer: the arm comes first).
+            qd: Measured arm joint velocities [rad/s]. Same shape rules.
+            max_decel: Deceleration limit per joint [rad/s^2]. Scalar or shape (n,).
+
+        Returns:
+            Duration of the deceleration [s] (0 when the arm is already still).
+        """
+        n = self.n
+        v0 = np.asarray(qd[:n], dtype=float)
+        a_max = np.broadcast_to(np.asarray(max_decel, dtype=float), (n,))
+        duration = float(np.max(np.abs(v0) / a_max))
+        if not np.isfinite(duration) or duration < self.dt:
+            self.hold(np.asarray(q[:n], dtype=float))
+            self.brake_left_s = 0.0
+            return 0.0
+        self.mode = ControlMode.BRAKE
+        self.q_d[:] = q[:n]
+        self.qd_d[:] = v0
+        self.qdd_d[:] = -v0 / duration
+        self.brake_left_s = duration
+        return duration
 
     def set_cartesian_target(
         self,
@@ -149,6 +185,13 @@ class Controller:
             # the setpoint moves on between control ticks (no 100 Hz staircase)
             self.q_d += self.qd_d * self.dt
             self.qd_d += self.qdd_d * self.dt
+            if self.mode is ControlMode.BRAKE:
+                self.brake_left_s -= self.dt
+                if self.brake_left_s <= 1e-12:  # zero velocity reached: hold there
+                    self.brake_left_s = 0.0
+                    self.mode = ControlMode.HOLD
+                    self.qd_d[:] = 0.0
+                    self.qdd_d[:] = 0.0
         np.minimum(tau, self.effort_limit, out=self.tau)
         np.maximum(self.tau, self._lo, out=self.tau)
         return self.tau

@@ -1,4 +1,11 @@
-"""The bridge: Cartesian intents -> joint setpoints with mink differential IK."""
+"""The bridge: Cartesian intents -> joint setpoints with mink differential IK.
+
+The IK integrates its own joint reference (open loop, from the skill's Cartesian trajectory).
+What reaches the controller is that reference passed through a limiter (`JointLimiter`): the
+commanded joint velocity, acceleration and jerk never exceed the robot's datasheet limits,
+however abruptly the IK's wish changes (near a singularity it can flip a joint's velocity in
+one tick). A feasible reference passes through unchanged.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +13,13 @@ import mink
 import numpy as np
 from orchestrator.robots import Robot
 
-__all__ = ["IKSolver"]
+from .joint_limiter import JointLimiter
+
+__all__ = ["COMMAND_MARGIN", "IKSolver"]
+
+COMMAND_MARGIN = 0.85
+"""Fraction of the robot's joint limits the commands may use: the rest is for tracking (the
+arm follows a command with a small overshoot), so the measured motion stays within them."""
 
 
 class IKSolver:
@@ -20,7 +33,7 @@ class IKSolver:
         model: The robot-only MjModel (no scene objects).
         dt: Control period in [s].
         base_pos: Position of the robot base in the world [m]; targets are given in the world.
-        velocity_limit: Joint speed limit used by the IK in [rad/s].
+        velocity_limit: Joint speed limit used by the IK in [rad/s] (capped by the robot's).
         posture_cost: Weight of the posture task that keeps the arm near its seed.
         damping: Levenberg-Marquardt damping of the QP.
     """
@@ -33,7 +46,7 @@ class IKSolver:
         base_pos: np.ndarray,
         velocity_limit: float = 2.0,
         posture_cost: float = 1e-3,
-        damping: float = 1e-4,
+        damping: float = 1e-2,
     ) -> None:
         self.robot = robot
         self.dt = dt
@@ -52,20 +65,35 @@ class IKSolver:
         self.velocity = np.zeros(self.n)
         self.acceleration = np.zeros(self.n)
         self._error: np.ndarray | None = np.zeros(6)
+        margin = COMMAND_MARGIN
+        self.limiter = JointLimiter(
+            dt,
+            np.minimum(margin * robot.joint_velocity_limits(), velocity_limit),
+            margin * np.asarray(robot.acceleration_limits, float),
+            margin * np.asarray(robot.jerk_limits, float),
+        )
 
     @property
     def q(self) -> np.ndarray:
         """The IK's joint angles (arm) [rad]. Shape (n,)."""
         return self.config.q[: self.n]
 
-    def reset(self, q_arm: np.ndarray) -> None:
-        """Seed the solver with measured arm angles; the posture task holds this posture."""
+    def reset(
+        self,
+        q_arm: np.ndarray,
+        qd_arm: np.ndarray | None = None,
+        qdd_arm: np.ndarray | None = None,
+    ) -> None:
+        """Seed the solver with the arm's state (angles [rad], and the velocity [rad/s] and
+        acceleration [rad/s^2] it is moving with, zero by default); the posture task holds
+        this posture."""
         q = self.config.q.copy()
         q[: self.n] = q_arm
         self.config.update(q)
         self.posture_task.set_target(q)
-        self.velocity[:] = 0.0
-        self.acceleration[:] = 0.0
+        self.velocity[:] = 0.0 if qd_arm is None else qd_arm
+        self.acceleration[:] = 0.0 if qdd_arm is None else qdd_arm
+        self.limiter.reset(q_arm, self.velocity, self.acceleration)
         self._error = None
 
     def tcp_pose(self) -> tuple[np.ndarray, np.ndarray]:
@@ -86,8 +114,8 @@ class IKSolver:
         """One control tick towards the world pose (`pos` [m], `rot` a 3x3 matrix or an SO3).
 
         Returns:
-            The new joint angles [rad]; `velocity` and `acceleration` hold the joint speeds
-            that led there and their change over the tick.
+            The new joint angles [rad]; `velocity` and `acceleration` hold the joint velocity
+            and acceleration there (within the robot's limits, jerk-limited).
         """
         so3 = rot if isinstance(rot, mink.SO3) else mink.SO3.from_matrix(rot)
         target = mink.SE3.from_rotation_and_translation(so3, np.asarray(pos) - self.base_pos)
@@ -100,8 +128,16 @@ class IKSolver:
             damping=self.damping,
             limits=self.limits,
         )
-        self.config.integrate_inplace(v, self.dt)
-        self.acceleration[:] = (v[: self.n] - self.velocity) / self.dt
-        self.velocity[:] = v[: self.n]
+        n = self.n
+        lim = self.limiter
+        lim.step(self.config.q[:n], v[:n])  # the reference now and the velocity it moves on
+        self.config.integrate_inplace(v, self.dt)  # the IK's own reference, open loop
+        self.velocity[:] = lim.velocity
+        self.acceleration[:] = lim.acceleration
         self._error = None
-        return self.q
+        return self.command
+
+    @property
+    def command(self) -> np.ndarray:
+        """The limited joint command [rad]: what the controller is sent. Shape (n,)."""
+        return self.limiter.position

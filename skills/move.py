@@ -21,6 +21,8 @@ __all__ = ["Move"]
 
 _AT_REST_MPS = 0.005
 """TCP speed below which the arm counts as at rest [m/s]."""
+_CAUGHT_UP_RAD = 0.01
+"""The limited joint command is this close to the IK's solution: hold the solution [rad]."""
 
 
 class MoveParams(SkillParams):
@@ -136,8 +138,15 @@ class Move(Skill):
         return None
 
     def stop(self, ctx: Context) -> None:
-        # Keep tracking the last IK solution: it is where the arm is meant to be.
-        ctx.controller.hold(ctx.ik.q if self.reachable else ctx.q)
+        # Hold the IK's solution (where the arm is meant to be) once the limited command has
+        # caught up with it; if the move was cut short, hold where the command is, not jump.
+        ik = ctx.ik
+        if not self.reachable:
+            ctx.controller.hold(ctx.q)
+        elif float(np.max(np.abs(ik.q - ik.command))) <= _CAUGHT_UP_RAD:
+            ctx.controller.hold(ik.q)
+        else:
+            ctx.controller.hold(ik.command)
         ctx.ik_target = None
 
     def tcp_error(self, ctx: Context) -> tuple[float, float]:

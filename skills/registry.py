@@ -16,7 +16,7 @@ from .base import Skill
 __all__ = ["SKILLS", "UnknownSkillError", "get_skill", "skill_names"]
 
 SKILLS: dict[str, type[Skill]] = {}
-_NOT_SKILLS = {"base", "registry", "ik", "trajectory"}
+_NOT_SKILLS = {"base", "registry", "ik", "joint_limiter", "trajectory"}
 
 
 class UnknownSkillError(OrchestratorError):

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..base import Gains, Robot
 from ..exceptions import RobotError
+from ..self_collision import add_self_collision_proxies
 
 __all__ = ["Panda", "panda_urdf_path"]
 
@@ -72,8 +73,17 @@ class Panda(Robot):
         kp=np.array([600.0, 600.0, 600.0, 600.0, 250.0, 150.0, 50.0]),
         kd=np.array([50.0, 50.0, 50.0, 50.0, 20.0, 15.0, 5.0]),
     )
+    acceleration_limits: ClassVar[tuple[float, ...]] = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
+    """Franka's datasheet joint acceleration limits [rad/s^2]."""
+    jerk_limits: ClassVar[tuple[float, ...]] = (7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 1e4, 1e4)
+    """Franka's datasheet joint jerk limits [rad/s^3]."""
     shoulder_height_m: ClassVar[float] = 0.333
     reach_m: ClassVar[float] = 0.855
+    self_collision_bodies: ClassVar[tuple[str, ...]] = (
+        *(f"panda_link{i}" for i in range(8)),
+        "panda_hand",
+    )
+    """Links that get a self-collision proxy capsule (robots/self_collision.py)."""
     armature: ClassVar[float] = 0.1
     """Rotor inertia added to each arm joint in [kg m^2]; the pinocchio model has none."""
 
@@ -105,6 +115,7 @@ class Panda(Robot):
         self._add_actuators(spec)  # arm motors first: ctrl[:n_arm] are the arm torques
         self._add_gripper(spec)
         self._add_sites_and_sensors(spec)
+        add_self_collision_proxies(spec, self.name, self.self_collision_bodies, self.home)
         return spec
 
     def _add_actuators(self, spec: mujoco.MjSpec) -> None:
