@@ -52,13 +52,21 @@ def run(
     ] = None,
     rrd: Annotated[Path | None, typer.Option(help="Save a Rerun recording to this file.")] = None,
     spawn: Annotated[bool, typer.Option(help="Stream live to a spawned Rerun viewer.")] = False,
+    fault: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--fault",
+            help="Inject a fault: KIND[:KEY=VALUE,...]@WHEN, WHEN a time [s] or a state "
+            "(e.g. estop@1.5, slip:object=cube@TRANSPORT). Repeatable; see docs/safety.md.",
+        ),
+    ] = None,
 ) -> None:
     """Run one episode. Exit 0 succeeded, 1 failed, 2 invalid input, 3 aborted by a guard."""
     from .engine.runner import run_episode
     from .language.load import load_scenario
 
     try:
-        loaded = load_scenario(scenario, set_ or [])
+        loaded = load_scenario(scenario, set_ or [], fault or [])
         observers = []
         if rrd is not None or spawn:
             from .recording import RerunRecorder

@@ -27,9 +27,10 @@ class SearchParams(SkillParams):
 
 
 class Search(Skill):
-    """Simulated perception: after `duration_s`, `found` with the object's pose (plus the
-    scenario's perception noise) written to `into`, or `not_found` if the object is not in
-    view (unknown, or no longer on the table)."""
+    """The perception oracle: after `duration_s`, `found` with the object's true pose from the
+    simulator (plus the scenario's perception noise) written to `into`, or `not_found` if the
+    object is not in view (unknown, or no longer on the table). Injected perception faults
+    (`perception_miss`, `perception_offset`) apply to what it reports."""
 
     name: ClassVar[str] = "search"
     Params: ClassVar[type[SkillParams]] = SearchParams
@@ -55,8 +56,12 @@ class Search(Skill):
         noise = ctx.scenario.perception
         pos = np.asarray(true.pos) + ctx.rng.normal(0.0, noise.position_noise_m, 3) * [1, 1, 0]
         yaw = true.yaw + ctx.rng.normal(0.0, math.radians(noise.yaw_noise_deg))
-        ctx.blackboard[self.params.into] = Pose(pos=pos.tolist(), quat=quat_from_yaw(yaw).tolist())
-        ctx.log("skill", f"search: found {name!r} at {np.round(pos, 4).tolist()}")
+        seen = ctx.perceived(Pose(pos=pos.tolist(), quat=quat_from_yaw(yaw).tolist()))
+        if seen is None:
+            ctx.log("skill", f"search: perception found no {name!r}")
+            return "not_found"
+        ctx.blackboard[self.params.into] = seen
+        ctx.log("skill", f"search: found {name!r} at {np.round(seen.pos, 4).tolist()}")
         return "found"
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -9,7 +10,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..exceptions import SkillError
+from ..world.actuators import ActuatorFault
 from ..world.pose import Pose
+from ..world.sensors import JointEncoders, PerceptionFaults, WristForceFault
+from ..world.world import as_index
 from .blackboard import Blackboard
 
 if TYPE_CHECKING:
@@ -72,6 +76,21 @@ class Context:
         """The pose the active motion skill is driving the TCP to (for guards and recording)."""
         self.planned_path: PlannedPath | None = None
         """The path the active skill is moving the TCP along (for `path_deviation`)."""
+        self.encoders = JointEncoders(
+            self.data.qpos,
+            self.data.qvel,
+            as_index(world.robot_qpos),
+            as_index(world.robot_dof),
+            world.robot.n_arm,
+            np.random.default_rng([world.seed, 0xE2C0]),
+        )
+        """The joint encoders the controller, the skills and `sensor_health` read."""
+        self.ft_fault: WristForceFault | None = None
+        """An injected fault of the wrist force sensor, if any."""
+        self.actuator_fault: ActuatorFault | None = None
+        """An injected motor fault, if any (the runner applies it to the commanded torques)."""
+        self.perception = PerceptionFaults()
+        """Perception faults; every perception skill reports through `perceived()`."""
 
     # -- time ---------------------------------------------------------------------------
     @property
@@ -82,17 +101,17 @@ class Context:
     # -- proprioception -----------------------------------------------------------------
     @property
     def q(self) -> np.ndarray:
-        """Arm joint angles [rad]. Shape (n_arm,)."""
-        return self.data.qpos[self.world.arm_qpos]
+        """Arm joint angles as the encoders read them [rad]. Shape (n_arm,); a copy."""
+        return self.encoders.read()[0][: self.robot.n_arm].copy()
 
     @property
     def qd(self) -> np.ndarray:
-        """Arm joint velocities [rad/s]. Shape (n_arm,)."""
-        return self.data.qvel[self.world.arm_dof]
+        """Arm joint velocities as the encoders read them [rad/s]. Shape (n_arm,); a copy."""
+        return self.encoders.read()[1][: self.robot.n_arm].copy()
 
     def robot_q(self) -> tuple[np.ndarray, np.ndarray]:
-        """Positions and velocities of all robot joints (arm, then fingers)."""
-        return self.data.qpos[self.world.robot_qpos], self.data.qvel[self.world.robot_dof]
+        """Positions and velocities of all robot joints (arm, then fingers), as read."""
+        return self.encoders.read()
 
     @property
     def tcp_pos(self) -> np.ndarray:
@@ -132,11 +151,18 @@ class Context:
         f0, f1, f2 = f_site.tolist()
         r = rot.tolist()
         bx, by, bz = bias.tolist()
-        return (
+        f = (
             bx - (r[0] * f0 + r[1] * f1 + r[2] * f2),
             by - (r[3] * f0 + r[4] * f1 + r[5] * f2),
             bz - (r[6] * f0 + r[7] * f1 + r[8] * f2),
         )
+        if self.ft_fault is not None:
+            return self.ft_fault.apply(f, self.data.time)
+        return f
+
+    def wrist_force_age_s(self) -> float:
+        """Time since the wrist force reading last updated [s] (its timestamp; 0 when live)."""
+        return 0.0 if self.ft_fault is None else self.ft_fault.age_s(self.data.time)
 
     def zero_wrist_force(self, offset: np.ndarray) -> None:
         """Zero the wrist sensor: `offset` [N] (world frame, shape (3,), e.g. the mean reading
@@ -145,9 +171,24 @@ class Context:
 
     # -- commands -----------------------------------------------------------------------
     def set_gripper(self, opening_m: float) -> None:
-        """Command each finger's opening [m] (0 closes with the gripper's full force)."""
+        """Command each finger's opening [m] (0 closes with the gripper's full force).
+
+        The fingers travel there at the gripper's speed (`robot.gripper_speed_mps`), as a real
+        hand does: the runner advances the setpoint every control tick (`advance_gripper`).
+        """
         self.gripper_target = float(opening_m)
-        self.data.ctrl[self.world.gripper_act] = self.gripper_target
+
+    def advance_gripper(self) -> None:
+        """Move the gripper's setpoint one control tick towards `gripper_target`."""
+        ctrl = self.data.ctrl
+        act = self.world.gripper_act
+        now = float(ctrl[act])
+        step = self.robot.gripper_speed_mps * self.dt_control
+        goal = self.gripper_target
+        if goal > now:  # opening: from where the fingers are, not from a squeezing setpoint
+            now = max(now, 0.5 * self.gripper_width)
+        if now != goal:
+            ctrl[act] = goal if abs(goal - now) <= step else now + math.copysign(step, goal - now)
 
     # -- world knowledge (ground truth; perception skills add noise) ---------------------
     def object_handle(self, name: str) -> ObjectHandle:
@@ -166,6 +207,11 @@ class Context:
             pos=q[h.qpos_adr : h.qpos_adr + 3].tolist(),
             quat=q[h.qpos_adr + 3 : h.qpos_adr + 7].tolist(),
         )
+
+    def perceived(self, pose: Pose) -> Pose | None:
+        """What perception reports for an object at `pose`: every perception skill passes its
+        result through here, so injected perception faults (a miss, an offset) reach it."""
+        return self.perception.observe(pose)
 
     # -- events -------------------------------------------------------------------------
     def log(self, kind: str, message: str, level: str = "INFO", **data: Any) -> None:

@@ -3,7 +3,9 @@
 Each machine level runs as a *region*: a `transitions.Machine` whose triggers are the outcomes
 of its states. The active state of a region runs one *activity*: a skill, a nested region
 (`machine:` or inline `states:`), or a parallel group of branches. Guards can abort from any
-state; the executor then stops every activity and enters `on_abort` or the built-in safe stop.
+state, and an e-stop outranks them all: the executor stops every activity and the arm goes
+through the controlled stop (the built-in SAFE_STOP state); once it is at rest, the machine's
+`on_abort` state runs, or SAFE_STOP holds the pose and the run ends `aborted`.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from ..guards import get_guard
 from ..guards.base import Guard, Violation
 from ..language.diagnostics import Diagnostic
 from ..language.loading import MachineNode
-from ..language.machine import ABORT, SAFE_STOP, BranchSpec, StateSpec, guard_entries
+from ..language.machine import ABORT, ESTOP, SAFE_STOP, BranchSpec, StateSpec, guard_entries
 from ..language.validation import branch_outcomes, state_outcomes
 from ..skills import Skill, get_skill
 from .blackboard import BlackboardError
@@ -40,6 +42,20 @@ class _Activity(Protocol):
     def stop(self) -> None: ...
     def leaf(self) -> str: ...
     def regions(self) -> list[_Region]: ...
+
+
+class Stopper(Protocol):
+    """The controlled stop the executor starts on an abort (engine/safety_stop.py)."""
+
+    active: bool
+    stop_time_s: float | None
+    distance_m: float
+
+    @property
+    def at_rest(self) -> bool: ...
+    def start(self, reason: str, gentle: bool = False) -> None: ...
+    def step(self) -> None: ...
+    def timed_out(self) -> bool: ...
 
 
 class _Model:
@@ -261,11 +277,11 @@ class _Region:
         return self._outcome(*finished)
 
     def abort_to(self, state: str, src: str) -> None:
-        """Stop what runs and enter `state` (the machine's `on_abort`)."""
+        """Stop what runs and enter `state` (the machine's `on_abort`), once the arm stopped."""
         self.stop()
         self.model.trigger(ABORT)
         assert self.state == state
-        self._enter(src, ABORT)
+        self._enter(src, "stopped")
 
     def _outcome(self, outcome: str, src: str) -> Finished | None:
         st = self.spec
@@ -324,16 +340,23 @@ class Executor:
         root: The machine to run.
         ctx: The episode context.
         scenario_guards: Guards active for the whole run.
-        safe_stop_s: Simulated time the built-in safe stop holds the pose before the run ends.
+        new_stop: Makes the controlled stop an abort starts (a `SafetyStop`).
+        hold_s: Simulated time the built-in safe stop holds the stopped arm before the run ends.
     """
 
     def __init__(
-        self, root: MachineNode, ctx: Context, scenario_guards: list[Guard], safe_stop_s: float
+        self,
+        root: MachineNode,
+        ctx: Context,
+        scenario_guards: list[Guard],
+        new_stop: Callable[[], Stopper],
+        hold_s: float,
     ) -> None:
         self.root = root
         self.ctx = ctx
         self.scenario_guards = scenario_guards
-        self.safe_stop_s = safe_stop_s
+        self.new_stop = new_stop
+        self.hold_s = hold_s
         self.region: _Region | None = None
         self.transitions: list[dict[str, Any]] = []
         self.retries: dict[str, int] = {}
@@ -342,8 +365,14 @@ class Executor:
         self.final_state: str | None = None
         self.final_t: float | None = None
         self.violation: Violation | None = None
+        self.violation_t: float | None = None
+        """Simulated time of the abort [s]."""
+        self.stop: Stopper | None = None
+        """The controlled stop of the abort (kept once over: its figures go to the metrics)."""
         self.safe_stop_until: float | None = None
         self.active_guards: list[Guard] = []
+        self._on_abort: str | None = None
+        """The `on_abort` state to enter once the arm is at rest (None: the built-in stop)."""
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
         for node in root.nodes():
             self._build_guards(node)
@@ -375,13 +404,17 @@ class Executor:
                 continue
             active += self._guards.get((id(region.node), None), [])
             active += self._guards.get((id(region.node), region.state), [])
+        before = {id(g) for g in self.active_guards}
+        for guard in active:
+            if id(guard) not in before:
+                guard.activate(self.ctx)
         self.active_guards = sorted(active, key=lambda g: -g.priority)
 
     # -- lifecycle ----------------------------------------------------------------------
     @property
     def leaf(self) -> str:
         """Dotted path of the innermost active state (a parallel state names itself)."""
-        if self.region is None or self.done:
+        if self.region is None or self.done or self.final_state == SAFE_STOP:
             return self.final_state or ""
         return self.region.leaf()
 
@@ -391,10 +424,22 @@ class Executor:
         self._check_end(finished)
 
     def tick(self) -> None:
-        """One control tick: timeouts (outer first), then every active skill's step."""
+        """One control tick: timeouts (outer first), then every active skill's step. During
+        the controlled stop of an abort nothing runs but the stop."""
         if self.done:
             return
-        if self.safe_stop_until is not None:
+        if self.stop is not None and self.final_state == SAFE_STOP:
+            if not (self.stop.at_rest or self.stop.timed_out()):
+                return
+            if self._on_abort is not None:
+                target, self._on_abort = self._on_abort, None
+                self.final_state = None
+                assert self.region is not None
+                self.region.abort_to(target, SAFE_STOP)
+                self._check_end(self.region.final)
+                return
+            if self.safe_stop_until is None:
+                self.safe_stop_until = self.ctx.t + self.hold_s
             if self.ctx.t >= self.safe_stop_until - _EPS:
                 self._finish("aborted", SAFE_STOP)
             return
@@ -402,11 +447,17 @@ class Executor:
         self._check_end(self.region.tick())
 
     def abort(self, violation: Violation) -> None:
-        """A guard fired: stop everything and go to `on_abort` or the built-in safe stop."""
-        if self.violation is not None or self.done or self.region is None:
+        """A guard fired: stop every activity, brake the arm to rest (SAFE_STOP), then go to
+        `on_abort` or hold and end. Later violations are ignored; an e-stop is not."""
+        if self.done or self.region is None:
+            return
+        if self.violation is not None and (
+            violation.guard != ESTOP or self.violation.guard == ESTOP
+        ):
             return
         ctx = self.ctx
         self.violation = violation
+        self.violation_t = ctx.t
         ctx.log(
             "violation",
             f"{violation.guard}: {violation.message}",
@@ -416,16 +467,28 @@ class Executor:
             limit=violation.limit,
         )
         leaf = self.leaf
-        if self.root.on_abort is not None:
-            self.region.abort_to(self.root.on_abort, leaf)
-            self._check_end(self.region.final)
-        else:
-            self.region.stop()
-            self.record(leaf, SAFE_STOP, ABORT)
-            ctx.controller.hold(ctx.q.copy())
-            self.safe_stop_until = ctx.t + self.safe_stop_s
-            self.final_state = SAFE_STOP
+        self.region.stop()
+        self.record(leaf, SAFE_STOP, ESTOP if violation.guard == ESTOP else ABORT)
+        self.final_state = SAFE_STOP
+        self.safe_stop_until = None
+        self._on_abort = self.root.on_abort if violation.guard != ESTOP else None
+        self.stop = self.new_stop()
+        self.stop.start(f"{violation.guard}: {violation.message}")
         self.changed()
+
+    def estop(self, source: str) -> None:
+        """An emergency stop: outranks every guard and any `on_abort` response."""
+        self.abort(Violation(ESTOP, f"emergency stop ({source})", None, None))
+
+    def halt(self) -> None:
+        """End the run where it is (the time limit): stop every activity. Ends `aborted` if a
+        guard had fired, else `failed`; the caller brings the arm to rest."""
+        if self.done:
+            return
+        leaf = self.leaf
+        if self.region is not None:
+            self.region.stop()
+        self._finish("aborted" if self.violation is not None else "failed", leaf)
 
     def record(self, src: str, dst: str, trigger: str, retry: int | None = None) -> None:
         """Append a transition to the result (and tell the listeners)."""

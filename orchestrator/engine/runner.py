@@ -14,14 +14,16 @@ from ..guards import get_guard
 from ..guards.base import Guard
 from ..language.load import LoadedScenario
 from ..language.loading import MachineNode, initial_values
-from ..language.machine import guard_entries
+from ..language.machine import SAFE_STOP, guard_entries
 from ..robots import Controller
 from ..skills.ik import IKSolver
 from ..world.world import World, as_index, robot_only_model
 from .blackboard import Blackboard
 from .context import Context
-from .executor import Executor
+from .executor import Executor, Stopper
+from .faults import FaultInjector
 from .result import RunResult
+from .safety_stop import SafetyStop
 from .success import evaluate
 
 __all__ = ["Observer", "run_episode"]
@@ -83,45 +85,81 @@ def run_episode(
         dt_control,
     )
     ctx.ik = IKSolver(world.robot, robot_only_model(world.robot), dt_control, scn.robot.base_pos)
-    executor = Executor(loaded.machine, ctx, make_guards(scn.guards, ctx), scn.physics.safe_stop_s)
+    safe_stop = scn.physics.safe_stop
+    executor = Executor(
+        loaded.machine,
+        ctx,
+        make_guards(scn.guards, ctx),
+        lambda: SafetyStop(ctx, safe_stop),
+        safe_stop.hold_s,
+    )
+    injector = FaultInjector(list(scn.faults), ctx, executor)
 
-    q_idx, v_idx = as_index(world.robot_qpos), as_index(world.robot_dof)
     act_idx = as_index(world.arm_act)
     # The physics step runs 500 times per simulated second: MjData's arrays are bound once
     # (they are views that never move), so the loop does no attribute lookups through MjData.
-    qpos, qvel, ctrl = data.qpos, data.qvel, data.ctrl
+    qpos, ctrl = data.qpos, data.ctrl
     warnings = data.warning.number
-    compute, mj_step = controller.compute, mujoco.mj_step
+    compute, mj_step, read_encoders = controller.compute, mujoco.mj_step, ctx.encoders.read
     time_limit = scn.physics.time_limit_s
     max_force_sq = 0.0
     timed_out = False
     diverged: str | None = None
+    end_stop: Stopper | None = None  # the controlled stop that ends the run
+    settle_until = math.inf
     for obs in observers:
         obs.on_start(ctx, executor)
     executor.start()
-    settle_until: float | None = None
+    injector.fire_due(ctx.t)  # faults at t = 0
     while True:
         if not executor.done:
             executor.tick()
         for obs in observers:
             obs.on_tick(ctx, executor)
         if executor.done:
-            if executor.outcome == "aborted":
+            abort_stop = executor.stop
+            if end_stop is None:
+                if (
+                    executor.outcome == "aborted"
+                    and executor.final_state == SAFE_STOP
+                    and (abort_stop is not None and not abort_stop.active)
+                ):
+                    break  # the safe stop brought the arm to rest and held it
+                if abort_stop is not None and abort_stop.active:
+                    end_stop = abort_stop  # the time limit fell inside the stop: finish it
+                else:
+                    end_stop = SafetyStop(ctx, safe_stop)
+                    end_stop.start("end of run", gentle=executor.violation is None)
+                settle_until = ctx.t + (0.0 if executor.violation else SETTLE_S)
+            assert end_stop is not None
+            if (end_stop.at_rest and ctx.t >= settle_until - 1e-9) or end_stop.timed_out():
                 break
-            if settle_until is None:
-                settle_until = ctx.t + SETTLE_S
-                controller.hold(controller.q_d.copy())
-            if ctx.t >= settle_until - 1e-9:
-                break
+        stop = end_stop if end_stop is not None else executor.stop
+        if stop is not None and not stop.active:
+            stop = None
         guards = executor.active_guards  # states change in tick() or abort(), never between
+        ctx.advance_gripper()
         for _ in range(n_sub):
-            ctrl[act_idx] = compute(qpos[q_idx], qvel[v_idx])
+            q_m, v_m = read_encoders()
+            tau = compute(q_m, v_m)
+            if ctx.actuator_fault is not None:
+                tau = ctx.actuator_fault.apply(tau)
+            ctrl[act_idx] = tau
             mj_step(model, data)
+            if data.time >= injector.next_t:
+                injector.fire_due(data.time)
+                guards = executor.active_guards
+                stop = executor.stop if end_stop is None else end_stop
+            if stop is not None:
+                stop.step()
+                if not stop.active:
+                    stop = None
             for guard in guards:
                 violation = guard.check(ctx)
                 if violation is not None:
                     executor.abort(violation)
                     guards = executor.active_guards  # none while the safety response runs
+                    stop = executor.stop
                     break
         ctx.tick += 1
         max_force_sq = max(max_force_sq, ctx.wrist_force_norm_sq())
@@ -129,24 +167,31 @@ def run_episode(
             diverged = f"physics diverged at t={ctx.t:.3f} s (state {executor.leaf})"
             break
         if ctx.t >= time_limit and not executor.done:
-            timed_out = True
-            break
+            timed_out = executor.violation is None
+            executor.halt()
 
-    if executor.done:
-        outcome = executor.outcome
-        final_state = executor.final_state
-    else:
-        outcome = "failed"
-        final_state = executor.leaf
+    outcome = executor.outcome or "failed"
+    final_state = executor.final_state
     success = evaluate(ctx, scn.success) if not diverged else dict.fromkeys(scn.success, False)
     if outcome == "succeeded" and not all(success.values()):
         outcome = "failed"
     metrics: dict[str, Any] = {
-        "cycle_time": round(executor.final_t, 6) if executor.final_t is not None else None,
+        "cycle_time": round(executor.final_t, 6)
+        if executor.final_t is not None and not timed_out
+        else None,
         "max_wrist_force_n": round(math.sqrt(max_force_sq), 4),
         "control_ticks": ctx.tick,
     }
     metrics.update(ctx.metrics)
+    abort_stop = executor.stop
+    if executor.violation is not None and abort_stop is not None:
+        metrics["abort_t"] = round(executor.violation_t or 0.0, 6)
+        if abort_stop.stop_time_s is not None:
+            metrics["stop_time_s"] = round(abort_stop.stop_time_s, 4)
+        metrics["stop_distance_mm"] = round(abort_stop.distance_m * 1000.0, 3)
+    if injector.injected:
+        metrics["faults"] = injector.injected
+    metrics["rest_speed_rad_s"] = round(float(np.max(np.abs(data.qvel[world.arm_dof]))), 5)
     if timed_out:
         metrics["time_limit_reached"] = True
     if diverged:

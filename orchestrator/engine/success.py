@@ -30,9 +30,9 @@ def _check(ctx: Context, c: SuccessCheck) -> bool:
         handle = ctx.world.objects[c.object]
         resting = pose.pos[2] < ctx.world.table_height + handle.half_size[2] + 0.01
         return bool(xy_err <= c.xy_tol_m and upright and resting)
-    # gripper_clear: open, and no finger geom within min_distance of the object
-    open_enough = ctx.gripper_width >= 2 * ctx.robot.gripper_open_m * 0.9
+    # gripper_clear: opened wider than the object, and no finger within min_distance of it
     handle = ctx.world.objects[c.object]
+    open_enough = ctx.gripper_width >= 2.0 * float(max(handle.half_size)) + 2.0 * c.min_distance_m
     fromto = np.zeros(6)
     for g in ctx.world.finger_geoms:
         dist = mujoco.mj_geomDistance(

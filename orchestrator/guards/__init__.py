@@ -4,14 +4,31 @@ from __future__ import annotations
 
 from ..exceptions import OrchestratorError
 from .base import Guard
+from .collision import Collision
 from .contact_force import ContactForce
+from .grasp_lost import GraspLost
 from .joint_limits import JointLimits
+from .joint_torque import JointTorque
+from .joint_velocity import JointVelocity
 from .no_go_zone import NoGoZone
 from .path_deviation import PathDeviation
+from .sensor_health import SensorHealth
 from .workspace import Workspace
 
 GUARDS: dict[str, type[Guard]] = {
-    g.name: g for g in (JointLimits, Workspace, ContactForce, NoGoZone, PathDeviation)
+    g.name: g
+    for g in (
+        JointLimits,
+        Workspace,
+        ContactForce,
+        NoGoZone,
+        PathDeviation,
+        SensorHealth,
+        Collision,
+        JointVelocity,
+        JointTorque,
+        GraspLost,
+    )
 }
 
 
@@ -31,7 +48,12 @@ def get_guard(name: str) -> type[Guard]:
 
 __all__ = [
     "GUARDS",
+    "Collision",
     "ContactForce",
+    "GraspLost",
+    "JointTorque",
+    "JointVelocity",
+    "SensorHealth",
     "JointLimits",
     "NoGoZone",
     "PathDeviation",

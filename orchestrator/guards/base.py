@@ -57,6 +57,10 @@ class Guard(abc.ABC):
     def bind(self, ctx: Context) -> None:  # noqa: B027 - optional hook
         """Prepare for a run (look up indices, read limits from the model)."""
 
+    def activate(self, ctx: Context) -> None:  # noqa: B027 - optional hook
+        """The guard becomes active (its state or machine was entered): reset what it
+        measures over time (a duration above a limit, a reference taken on entry)."""
+
     @abc.abstractmethod
     def check(self, ctx: Context) -> Violation | None:
         """None while safe, else the violation."""

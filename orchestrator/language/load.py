@@ -13,11 +13,12 @@ from ..exceptions import ConfigError
 from .blackboard_types import check_type
 from .bundled import bundled_names, resolve_file
 from .diagnostics import Diagnostic
+from .faults import parse_fault_spec
 from .loading import MachineNode, load_machine_file
 from .overrides import apply_override, parse_override
 from .pydantic_errors import diagnostics_from_validation
 from .scenario import Scenario
-from .scenario_checks import check_scenario_refs, check_scene_names
+from .scenario_checks import check_faults, check_scenario_refs, check_scene_names
 from .validation import blackboard_types, validate_guards, validate_machine
 from .yamlio import SourceMap, load_yaml
 
@@ -38,8 +39,15 @@ class LoadedScenario:
         return self.scenario.name
 
 
-def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenario:
+def load_scenario(
+    ref: str, overrides: list[str] | None = None, faults: list[str] | None = None
+) -> LoadedScenario:
     """Load and validate a scenario by path or bundled name.
+
+    Args:
+        ref: A scenario file or a bundled name.
+        overrides: `--set KEY=VALUE` texts.
+        faults: `--fault SPEC` texts, added to the scenario's `faults:`.
 
     Raises:
         ConfigError: With every problem found in the scenario, its machine and the overrides.
@@ -85,6 +93,16 @@ def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenari
     types = blackboard_types(machine) if machine else {}
     keys = set(types)
     overridden: dict[str, str] = {}
+    """Path of a value set on the command line -> the option that set it (`--set k=v`)."""
+    for text in faults or []:
+        raw = parse_fault_spec(text)
+        if isinstance(raw, Diagnostic):
+            problems.append(raw)
+            continue
+        listed = data.setdefault("faults", [])
+        if isinstance(listed, list):
+            overridden[f"faults[{len(listed)}]"] = f"--fault {text}"
+            listed.append(raw)
     for text in overrides or []:
         ov = parse_override(text)
         if isinstance(ov, Diagnostic):
@@ -97,7 +115,7 @@ def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenari
             dotted = ".".join(ov.path)
             overridden[
                 "blackboard." + dotted if len(ov.path) == 1 and dotted in keys else dotted
-            ] = text
+            ] = f"--set {text}"
     scenario: Scenario | None = None
     try:
         scenario = Scenario.model_validate(data)
@@ -114,6 +132,7 @@ def load_scenario(ref: str, overrides: list[str] | None = None) -> LoadedScenari
         problems += validate_guards(raw_guards, doc.source, ("guards",))
     if scenario is not None and machine is not None and not problems:
         problems += check_scene_names(machine, scenario, doc.source)
+        problems += check_faults(machine, scenario, doc.source, _arm_joints(scenario))
     if scenario is not None:
         problems += check_scenario_refs(scenario, doc.source)
         if machine is not None:
@@ -172,16 +191,24 @@ def load_machine(ref: str, base_dir: Path | None = None) -> MachineNode:
 
 
 def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagnostic:
-    """Blame a `--set` override, not the scenario file, for problems in what it set."""
+    """Blame a `--set` or `--fault` option, not the scenario file, for what it set."""
     if diag.file != file:
         return diag
-    for path, text in overridden.items():
+    for path, origin in overridden.items():
         if (
             diag.path == path
             or diag.path.startswith(path + ".")
             or diag.path.startswith(path + "[")
         ):
+            option = origin.split(" ", 1)[0]
             return Diagnostic(
-                "<--set>", 0, 0, diag.path, f"{diag.message} (from --set {text})", diag.valid
+                f"<{option}>", 0, 0, diag.path, f"{diag.message} (from {origin})", diag.valid
             )
     return diag
+
+
+def _arm_joints(scenario: Scenario) -> int:
+    from ..robots import ROBOTS
+
+    cls = ROBOTS.get(scenario.robot.name)
+    return len(cls.arm_joints) if cls is not None else 64

@@ -8,6 +8,7 @@ from pydantic import BaseModel, ConfigDict, Field, NonNegativeInt, PositiveFloat
 
 __all__ = [
     "ABORT",
+    "ESTOP",
     "SAFE_STOP",
     "BLACKBOARD_TYPES",
     "BlackboardKey",
@@ -21,7 +22,9 @@ __all__ = [
 ABORT = "abort"
 """The trigger of the transition a guard violation fires from any state."""
 SAFE_STOP = "SAFE_STOP"
-"""The built-in state a guard violation leads to when the machine names no `on_abort`."""
+"""The built-in state of the controlled stop every abort goes through first."""
+ESTOP = "estop"
+"""The emergency stop: a built-in event of every machine and the reason's guard name."""
 
 BLACKBOARD_TYPES = ("any", "str", "int", "float", "bool", "vec3", "pose", "list", "dict")
 BlackboardType = Literal["any", "str", "int", "float", "bool", "vec3", "pose", "list", "dict"]

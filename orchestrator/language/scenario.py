@@ -6,6 +6,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validator
 
+from .faults import Fault
 from .machine import GuardRef
 
 __all__ = [
@@ -15,6 +16,7 @@ __all__ = [
     "Phantom",
     "Physics",
     "RobotRef",
+    "SafeStop",
     "Scenario",
     "SceneSpec",
     "SuccessCheck",
@@ -218,14 +220,46 @@ class SceneSpec(_Strict):
         return self
 
 
+class SafeStop(_Strict):
+    """The controlled stop every abort, e-stop and end of run goes through.
+
+    The arm decelerates from its measured velocity to standstill along a synchronized
+    constant-deceleration profile (all joints stop together, the slowest at
+    `max_decel_rad_s2`), then holds the reached pose under gravity-compensated, damped joint
+    impedance. A joint that cannot follow the profile (a lost or weak motor) gets its holding
+    brake. At the defaults the Panda stops from 2 rad/s in 133 ms.
+    """
+
+    max_decel_rad_s2: PositiveFloat = Field(
+        default=15.0, ge=1.0, le=100.0, description="Deceleration of the slowest joint [rad/s^2]."
+    )
+    hold_s: float = Field(
+        default=0.3,
+        ge=0.0,
+        le=1e6,
+        description="Time the built-in safe stop holds the stopped pose before the run ends [s].",
+    )
+    rest_speed_rad_s: PositiveFloat = Field(
+        default=0.05,
+        le=1.0,
+        description="Joint speed below which the arm counts as at rest [rad/s].",
+    )
+    max_stop_s: PositiveFloat = Field(
+        default=2.0,
+        le=60.0,
+        description="Longest the stop may take before the run ends anyway (reported) [s].",
+    )
+
+
 class Physics(_Strict):
     timestep_s: PositiveFloat = Field(default=0.002, le=0.01, description="Physics step [s].")
     control_hz: PositiveFloat = Field(default=100.0, le=1000.0, description="Control rate [Hz].")
     time_limit_s: PositiveFloat = Field(
         default=30.0, description="Simulated time after which the run ends `failed`."
     )
-    safe_stop_s: PositiveFloat = Field(
-        default=0.3, description="Simulated time kept running after an abort, holding the pose."
+    safe_stop: SafeStop = Field(
+        default_factory=SafeStop,
+        description="The controlled stop after an abort, an e-stop or at the end of a run.",
     )
 
 
@@ -233,8 +267,8 @@ class SuccessCheck(_Strict):
     """A named success criterion, evaluated once at the end of the run.
 
     `object_at`: the object rests within `xy_tol_m` of the marker centre and is upright within
-    `upright_tol_deg`. `gripper_clear`: the gripper is open and its fingers at least
-    `min_distance_m` from the object.
+    `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and its
+    fingers are at least `min_distance_m` from it.
     """
 
     kind: Literal["object_at", "gripper_clear"]
@@ -311,3 +345,6 @@ class Scenario(_Strict):
     success: dict[str, SuccessCheck] = Field(default_factory=dict)
     physics: Physics = Field(default_factory=Physics)
     perception: Perception = Field(default_factory=Perception)
+    faults: list[Fault] = Field(
+        default_factory=list, description="Faults injected into the run (see docs/safety.md)."
+    )

@@ -12,7 +12,16 @@ from .refs import parse_ref
 from .scenario import Scenario
 from .yamlio import SourceMap
 
-__all__ = ["check_scenario_refs", "check_scene_names"]
+__all__ = ["check_faults", "check_scenario_refs", "check_scene_names", "scene_bodies"]
+
+
+def scene_bodies(scenario: Scenario) -> list[str]:
+    """Names of the scene's bodies a robot can touch: the world (floor, fixed obstacles), the
+    table, the phantom and the free objects."""
+    out = ["world", "table"]
+    if scenario.scene.phantom is not None:
+        out.append(scenario.scene.phantom.name)
+    return out + [o.name for o in scenario.scene.objects]
 
 
 def check_scene_names(
@@ -28,6 +37,7 @@ def check_scene_names(
         "object": ("scene object", objects),
         "target": ("object or marker", objects + [m.name for m in scenario.scene.markers]),
         "zone": ("no-go zone", [z.name for z in getattr(scenario.scene, "zones", [])]),
+        "body": ("scene body", scene_bodies(scenario)),
     }
     values = initial_values(machine, scenario.blackboard)
 
@@ -102,4 +112,39 @@ def check_scenario_refs(scenario: Scenario, src: SourceMap) -> list[Diagnostic]:
                 ("robot", "name"), f"unknown robot {scenario.robot.name!r}", tuple(sorted(ROBOTS))
             )
         )
+    return out
+
+
+def check_faults(
+    machine: MachineNode, scenario: Scenario, source: SourceMap, n_arm: int
+) -> list[Diagnostic]:
+    """Faults name states of the machine, objects of the scene and joints of the robot."""
+    out = []
+    states = {path for path, _, _ in machine.walk()}
+    objects = [o.name for o in scenario.scene.objects]
+    for i, fault in enumerate(scenario.faults):
+        at = ("faults", i)
+        if fault.on_enter is not None and fault.on_enter not in states:
+            out.append(
+                source.diag(
+                    (*at, "on_enter"),
+                    f"no state {fault.on_enter!r} in machine {machine.name!r}",
+                    tuple(sorted(states)),
+                )
+            )
+        obj = getattr(fault, "object", None)
+        if obj is not None and obj not in objects:
+            none = "" if objects else "; it has no free objects at all"
+            out.append(
+                source.diag((*at, "object"), f"no scene object {obj!r}{none}", tuple(objects))
+            )
+        joint = getattr(fault, "joint", None)
+        if joint is not None and joint > n_arm:
+            out.append(
+                source.diag(
+                    (*at, "joint"),
+                    f"joint {joint} is not an arm joint of robot {scenario.robot.name!r}",
+                    tuple(str(j) for j in range(1, n_arm + 1)),
+                )
+            )
     return out

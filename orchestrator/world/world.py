@@ -11,6 +11,8 @@ import numpy as np
 
 from ..robots import Robot, get_robot
 from ..robots.tool import Tool, mount_tool
+from .contacts import ContactSensor, add_contact_sensors, bind_contact_sensors
+from .faults import FaultEffects, add_fault_obstacles
 from .phantom import (
     PhantomHandle,
     add_phantom_scene,
@@ -59,7 +61,14 @@ class World:
     Build with `World.build(scenario, seed)`: the seed fixes the randomized object poses.
     """
 
-    def __init__(self, scenario: Scenario, seed: int, robot: Robot, model: mujoco.MjModel) -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        seed: int,
+        robot: Robot,
+        model: mujoco.MjModel,
+        contact_sensors: list[ContactSensor] | None = None,
+    ) -> None:
         self.scenario = scenario
         self.seed = seed
         self.robot = robot
@@ -77,6 +86,8 @@ class World:
         self.arm_act = np.array(
             [m.actuator(j.replace("joint", "motor")).id for j in robot.arm_joints]
         )
+        self.arm_effort_limit = m.actuator_ctrlrange[self.arm_act, 1].copy()
+        """Torque limit of each arm joint's motor [Nm]. Shape (n_arm,)."""
         self.gripper_act = m.actuator(robot.gripper_actuator).id
         self.tcp_site = m.site(robot.tcp_site).id
         self.wrist_site = m.site(robot.wrist_site).id
@@ -118,6 +129,17 @@ class World:
         self.zones: dict[str, int] = {z.name: m.geom(z.name).id for z in scenario.scene.zones}
         """No-go zone name -> its (collision-free) box geom."""
         self.home = np.array(robot.home, dtype=float)
+        self.contact_sensors: tuple[ContactSensor, ...] = bind_contact_sensors(
+            m, contact_sensors or []
+        )
+        """The contact sensors the `collision` guard reads (world/contacts.py)."""
+        self.effects = FaultEffects(
+            m,
+            self.data,
+            {n: (h.body_id, h.geom_id) for n, h in self.objects.items()},
+            self.finger_geoms,
+        )
+        """Changes faults make to the running world (an obstacle appears, a grip slips)."""
         self.reset()
 
     @classmethod
@@ -137,9 +159,22 @@ class World:
         spec.body(robot.root_body).pos = scenario.robot.base_pos
         add_scene(spec, scenario, seed)
         add_phantom_scene(spec, scenario, seed)
+        add_fault_obstacles(spec, scenario)
+        tool: Tool | None = getattr(robot, "tool", None)
+        sensors = add_contact_sensors(
+            spec, robot.root_body, robot.finger_bodies, f"{tool.name}_tip" if tool else None
+        )
         model = spec.compile()
         set_tissue_stiffness(model, scenario, seed, robot)
-        return cls(scenario, seed, robot, model)
+        return cls(scenario, seed, robot, model, sensors)
+
+    def engage_brake(self, joint: int, torque_nm: float | None = None) -> None:
+        """Engage the holding brake of arm joint `joint` (0-based): a dry friction of
+        `torque_nm` (default: the joint's torque limit) that holds it where it is."""
+        dof = int(self.arm_dof[joint])
+        self.model.dof_frictionloss[dof] = (
+            float(self.arm_effort_limit[joint]) if torque_nm is None else torque_nm
+        )
 
     def reset(self) -> None:
         """Robot at home with the gripper open, objects at their seeded poses, at rest."""

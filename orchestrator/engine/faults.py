@@ -1,0 +1,117 @@
+"""The fault injector: starts a scenario's faults at their time or on entering their state.
+
+The runner calls `fire_due` from the physics step only when simulated time has reached
+`next_t` (one float comparison per step), so a run without faults pays nothing.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..language import faults as F
+from ..world.actuators import ActuatorFault
+from ..world.sensors import WristForceFault
+
+if TYPE_CHECKING:
+    from ..language.faults import Fault
+    from .context import Context, Event
+    from .executor import Executor
+
+__all__ = ["FaultInjector"]
+
+
+class FaultInjector:
+    """Schedules and applies the faults of one episode.
+
+    Args:
+        faults: The scenario's `faults:` (command-line faults included).
+        ctx: The episode context (sensors, actuators, perception, the world's effects).
+        executor: For the e-stop.
+    """
+
+    def __init__(self, faults: list[Fault], ctx: Context, executor: Executor) -> None:
+        self.ctx, self.executor = ctx, executor
+        self._queue: list[tuple[float, int, Callable[[], None]]] = []
+        self._seq = 0
+        self._on_enter: dict[str, list[tuple[int, Fault]]] = {}
+        self.injected: list[dict[str, Any]] = []
+        """`{index, kind, t}` of every fault started, in order."""
+        for i, fault in enumerate(faults):
+            if fault.at is not None:
+                self._schedule(fault.at, self._starter(i, fault))
+            else:
+                assert fault.on_enter is not None
+                self._on_enter.setdefault(fault.on_enter, []).append((i, fault))
+        if self._on_enter:
+            ctx.listeners.append(self._on_event)
+
+    @property
+    def next_t(self) -> float:
+        """Simulated time of the next thing to do [s] (inf: nothing scheduled)."""
+        return self._queue[0][0] if self._queue else math.inf
+
+    def fire_due(self, t: float) -> None:
+        """Apply everything scheduled up to `t` [s]."""
+        while self._queue and self._queue[0][0] <= t + 1e-12:
+            _, _, action = heapq.heappop(self._queue)
+            action()
+
+    def _schedule(self, t: float, action: Callable[[], None]) -> None:
+        heapq.heappush(self._queue, (t, self._seq, action))
+        self._seq += 1
+
+    def _on_event(self, event: Event) -> None:
+        if event.kind != "transition" or not event.data:
+            return
+        path = str(event.data["transition"]["to"]).split(".")
+        for depth in range(1, len(path) + 1):
+            for i, fault in self._on_enter.pop(".".join(path[:depth]), []):
+                self._schedule(event.t + fault.delay_s, self._starter(i, fault))
+
+    def _starter(self, index: int, fault: Fault) -> Callable[[], None]:
+        return lambda: self._start(index, fault)
+
+    def _start(self, index: int, fault: Fault) -> None:
+        ctx, t = self.ctx, self.ctx.t
+        self.injected.append({"index": index, "kind": fault.kind, "t": round(t, 6)})
+        ctx.log("fault", f"fault {fault.kind} injected ({fault.when})", level="WARN")
+        effects = ctx.world.effects
+        if isinstance(fault, F.EStop):
+            self.executor.estop(f"injected at t={t:.3f} s")
+        elif isinstance(fault, (F.FtDropout, F.FtNan)):
+            ctx.ft_fault = WristForceFault(fault.kind, t, (0.0, 0.0, 0.0), math.inf)
+        elif isinstance(fault, F.FtBias):
+            fx, fy, fz = fault.force_n
+            ctx.ft_fault = WristForceFault(fault.kind, t, (fx, fy, fz), math.inf)
+        elif isinstance(fault, F.FtSpike):
+            fx, fy, fz = fault.force_n
+            end = t + fault.duration_ms / 1000.0
+            ctx.ft_fault = WristForceFault(fault.kind, t, (fx, fy, fz), end)
+        elif isinstance(fault, F.EncoderNoise):
+            ctx.encoders.inject(fault.kind, fault.joint, fault.std_rad)
+        elif isinstance(fault, (F.EncoderFreeze, F.EncoderNan)):
+            ctx.encoders.inject(fault.kind, fault.joint)
+        elif isinstance(fault, (F.ActuatorSaturate, F.ActuatorLost)):
+            j = fault.joint - 1
+            fraction = fault.fraction if isinstance(fault, F.ActuatorSaturate) else 0.0
+            limit = float(ctx.world.arm_effort_limit[j])
+            ctx.actuator_fault = ActuatorFault(fault.kind, j, limit, fraction)
+        elif isinstance(fault, F.ObstacleFault):
+            effects.show_obstacle(index)
+        elif isinstance(fault, F.Slip):
+            effects.slip(fault.object, fault.factor)
+        elif isinstance(fault, F.Push):
+            force, obj = np.asarray(fault.force_n, float), fault.object
+            effects.push(obj, force)
+            self._schedule(t + fault.duration_ms / 1000.0, lambda: effects.end_push(obj, force))
+        elif isinstance(fault, F.PerceptionMiss):
+            ctx.perception.miss(fault.count)
+        elif isinstance(fault, F.PerceptionOffset):
+            ctx.perception.shift(np.asarray(fault.offset_m, float), fault.count)
+        else:  # pragma: no cover - the language's union lists every kind
+            raise ValueError(f"unknown fault kind {fault.kind!r}")

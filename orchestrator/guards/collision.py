@@ -1,0 +1,101 @@
+"""`collision`: the robot touches nothing it is not meant to touch.
+
+Read from the world's contact sensors (world/contacts.py), counted by MuJoCo during the step:
+the guard reads one small block of numbers per physics step. A collision is any contact of
+
+* a link or the hand with anything (the scene, or another link: each link carries a
+  self-collision proxy capsule);
+* an end-effector contact element (a finger, a mounted tool) with anything but what it is
+  meant to touch: the scene's free objects, the tissue phantom, and the names in `allow`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+from pydantic import Field
+
+from .base import Guard, GuardParams, Violation
+
+if TYPE_CHECKING:
+    from ..engine.context import Context
+    from ..world.contacts import ContactSensor
+
+__all__ = ["Collision"]
+
+
+class CollisionParams(GuardParams):
+    allow: list[str] = Field(
+        default_factory=list,
+        description="Scene bodies the end effector (fingers, a tool) may also touch "
+        "(`table`, an obstacle, ...), besides free objects and the phantom.",
+        json_schema_extra={"scene_ref": "body"},
+    )
+
+
+class Collision(Guard):
+    """Fires on a contact between the robot and something it may not touch (see above)."""
+
+    name: ClassVar[str] = "collision"
+    Params: ClassVar[type[GuardParams]] = CollisionParams
+    priority: ClassVar[int] = 2
+
+    params: CollisionParams
+
+    def bind(self, ctx: Context) -> None:
+        sensors = ctx.world.contact_sensors
+        w = ctx.world
+        touchable = set(w.objects) | set(self.params.allow)
+        if w.phantom is not None:
+            touchable.add(w.phantom.name)
+        self._sensors: tuple[ContactSensor, ...] = sensors
+        if not sensors:
+            self._block = None
+            return
+        lo = min(s.adr for s in sensors)
+        hi = max(s.adr for s in sensors) + 1
+        mask = np.zeros(hi - lo)
+        for s in sensors:
+            if not (s.end_effector and s.partner in touchable):
+                mask[s.adr - lo] = 1.0
+        self._lo = lo
+        self._mask = mask
+        self._block = ctx.data.sensordata[lo:hi]  # a view: MjData never reallocates
+
+    def check(self, ctx: Context) -> Violation | None:
+        if self._block is None or not self._block.dot(self._mask):
+            return None
+        return self._violation(ctx)
+
+    def _violation(self, ctx: Context) -> Violation:
+        assert self._block is not None
+        hits = [
+            s
+            for s in self._sensors
+            if self._mask[s.adr - self._lo] and self._block[s.adr - self._lo]
+        ]
+        what = [f"{s.robot} ~ {s.partner or self._partner(ctx, s.robot)}" for s in hits]
+        return Violation(
+            self.name,
+            "robot contact with " + ", ".join(what),
+            what,
+            "no contact",
+        )
+
+    @staticmethod
+    def _partner(ctx: Context, robot_side: str) -> str:
+        """Name what `robot_side` (a body or geom name) touches, from MuJoCo's contact list."""
+        m, d = ctx.model, ctx.data
+        names = []
+        for i in range(d.ncon):
+            g1, g2 = int(d.contact.geom[i][0]), int(d.contact.geom[i][1])
+            for mine, other in ((g1, g2), (g2, g1)):
+                body = m.body(int(m.geom_bodyid[mine])).name
+                if robot_side in (body, m.geom(mine).name):
+                    names.append(m.geom(other).name or m.body(int(m.geom_bodyid[other])).name)
+        return "/".join(sorted(set(names))) or "?"
+
+    def monitored(self, ctx: Context) -> tuple[float, float]:
+        hits = 0.0 if self._block is None else float(self._block.dot(self._mask))
+        return hits, 0.0

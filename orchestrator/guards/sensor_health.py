@@ -1,0 +1,101 @@
+"""`sensor_health`: the sensors the controller relies on tell the truth.
+
+* Wrist force/torque sensor: its reading must be finite, within the sensor's measuring range,
+  and fresh (its timestamp advances: a dropped-out sensor repeats a stale value).
+* Joint encoders: each must agree with the joint's independent safety encoder (a frozen,
+  noisy or dead encoder disagrees as soon as the joint moves).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, ClassVar
+
+from pydantic import Field, PositiveFloat
+
+from .base import Guard, GuardParams, Violation
+
+if TYPE_CHECKING:
+    from ..engine.context import Context
+
+__all__ = ["SensorHealth"]
+
+
+class SensorHealthParams(GuardParams):
+    ft_range_n: PositiveFloat = Field(
+        default=100.0, le=1e4, description="Measuring range of the wrist force sensor [N]."
+    )
+    ft_stale_ms: PositiveFloat = Field(
+        default=10.0, le=1e4, description="Longest a wrist force reading may stay unchanged [ms]."
+    )
+    encoder_tolerance_rad: PositiveFloat = Field(
+        default=0.01,
+        le=1.0,
+        description="Largest disagreement of a joint encoder with its safety encoder [rad].",
+    )
+
+
+class SensorHealth(Guard):
+    """Fires on a non-finite, out-of-range or stale wrist force reading, or a joint encoder
+    that disagrees with its safety encoder by more than `encoder_tolerance_rad`."""
+
+    name: ClassVar[str] = "sensor_health"
+    Params: ClassVar[type[GuardParams]] = SensorHealthParams
+    priority: ClassVar[int] = 3
+    """Before the guards that act on these readings: a bad reading is a sensor fault first."""
+
+    params: SensorHealthParams
+
+    def bind(self, ctx: Context) -> None:
+        p = self.params
+        self._range_sq = p.ft_range_n * p.ft_range_n
+        self._stale_s = p.ft_stale_ms / 1000.0
+        self._tol = p.encoder_tolerance_rad
+        self._n = ctx.robot.n_arm
+        self._safety_q = ctx.data.qpos[ctx.world.arm_qpos_index]  # a view: never reallocated
+
+    def check(self, ctx: Context) -> Violation | None:
+        norm_sq = ctx.wrist_force_norm_sq()
+        if not norm_sq <= self._range_sq:  # NaN compares false too
+            return self._ft(norm_sq)
+        age = ctx.wrist_force_age_s()
+        if age > self._stale_s:
+            return Violation(
+                self.name,
+                f"wrist force sensor stale: no new reading for {age * 1000:.0f} ms",
+                round(age * 1000, 3),
+                self.params.ft_stale_ms,
+            )
+        q = ctx.encoders.read()[0]
+        tol = self._tol
+        safety = self._safety_q.tolist()
+        for i, (a, b) in enumerate(zip(q[: self._n].tolist(), safety, strict=True)):
+            if not abs(a - b) <= tol:
+                return self._encoder(i, a, b)
+        return None
+
+    def _ft(self, norm_sq: float) -> Violation:
+        if not math.isfinite(norm_sq):
+            return Violation(self.name, "wrist force sensor reads a non-finite value", None, None)
+        norm = math.sqrt(norm_sq)
+        return Violation(
+            self.name,
+            f"wrist force {norm:.1f} N is beyond the sensor's range {self.params.ft_range_n} N",
+            round(norm, 3),
+            self.params.ft_range_n,
+        )
+
+    def _encoder(self, i: int, a: float, b: float) -> Violation:
+        if not math.isfinite(a):
+            return Violation(self.name, f"joint {i + 1} encoder reads a non-finite value", None, 0)
+        diff = abs(a - b)
+        return Violation(
+            self.name,
+            f"joint {i + 1} encoder ({a:.4f} rad) disagrees with its safety encoder "
+            f"({b:.4f} rad) by {diff:.4f} rad",
+            round(diff, 6),
+            self._tol,
+        )
+
+    def monitored(self, ctx: Context) -> tuple[float, float]:
+        return math.sqrt(ctx.wrist_force_norm_sq()), self.params.ft_range_n

@@ -1,0 +1,118 @@
+"""Contact sensors that tell the robot's contacts apart, for the `collision` guard.
+
+MuJoCo's contact sensors count matching contacts in C during the step, so the guard only
+reads a few numbers per physics step instead of walking the contact list in Python.
+
+* Every robot body with collision geometry except the end effector (the fingers, a tool) gets
+  one sensor counting its contacts with anything: each is a collision (with the scene, or —
+  through the self-collision proxies — with another link).
+* The end effector's contact elements (each finger; a tool's geoms) get one sensor per scene
+  body: the guard decides which of those partners they may touch (free objects for the
+  fingers, the phantom for a tool, plus the guard's `allow` list).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+__all__ = ["ContactSensor", "add_contact_sensors", "bind_contact_sensors", "contact_addresses"]
+
+_FOUND = [1, 0, 1]
+"""Contact sensor data spec: `found` (the number of matching contacts), no reduction, 1."""
+
+
+@dataclass(frozen=True)
+class ContactSensor:
+    """One contact sensor of the compiled model.
+
+    Attributes:
+        name: Sensor name.
+        robot: The robot side (a body or geom name).
+        partner: The scene body it counts contacts with, or None for anything.
+        end_effector: The robot side is an end-effector contact element (a finger, a tool tip).
+        adr: Address of its value in `MjData.sensordata` (-1 until compiled).
+    """
+
+    name: str
+    robot: str
+    partner: str | None
+    end_effector: bool
+    adr: int = -1
+
+
+def _add(spec, name, objtype, objname, partner) -> None:
+    s = spec.add_sensor(name=name, type=mujoco.mjtSensor.mjSENS_CONTACT)
+    s.objtype, s.objname = objtype, objname
+    if partner is not None:
+        s.reftype, s.refname = mujoco.mjtObj.mjOBJ_BODY, partner
+    s.intprm[:3] = _FOUND
+
+
+def add_contact_sensors(
+    spec: mujoco.MjSpec,
+    robot_root: str,
+    finger_bodies: tuple[str, ...],
+    tool_tip: str | None,
+) -> list[ContactSensor]:
+    """Add the contact sensors (after the whole scene is in `spec`).
+
+    Args:
+        spec: The whole model.
+        robot_root: The robot's first body.
+        finger_bodies: The gripper's fingers.
+        tool_tip: The tip geom of a mounted tool (its body's geoms are the tool), or None.
+    """
+    robot: set[str] = set()
+    stack = [spec.body(robot_root)]
+    while stack:
+        body = stack.pop()
+        robot.add(body.name)
+        stack.extend(body.bodies)
+    scene = ["world"] + [b.name for b in spec.bodies if b.name not in robot and b.name != "world"]
+    out: list[ContactSensor] = []
+
+    def sensor(robot_side: str, partner: str | None, ee: bool, geom: bool) -> None:
+        name = f"contact__{robot_side}__{partner or 'any'}"
+        objtype = mujoco.mjtObj.mjOBJ_GEOM if geom else mujoco.mjtObj.mjOBJ_BODY
+        _add(spec, name, objtype, robot_side, partner)
+        out.append(ContactSensor(name, robot_side, partner, ee))
+
+    for body in spec.bodies:
+        if body.name not in robot or not body.geoms:
+            continue
+        if body.name in finger_bodies:
+            for partner in scene:
+                sensor(body.name, partner, True, geom=False)
+            continue
+        if tool_tip is not None and tool_tip in [g.name for g in body.geoms]:
+            for g in body.geoms:  # the tool: its tip, and its shaft pressed into tissue
+                for partner in scene:
+                    sensor(g.name, partner, True, geom=True)
+            continue
+        sensor(body.name, None, False, geom=False)
+    return out
+
+
+def bind_contact_sensors(
+    model: mujoco.MjModel, sensors: list[ContactSensor]
+) -> tuple[ContactSensor, ...]:
+    """The sensors with their `sensordata` addresses in the compiled `model`."""
+    return tuple(
+        ContactSensor(
+            s.name,
+            s.robot,
+            s.partner,
+            s.end_effector,
+            int(model.sensor_adr[model.sensor(s.name).id]),
+        )
+        for s in sensors
+    )
+
+
+def contact_addresses(sensors: tuple[ContactSensor, ...], allowed) -> np.ndarray:
+    """`sensordata` addresses of the sensors whose contacts are collisions, given `allowed(s)`
+    (True when an end-effector element may touch its partner)."""
+    return np.array([s.adr for s in sensors if not (s.end_effector and allowed(s))], dtype=int)

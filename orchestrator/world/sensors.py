@@ -1,0 +1,157 @@
+"""The robot's sensors as its software reads them: joint encoders and the wrist force sensor,
+with the faults a scenario can inject into them.
+
+Without a fault both read MuJoCo's state directly (views bound once, no copies): the physics
+step pays nothing for the possibility of a fault. A fault swaps in a corrupted reading.
+
+The joints also have a second, independent channel — the safety encoders a safety controller
+reads (the simulated ground truth stands in for it). `sensor_health` compares the two, and
+after any abort the controller switches to the safety channel (`failover`), as a real robot
+brakes on its safety encoders when its primary ones are suspect.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .pose import Pose
+
+__all__ = ["JointEncoders", "PerceptionFaults", "WristForceFault"]
+
+
+class JointEncoders:
+    """Positions and velocities of the robot's joints (arm, then fingers) as the controller
+    reads them.
+
+    Args:
+        qpos: The robot's joint positions in MjData (a view or an index-copy source).
+        qvel: The robot's joint velocities.
+        q_index: Index of the robot's joints in `qpos` (a slice when contiguous).
+        v_index: Index of the robot's dofs in `qvel`.
+        n_arm: Number of arm joints (faults address arm joints 1..n_arm).
+        rng: Random stream of encoder noise (seeded per episode).
+    """
+
+    def __init__(
+        self,
+        qpos: np.ndarray,
+        qvel: np.ndarray,
+        q_index: slice | np.ndarray,
+        v_index: slice | np.ndarray,
+        n_arm: int,
+        rng: np.random.Generator,
+    ) -> None:
+        self._qpos, self._qvel = qpos, qvel
+        self._qi, self._vi = q_index, v_index
+        self.n_arm = n_arm
+        self.rng = rng
+        self.fault: str | None = None
+        """Active fault kind (`encoder_freeze`, `encoder_noise`, `encoder_nan`) or None."""
+        self.joint = -1
+        self.std = 0.0
+        self._frozen: tuple[float, float] = (0.0, 0.0)
+        self.failed_over = False
+
+    def read(self) -> tuple[np.ndarray, np.ndarray]:
+        """Joint positions [rad] and velocities [rad/s], arm then fingers."""
+        q, v = self._qpos[self._qi], self._qvel[self._vi]
+        if self.fault is None or self.failed_over:
+            return q, v
+        q, v = q.copy(), v.copy()
+        j = self.joint
+        if self.fault == "encoder_freeze":
+            q[j], v[j] = self._frozen
+        elif self.fault == "encoder_noise":
+            q[j] += self.rng.normal(0.0, self.std)
+        else:
+            q[j] = v[j] = math.nan
+        return q, v
+
+    def safety_channel(self) -> tuple[np.ndarray, np.ndarray]:
+        """The independent safety encoders: the true joint state. Never faulty."""
+        return self._qpos[self._qi], self._qvel[self._vi]
+
+    def inject(self, kind: str, joint: int, std_rad: float = 0.0) -> None:
+        """Start a fault on arm joint `joint` (1-based)."""
+        if not 1 <= joint <= self.n_arm:
+            raise ValueError(f"joint {joint} is not an arm joint (1..{self.n_arm})")
+        self.fault, self.joint, self.std = kind, joint - 1, std_rad
+        q, v = self.safety_channel()
+        self._frozen = (float(q[self.joint]), float(v[self.joint]))
+
+    def failover(self) -> None:
+        """Read the safety channel from now on (after an abort)."""
+        self.failed_over = True
+
+
+class WristForceFault:
+    """A fault of the wrist force sensor, applied to each reading (world frame [N]).
+
+    Attributes:
+        kind: `ft_dropout`, `ft_bias`, `ft_spike` or `ft_nan`.
+        start_t: Simulated time the fault started [s].
+        end_t: When a spike ends [s] (inf for the others).
+    """
+
+    def __init__(
+        self, kind: str, start_t: float, offset: tuple[float, float, float], end_t: float
+    ) -> None:
+        self.kind, self.start_t, self.end_t = kind, start_t, end_t
+        self.offset = offset
+        self.latched: tuple[float, float, float] | None = None
+
+    def apply(self, f: tuple[float, float, float], t: float) -> tuple[float, float, float]:
+        """The reading the software gets at time `t` when the sensor measures `f`."""
+        if self.kind == "ft_nan":
+            return (math.nan, math.nan, math.nan)
+        if self.kind == "ft_dropout":
+            if self.latched is None:
+                self.latched = f
+            return self.latched
+        if t >= self.end_t:
+            return f
+        ox, oy, oz = self.offset
+        return (f[0] + ox, f[1] + oy, f[2] + oz)
+
+    def age_s(self, t: float) -> float:
+        """Time since the reading last updated [s] (the sensor's timestamp)."""
+        return t - self.start_t if self.kind == "ft_dropout" else 0.0
+
+
+class PerceptionFaults:
+    """What goes wrong with perception: misses and offsets, applied to each reported pose.
+
+    Every perception skill (the `search` oracle, the camera `detect`) passes what it reports
+    through `observe`, so a scenario's `perception_miss` / `perception_offset` faults reach all
+    of them the same way.
+    """
+
+    def __init__(self) -> None:
+        self.misses = 0
+        self.offset = np.zeros(3)
+        self.offset_left: int | None = 0
+        """Calls the offset still applies to (None: every later call)."""
+
+    def miss(self, count: int) -> None:
+        self.misses += count
+
+    def shift(self, offset_m: np.ndarray, count: int | None) -> None:
+        self.offset = np.asarray(offset_m, float)
+        self.offset_left = count
+
+    def observe(self, pose: Pose) -> Pose | None:
+        """The pose perception reports for `pose` (None: it found nothing)."""
+        if self.misses:
+            self.misses -= 1
+            return None
+        if self.offset_left == 0:
+            return pose
+        if self.offset_left is not None:
+            self.offset_left -= 1
+        return Pose(pos=(np.asarray(pose.pos) + self.offset).tolist(), quat=list(pose.quat))
+
+    @property
+    def active(self) -> bool:
+        return bool(self.misses) or self.offset_left != 0
