@@ -72,6 +72,30 @@ class _Controller:
         self.held.append(np.asarray(q).copy())
 
 
+class InstantStop:
+    """A controlled stop that is over at once (there is no arm to stop)."""
+
+    active = False
+    stop_time_s = 0.0
+    distance_m = 0.0
+
+    def __init__(self) -> None:
+        self.reasons: list[str] = []
+
+    def step(self) -> None:
+        pass
+
+    @property
+    def at_rest(self) -> bool:
+        return True
+
+    def start(self, reason: str, gentle: bool = False) -> None:
+        self.reasons.append(reason)
+
+    def timed_out(self) -> bool:
+        return False
+
+
 class FakeContext:
     """Just what the executor and the test skills touch: time, blackboard, events."""
 

@@ -26,7 +26,7 @@ from orchestrator.batch.task import EpisodeTask
 
 from .conftest import RESULT_KEYS
 
-FAIL_GRASP = "grasp_offset=[0.0, 0.12, 0.0]"
+FAIL_GRASP = "grasp_offset=[0.0, 0.0, 0.06]"  # closes above the cube: a clean miss
 """Every grasp closes on air beside the cube: the episode fails (quickly) after retries."""
 
 
@@ -203,7 +203,7 @@ def test_failing_seeds_are_listed_with_the_command_that_reruns_one(cli, tmp_path
     assert res.exit_code == 0, res.stderr  # the batch ran; the task failing is a statistic
     assert "failing seeds: 0, 1" in res.stdout
     assert (
-        "orchestrator run pick_place --seed 0 --set 'grasp_offset=[0.0, 0.12, 0.0]'" in res.stdout
+        "orchestrator run pick_place --seed 0 --set 'grasp_offset=[0.0, 0.0, 0.06]'" in res.stdout
     )
     summary = json.loads((out / "summary.json").read_text())
     assert summary["failed"] == 2 and summary["success_rate"] == 0.0

@@ -10,7 +10,7 @@ from orchestrator.engine.executor import Executor
 from orchestrator.engine.runner import initial_blackboard
 from orchestrator.language.load import load_machine
 
-from .scripted import FakeContext, Scripted, register
+from .scripted import FakeContext, InstantStop, Scripted, register
 
 
 @pytest.fixture(autouse=True)
@@ -39,7 +39,7 @@ class Driver:
     def __init__(self, node, **bb):
         self.ctx = FakeContext()
         self.ctx.blackboard = initial_blackboard(node, bb)
-        self.ex = Executor(node, self.ctx, [], safe_stop_s=0.05)
+        self.ex = Executor(node, self.ctx, [], InstantStop, hold_s=0.05)
         self.ex.start()
 
     def tick(self, n: int = 1) -> str:
@@ -273,12 +273,16 @@ def test_abort_goes_to_on_abort_from_any_state_and_ends_aborted(tmp_path):
     assert violation is None
     d.ctx.blackboard["danger"] = True
     d.ex.abort(d.ex.active_guards[0].check(d.ctx))
-    assert d.ex.leaf == "HOLD"
+    assert d.ex.leaf == "SAFE_STOP"  # the controlled stop runs first
     assert d.ex.active_guards == []  # the safety response runs unguarded
     assert Scripted.stopped[-1].startswith("b@")  # B was stopped
+    d.tick(1)
+    assert d.ex.leaf == "HOLD"  # the arm is at rest: on_abort runs
     d.run()
     assert d.ex.outcome == "aborted" and d.ex.final_state == "STOPPED"
-    assert d.ex.transitions[1] == {"t": 0.06, "from": "B", "to": "HOLD", "trigger": "abort"}
+    assert d.ex.transitions[1] == {"t": 0.06, "from": "B", "to": "SAFE_STOP", "trigger": "abort"}
+    assert d.ex.transitions[2]["from"] == "SAFE_STOP" and d.ex.transitions[2]["to"] == "HOLD"
+    assert d.ex.transitions[2]["trigger"] == "stopped"
     assert any(e.level == "ERROR" and e.kind == "violation" for e in d.ctx.events)
 
 
@@ -289,7 +293,7 @@ def test_abort_without_on_abort_holds_the_pose_in_the_safe_stop(tmp_path):
 
     d.ex.abort(Violation("flag", "test", 1, 0))
     assert d.ex.transitions[-1]["to"] == "SAFE_STOP"
-    assert len(d.ctx.controller.held) == 1
+    assert d.ex.stop is not None and d.ex.stop.reasons == ["flag: test"]  # the stop started
     d.run()
     assert d.ex.outcome == "aborted" and d.ex.final_state == "SAFE_STOP"
     assert d.ex.final_t == pytest.approx(0.02 + 0.05)

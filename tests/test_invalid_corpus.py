@@ -88,7 +88,7 @@ def test_generated_schemas_are_not_stale(kind):
 
     on_disk = (SCHEMA_DIR / f"{kind}.schema.json").read_text()
     assert on_disk == schema_text(kind), (
-        "orchestrator/schemas is stale: run `python -m orchestrator.schema_gen`"
+        "orchestrator/schemas is stale: run `python -m orchestrator.language.schema_gen`"
     )
 
 

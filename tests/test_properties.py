@@ -12,7 +12,7 @@ from orchestrator.engine.executor import Executor
 from orchestrator.engine.runner import initial_blackboard
 from orchestrator.language.load import load_machine
 
-from .scripted import FakeContext, Scripted, register
+from .scripted import FakeContext, InstantStop, Scripted, register
 
 REPO = Path(__file__).resolve().parent.parent
 OUTCOMES = ("done", "failed", "other")
@@ -85,7 +85,7 @@ def test_generated_machines_validate_and_run_to_a_final_state(tmp_path_factory, 
     node = load_machine(str(path))  # must validate
     ctx = FakeContext()
     ctx.blackboard = initial_blackboard(node, {})
-    ex = Executor(node, ctx, [], safe_stop_s=0.05)
+    ex = Executor(node, ctx, [], InstantStop, hold_s=0.05)
     ex.start()
     for _ in range(20_000):
         if ex.done:

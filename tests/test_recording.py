@@ -106,7 +106,9 @@ def test_one_geometry_entity_per_visible_geom(recorded, pick_place):
         for e, comps in recorded.static.items()
         if any(c.split(":")[0] in GEOMETRY for c in comps) and e.startswith("/world/bodies/")
     ]
-    assert len(geometry) == len(visible_geoms(model)) == model.ngeom
+    proxies = {g for g in range(model.ngeom) if model.geom(g).name.endswith("_proxy")}
+    assert proxies  # the self-collision capsules exist, hidden like MuJoCo's collision groups
+    assert len(geometry) == len(visible_geoms(model)) == model.ngeom - len(proxies)
     meshes = [e for e in geometry if "Mesh3D:vertex_positions" in recorded.static[e]]
     n_mesh_geoms = int(np.sum(model.geom_type == mujoco.mjtGeom.mjGEOM_MESH))
     assert len(meshes) == n_mesh_geoms + 1  # + the floor plane, drawn as a quad

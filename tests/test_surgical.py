@@ -125,8 +125,11 @@ def test_complication_stops_the_arm_in_150_ms_then_holds_and_backs_out(complicat
     rec = Recorder()
     result = run_episode(complication, 0, [rec])
     assert result.outcome == "aborted"
-    abort = next(t for t in result.transitions if t["trigger"] == "abort")
-    assert abort["from"] == "EXECUTE.TRACE" and abort["to"] == "SAFE_HOLD.STOP"
+    i = next(i for i, t in enumerate(result.transitions) if t["trigger"] == "abort")
+    abort, stopped = result.transitions[i], result.transitions[i + 1]
+    assert abort["from"] == "EXECUTE.TRACE" and abort["to"] == "SAFE_STOP"  # the stop first
+    assert stopped["from"] == "SAFE_STOP" and stopped["to"] == "SAFE_HOLD.STOP"
+    assert stopped["trigger"] == "stopped" and stopped["t"] - abort["t"] <= 0.15
     t_v = abort["t"]
     # stopped within 150 ms, and still for the rest of the 0.5 s hold
     hold = rec.where("SAFE_HOLD.STOP")
