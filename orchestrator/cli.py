@@ -114,6 +114,52 @@ def _print_result(result) -> None:
 
 
 @app.command()
+def faults(
+    scenario: Annotated[str, typer.Argument(help="Scenario file or bundled name.")],
+    seed: Annotated[int, typer.Option(help="The seed every row runs.")] = 0,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the rows as JSON.")] = False,
+    set_: Annotated[
+        list[str] | None,
+        typer.Option("--set", help="Override a blackboard key or scenario value (KEY=VALUE)."),
+    ] = None,
+) -> None:
+    """The fault matrix: one run per fault type, the guard that caught it and the stop.
+    Exit 0 when every row met its expectation, 1 otherwise, 2 invalid input."""
+    from .batch.fault_matrix import RowResult, run_matrix
+
+    def progress(row: RowResult) -> None:
+        if not as_json:
+            err.print(f"  {row.fault}: {row.outcome}", markup=False)
+
+    try:
+        rows = run_matrix(scenario, seed, set_ or [], on_row=progress)
+    except ConfigError as exc:
+        _fail_config(exc)
+        return
+    if as_json:
+        sys.stdout.write(json.dumps([r.to_dict() for r in rows]) + "\n")
+    else:
+        table = Table(
+            "fault", "expected", "guard", "exit", "detect [s]", "stop [s]", "stop [mm]", "",
+            box=None, pad_edge=False,
+        )  # fmt: skip
+        for r in rows:
+            mark = {True: "[green]ok[/]", False: "[red]MISMATCH[/]", None: ""}[r.ok]
+            table.add_row(
+                r.fault,
+                r.expect or "-",
+                r.guard or "-",
+                str(r.exit_code),
+                "-" if r.detect_s is None else f"{r.detect_s:.3f}",
+                "-" if r.stop_time_s is None else f"{r.stop_time_s:.3f}",
+                "-" if r.stop_distance_mm is None else f"{r.stop_distance_mm:.1f}",
+                mark,
+            )
+        out.print(table)
+    raise typer.Exit(0 if all(r.ok is not False for r in rows) else 1)
+
+
+@app.command()
 def validate(
     paths: Annotated[
         list[str], typer.Argument(help="Machine or scenario files (or bundled names).")

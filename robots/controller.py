@@ -34,7 +34,8 @@ class ControlMode(enum.Enum):
     BRAKE = "brake"
     """Controlled stop (IEC 60204-1 stop category 1, like libfranka's reflex): from the
     measured state, every joint decelerates along a synchronized constant-deceleration profile
-    to zero velocity, tracked like JOINT; then HOLD at the reached pose."""
+    to zero velocity (a velocity servo that never pushes a joint faster than it moves, so it
+    does not drive into an obstacle it hit); then HOLD at the reached pose."""
 
 
 @dataclass(frozen=True)
@@ -91,6 +92,8 @@ class Controller:
         self._lo = -self.effort_limit
         self.brake_left_s = 0.0
         """Time left on the braking profile [s] (0 once it has reached zero velocity)."""
+        self._v_ref = np.zeros(self.n)
+        self._decel = np.zeros(self.n)
 
     # -- setpoints ----------------------------------------------------------------------
     def set_joint_target(
@@ -140,6 +143,8 @@ class Controller:
         self.q_d[:] = q[:n]
         self.qd_d[:] = v0
         self.qdd_d[:] = -v0 / duration
+        self._v_ref = v0.copy()
+        self._decel = np.abs(v0) / duration
         self.brake_left_s = duration
         return duration
 
@@ -178,6 +183,8 @@ class Controller:
         elif self.mode is ControlMode.HOLD:
             g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
             tau = self.kp * (self.q_d - q[:n]) - self.kd * qd[:n] + g
+        elif self.mode is ControlMode.BRAKE:
+            tau = self._brake(q, qd)
         else:
             self._qdd_full[:n] = self.qdd_d
             ff = pin.rnea(self.model, self.data, q, qd, self._qdd_full)[:n]
@@ -185,16 +192,44 @@ class Controller:
             # the setpoint moves on between control ticks (no 100 Hz staircase)
             self.q_d += self.qd_d * self.dt
             self.qd_d += self.qdd_d * self.dt
-            if self.mode is ControlMode.BRAKE:
-                self.brake_left_s -= self.dt
-                if self.brake_left_s <= 1e-12:  # zero velocity reached: hold there
-                    self.brake_left_s = 0.0
-                    self.mode = ControlMode.HOLD
-                    self.qd_d[:] = 0.0
-                    self.qdd_d[:] = 0.0
         np.minimum(tau, self.effort_limit, out=self.tau)
         np.maximum(self.tau, self._lo, out=self.tau)
         return self.tau
+
+    def _brake(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """One step of the controlled stop: a velocity servo on the braking profile.
+
+        Each joint's speed is brought down along its profile (`_v_ref`, shrinking by `_decel`
+        every step), but never pushed: a joint already slower than its profile, or stopped
+        by an obstacle, is only asked to keep its own speed, so the stop never drives the arm
+        further into what it hit. No position spring during the stop; at its end, HOLD.
+        """
+        n = self.n
+        v = qd[:n]
+        ref = self._v_ref
+        same = np.sign(v) == np.sign(ref)
+        mag = np.minimum(np.abs(v), np.abs(ref))
+        self.qd_d[:] = np.where(same, np.sign(ref) * mag, 0.0)
+        slowing = same & (np.abs(v) > np.abs(ref))
+        self.qdd_d[:] = np.where(slowing, -np.sign(ref) * self._decel, 0.0)
+        self._qdd_full[:n] = self.qdd_d
+        ff = pin.rnea(self.model, self.data, q, qd, self._qdd_full)[:n]
+        tau = self.kd * (self.qd_d - v) + ff
+        self.q_d[:] = q[:n]
+        shrink = self._decel * self.dt
+        self._v_ref = np.sign(ref) * np.maximum(np.abs(ref) - shrink, 0.0)
+        self.brake_left_s -= self.dt
+        if self.brake_left_s <= 1e-12:  # zero velocity reached: hold where it is
+            self.brake_left_s = 0.0
+            self.mode = ControlMode.HOLD
+            self.qd_d[:] = 0.0
+            self.qdd_d[:] = 0.0
+        return tau
+
+    @property
+    def brake_profile_velocity(self) -> np.ndarray:
+        """Joint velocities the braking profile allows now [rad/s] (zero outside a stop)."""
+        return self._v_ref if self.mode is ControlMode.BRAKE else np.zeros(self.n)
 
     @property
     def clamped(self) -> np.ndarray:

@@ -75,7 +75,11 @@ class Register(Skill):
         truth = _place(model_pts, phantom.surface_pos, phantom.yaw)
         sigma = ctx.scenario.perception.position_noise_m
         noise = ctx.rng.normal(0.0, sigma, (p.samples, *truth.shape))
-        measured = truth + noise.mean(axis=0)
+        seen = [ctx.perceived(Pose(pos=pt.tolist())) for pt in truth + noise.mean(axis=0)]
+        if any(s is None for s in seen):
+            ctx.log("skill", f"register: a fiducial of {p.object!r} was not found", level="ERROR")
+            return "not_found"
+        measured = np.array([s.pos for s in seen if s is not None])
         pos, yaw = _fit(model_pts, measured)
         fre = float(np.sqrt(np.mean(np.sum((_place(model_pts, pos, yaw) - measured) ** 2, 1))))
         spec = ctx.scenario.scene.phantom

@@ -68,6 +68,8 @@ class Context:
         self.events: list[Event] = []
         self.listeners: list[Callable[[Event], None]] = []
         self._wrist_views: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._norm_sq_t = -1.0
+        self._norm_sq = 0.0
         self.metrics: dict[str, Any] = {}
         """Figures skills add to the result's `metrics` (e.g. force RMS error of a trace)."""
         self.ik: Any = None
@@ -133,9 +135,14 @@ class Context:
         return np.array(self._wrist_force_xyz())
 
     def wrist_force_norm_sq(self) -> float:
-        """Squared norm of `wrist_force()` [N^2], cheap enough for every physics step."""
-        fx, fy, fz = self._wrist_force_xyz()
-        return fx * fx + fy * fy + fz * fz
+        """Squared norm of `wrist_force()` [N^2], cheap enough for every physics step (computed
+        once per step: the guards and the runner that ask share it)."""
+        now = self.data.time
+        if now != self._norm_sq_t:
+            fx, fy, fz = self._wrist_force_xyz()
+            self._norm_sq = fx * fx + fy * fy + fz * fz
+            self._norm_sq_t = now
+        return self._norm_sq
 
     def _wrist_force_xyz(self) -> tuple[float, float, float]:
         # Plain floats on views bound once (MjData never reallocates): a 3x3 matrix-vector
@@ -160,6 +167,12 @@ class Context:
             return self.ft_fault.apply(f, self.data.time)
         return f
 
+    @property
+    def joint_torque(self) -> np.ndarray:
+        """Torque each arm joint's torque sensor measures: what its motor delivers [Nm].
+        Shape (n_arm,); a view."""
+        return self.data.actuator_force[self.world.arm_act_index]
+
     def wrist_force_age_s(self) -> float:
         """Time since the wrist force reading last updated [s] (its timestamp; 0 when live)."""
         return 0.0 if self.ft_fault is None else self.ft_fault.age_s(self.data.time)
@@ -168,6 +181,7 @@ class Context:
         """Zero the wrist sensor: `offset` [N] (world frame, shape (3,), e.g. the mean reading
         at rest with a tool mounted) is removed from every later `wrist_force()` reading."""
         self.world.wrist_bias_world -= np.asarray(offset, dtype=float)
+        self._norm_sq_t = -1.0
 
     # -- commands -----------------------------------------------------------------------
     def set_gripper(self, opening_m: float) -> None:

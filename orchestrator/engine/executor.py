@@ -371,6 +371,8 @@ class Executor:
         """The controlled stop of the abort (kept once over: its figures go to the metrics)."""
         self.safe_stop_until: float | None = None
         self.active_guards: list[Guard] = []
+        self.active_checks: tuple[Callable[[Context], Violation | None], ...] = ()
+        """The bound `check` of each active guard, in priority order (the physics step's)."""
         self._on_abort: str | None = None
         """The `on_abort` state to enter once the arm is at rest (None: the built-in stop)."""
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
@@ -397,6 +399,7 @@ class Executor:
         """A state changed somewhere: recompute which guards are active."""
         if self.violation is not None or self.region is None:
             self.active_guards = []  # the safety response runs; do not re-fire
+            self.active_checks = ()
             return
         active = list(self.scenario_guards)
         for region in self.region.regions():
@@ -409,6 +412,7 @@ class Executor:
             if id(guard) not in before:
                 guard.activate(self.ctx)
         self.active_guards = sorted(active, key=lambda g: -g.priority)
+        self.active_checks = tuple(g.check for g in self.active_guards)
 
     # -- lifecycle ----------------------------------------------------------------------
     @property
@@ -519,6 +523,7 @@ class Executor:
         self.final_state = state
         self.final_t = self.ctx.t
         self.active_guards = []
+        self.active_checks = ()
 
 
 def runtime_error(node: MachineNode, state: str, message: str) -> Diagnostic:

@@ -137,28 +137,28 @@ def run_episode(
         stop = end_stop if end_stop is not None else executor.stop
         if stop is not None and not stop.active:
             stop = None
-        guards = executor.active_guards  # states change in tick() or abort(), never between
+        # states change in tick() or abort(), never between: bind the checks once per tick
+        checks = executor.active_checks
         ctx.advance_gripper()
         for _ in range(n_sub):
-            q_m, v_m = read_encoders()
-            tau = compute(q_m, v_m)
+            tau = compute(*read_encoders())
             if ctx.actuator_fault is not None:
                 tau = ctx.actuator_fault.apply(tau)
             ctrl[act_idx] = tau
             mj_step(model, data)
             if data.time >= injector.next_t:
                 injector.fire_due(data.time)
-                guards = executor.active_guards
+                checks = executor.active_checks
                 stop = executor.stop if end_stop is None else end_stop
             if stop is not None:
                 stop.step()
                 if not stop.active:
                     stop = None
-            for guard in guards:
-                violation = guard.check(ctx)
+            for check in checks:
+                violation = check(ctx)
                 if violation is not None:
                     executor.abort(violation)
-                    guards = executor.active_guards  # none while the safety response runs
+                    checks = executor.active_checks  # none while the safety response runs
                     stop = executor.stop
                     break
         ctx.tick += 1

@@ -22,7 +22,11 @@ if TYPE_CHECKING:
 __all__ = ["BRAKE_TRACKING_RAD", "SafetyStop"]
 
 BRAKE_TRACKING_RAD = 0.05
-"""A joint this far behind its braking profile gets its holding brake [rad]."""
+"""A held joint this far from where it is held gets its holding brake [rad]."""
+WEAK_MOTOR_NM = 0.5
+"""A motor delivering this much less than commanded when the stop starts is braked [Nm]."""
+BRAKE_OVERSPEED_RAD_S = 0.3
+"""A joint this much faster than its braking profile allows gets its holding brake [rad/s]."""
 
 
 class SafetyStop:
@@ -70,6 +74,11 @@ class SafetyStop:
         else:
             decel = ctx.robot.acceleration_limits if gentle else self.config.max_decel_rad_s2
             ctx.controller.brake(q, qd, decel)
+        # a motor that does not deliver what it is commanded cannot brake its joint: its
+        # holding brake does, from the start
+        weak = np.abs(ctx.controller.tau - ctx.joint_torque) > WEAK_MOTOR_NM
+        for j in np.flatnonzero(weak):
+            self._engage(int(j), "its motor does not deliver the commanded torque")
         self.active = True
         self.reason = reason
         self.start_t = ctx.t
@@ -87,20 +96,21 @@ class SafetyStop:
         ctx = self.ctx
         qd = ctx.data.qvel[ctx.world.arm_dof]
         ctrl = ctx.controller
-        lag = np.abs(ctrl.q_d - ctx.data.qpos[ctx.world.arm_qpos])
-        for j in np.flatnonzero(lag > BRAKE_TRACKING_RAD):
-            if int(j) not in self.braked_joints:
-                self.braked_joints.append(int(j))
-                ctx.world.engage_brake(int(j))
-                ctx.log(
-                    "safety",
-                    f"joint {int(j) + 1} does not follow its braking profile "
-                    f"({float(lag[j]):.3f} rad behind): holding brake engaged",
-                    level="WARN",
-                )
+        # a joint faster than its braking profile allows, or drifting from where it is held
+        over = np.abs(qd) - np.abs(ctrl.brake_profile_velocity) > BRAKE_OVERSPEED_RAD_S
+        drift = np.abs(ctrl.q_d - ctx.data.qpos[ctx.world.arm_qpos]) > BRAKE_TRACKING_RAD
+        for j in np.flatnonzero(over | drift):
+            self._engage(int(j), f"it does not follow its braking profile ({qd[j]:.3f} rad/s)")
         if ctrl.brake_left_s <= 0.0 and float(np.max(np.abs(qd))) < self.config.rest_speed_rad_s:
             self.stop_time_s = ctx.t - self.start_t
             self.active = False
+
+    def _engage(self, joint: int, why: str) -> None:
+        if joint in self.braked_joints:
+            return
+        self.braked_joints.append(joint)
+        self.ctx.world.engage_brake(joint)
+        self.ctx.log("safety", f"joint {joint + 1} holding brake engaged: {why}", level="WARN")
 
     def timed_out(self) -> bool:
         """The stop has taken longer than `max_stop_s`."""

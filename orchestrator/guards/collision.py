@@ -39,7 +39,9 @@ class Collision(Guard):
 
     name: ClassVar[str] = "collision"
     Params: ClassVar[type[GuardParams]] = CollisionParams
-    priority: ClassVar[int] = 2
+    priority: ClassVar[int] = 4
+    """Before `sensor_health`: a real impact can drive the wrist force out of the sensor's
+    range, and it is then a collision, not a sensor fault."""
 
     params: CollisionParams
 
@@ -51,7 +53,7 @@ class Collision(Guard):
             touchable.add(w.phantom.name)
         self._sensors: tuple[ContactSensor, ...] = sensors
         if not sensors:
-            self._block = None
+            self._block = self._forbidden = None
             return
         lo = min(s.adr for s in sensors)
         hi = max(s.adr for s in sensors) + 1
@@ -62,9 +64,18 @@ class Collision(Guard):
         self._lo = lo
         self._mask = mask
         self._block = ctx.data.sensordata[lo:hi]  # a view: MjData never reallocates
+        forbidden = np.flatnonzero(mask)
+        # the world puts the forbidden sensors first: then one contiguous view says it all
+        contiguous = len(forbidden) and forbidden[-1] - forbidden[0] + 1 == len(forbidden)
+        self._forbidden = (
+            ctx.data.sensordata[lo + forbidden[0] : lo + forbidden[-1] + 1] if contiguous else None
+        )
 
     def check(self, ctx: Context) -> Violation | None:
-        if self._block is None or not self._block.dot(self._mask):
+        if self._forbidden is not None:
+            if not any(self._forbidden.tolist()):
+                return None
+        elif self._block is None or not self._block.dot(self._mask):
             return None
         return self._violation(ctx)
 

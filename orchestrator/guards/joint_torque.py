@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from operator import ge
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -17,10 +18,10 @@ __all__ = ["JointTorque"]
 
 class JointTorqueParams(GuardParams):
     fraction: float = Field(
-        default=0.95, gt=0.0, le=1.0, description="Of each joint's torque limit."
+        default=0.9, gt=0.0, le=1.0, description="Of each joint's torque limit."
     )
     duration_ms: PositiveFloat = Field(
-        default=40.0, le=1e5, description="How long the torque may stay above it [ms]."
+        default=20.0, le=1e5, description="How long the torque may stay above it [ms]."
     )
 
 
@@ -39,16 +40,23 @@ class JointTorque(Guard):
         self._limit = (ctx.world.arm_effort_limit * self.params.fraction).tolist()
         self._steps = max(1, round(self.params.duration_ms / 1000.0 / ctx.dt_physics))
         self._count = [0] * len(self._limit)
+        self._counting = 0
+        """Sum of the counts: 0 lets `check` take its fast path."""
         self._tau = ctx.controller.tau  # the controller writes its output into this array
 
     def activate(self, ctx: Context) -> None:
         self._count = [0] * len(self._limit)
+        self._counting = 0
 
     def check(self, ctx: Context) -> Violation | None:
+        taus = self._tau.tolist()
+        if self._counting == 0 and not any(map(ge, map(abs, taus), self._limit)):
+            return None  # the fast path (C-level maps): every joint below its limit
         count = self._count
-        for i, (tau, lim) in enumerate(zip(self._tau.tolist(), self._limit, strict=True)):
+        for i, (tau, lim) in enumerate(zip(taus, self._limit, strict=True)):
             if tau >= lim or tau <= -lim:
                 count[i] += 1
+                self._counting += 1
                 if count[i] >= self._steps:
                     return Violation(
                         self.name,
@@ -59,6 +67,7 @@ class JointTorque(Guard):
                         round(lim, 3),
                     )
             elif count[i]:
+                self._counting -= count[i]
                 count[i] = 0
         return None
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from operator import gt
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -51,8 +52,10 @@ class JointVelocity(Guard):
         self._dofs = ctx.world.arm_dof
 
     def check(self, ctx: Context) -> Violation | None:
-        qd = self._qd if self._qd is not None else ctx.data.qvel[self._dofs]
-        for i, (v, lim) in enumerate(zip(qd.tolist(), self._lim, strict=True)):
+        qd = (self._qd if self._qd is not None else ctx.data.qvel[self._dofs]).tolist()
+        if not any(map(gt, map(abs, qd), self._lim)):  # the fast path (C-level maps)
+            return None
+        for i, (v, lim) in enumerate(zip(qd, self._lim, strict=True)):
             if v > lim or v < -lim:
                 return Violation(
                     self.name,

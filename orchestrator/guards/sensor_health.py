@@ -1,9 +1,11 @@
-"""`sensor_health`: the sensors the controller relies on tell the truth.
+"""`sensor_health`: the sensors and drives the controller relies on are healthy.
 
 * Wrist force/torque sensor: its reading must be finite, within the sensor's measuring range,
   and fresh (its timestamp advances: a dropped-out sensor repeats a stale value).
 * Joint encoders: each must agree with the joint's independent safety encoder (a frozen,
   noisy or dead encoder disagrees as soon as the joint moves).
+* Joint torque sensors: each joint's motor delivers the torque it was commanded (a drive that
+  dropped out or a derated motor delivers less).
 """
 
 from __future__ import annotations
@@ -28,6 +30,11 @@ class SensorHealthParams(GuardParams):
     ft_stale_ms: PositiveFloat = Field(
         default=10.0, le=1e4, description="Longest a wrist force reading may stay unchanged [ms]."
     )
+    torque_tolerance_nm: PositiveFloat = Field(
+        default=0.5,
+        le=100.0,
+        description="Largest difference between a joint's commanded and measured torque [Nm].",
+    )
     encoder_tolerance_rad: PositiveFloat = Field(
         default=0.01,
         le=1.0,
@@ -36,8 +43,9 @@ class SensorHealthParams(GuardParams):
 
 
 class SensorHealth(Guard):
-    """Fires on a non-finite, out-of-range or stale wrist force reading, or a joint encoder
-    that disagrees with its safety encoder by more than `encoder_tolerance_rad`."""
+    """Fires on a non-finite, out-of-range or stale wrist force reading, a joint motor that
+    does not deliver its commanded torque (by `torque_tolerance_nm`), or a joint encoder that
+    disagrees with its safety encoder by more than `encoder_tolerance_rad`."""
 
     name: ClassVar[str] = "sensor_health"
     Params: ClassVar[type[GuardParams]] = SensorHealthParams
@@ -53,6 +61,9 @@ class SensorHealth(Guard):
         self._tol = p.encoder_tolerance_rad
         self._n = ctx.robot.n_arm
         self._safety_q = ctx.data.qpos[ctx.world.arm_qpos_index]  # a view: never reallocated
+        self._commanded = ctx.controller.tau  # the controller writes into this array
+        self._measured = ctx.data.actuator_force[ctx.world.arm_act_index]
+        self._tau_tol = p.torque_tolerance_nm
 
     def check(self, ctx: Context) -> Violation | None:
         norm_sq = ctx.wrist_force_norm_sq()
@@ -66,12 +77,23 @@ class SensorHealth(Guard):
                 round(age * 1000, 3),
                 self.params.ft_stale_ms,
             )
-        q = ctx.encoders.read()[0]
-        tol = self._tol
-        safety = self._safety_q.tolist()
-        for i, (a, b) in enumerate(zip(q[: self._n].tolist(), safety, strict=True)):
-            if not abs(a - b) <= tol:
-                return self._encoder(i, a, b)
+        commanded, measured = self._commanded.tolist(), self._measured.tolist()
+        if commanded != measured:  # equal floats in normal operation: the fast path
+            tau_tol = self._tau_tol
+            for i, (a, b) in enumerate(zip(commanded, measured, strict=True)):
+                if not abs(a - b) <= tau_tol:
+                    return Violation(
+                        self.name,
+                        f"joint {i + 1} motor delivers {b:.1f} Nm of the {a:.1f} Nm commanded",
+                        round(b, 3),
+                        round(a, 3),
+                    )
+        primary, safety = ctx.encoders.read()[0][: self._n].tolist(), self._safety_q.tolist()
+        if primary != safety:
+            tol = self._tol
+            for i, (a, b) in enumerate(zip(primary, safety, strict=True)):
+                if not abs(a - b) <= tol:
+                    return self._encoder(i, a, b)
         return None
 
     def _ft(self, norm_sq: float) -> Violation:

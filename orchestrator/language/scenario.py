@@ -227,11 +227,12 @@ class SafeStop(_Strict):
     constant-deceleration profile (all joints stop together, the slowest at
     `max_decel_rad_s2`), then holds the reached pose under gravity-compensated, damped joint
     impedance. A joint that cannot follow the profile (a lost or weak motor) gets its holding
-    brake. At the defaults the Panda stops from 2 rad/s in 133 ms.
+    brake. At the defaults the Panda stops from 2 rad/s in 40 ms (torque-limited joints get
+    their holding brake's help).
     """
 
     max_decel_rad_s2: PositiveFloat = Field(
-        default=15.0, ge=1.0, le=100.0, description="Deceleration of the slowest joint [rad/s^2]."
+        default=50.0, ge=1.0, le=100.0, description="Deceleration of the slowest joint [rad/s^2]."
     )
     hold_s: float = Field(
         default=0.3,

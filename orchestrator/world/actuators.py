@@ -10,6 +10,9 @@ __all__ = ["ActuatorFault"]
 class ActuatorFault:
     """What one joint's motor really delivers of the torques the controller commands.
 
+    The joint's torque sensor (the Panda has one in every joint) measures what the motor
+    delivers, not what was commanded: `sensor_health` compares the two.
+
     Args:
         kind: `actuator_saturate` (at most `fraction` of the limit) or `actuator_lost` (none).
         joint: Arm joint, 0-based.

@@ -56,6 +56,7 @@ def add_contact_sensors(
     robot_root: str,
     finger_bodies: tuple[str, ...],
     tool_tip: str | None,
+    touchable: set[str],
 ) -> list[ContactSensor]:
     """Add the contact sensors (after the whole scene is in `spec`).
 
@@ -64,6 +65,8 @@ def add_contact_sensors(
         robot_root: The robot's first body.
         finger_bodies: The gripper's fingers.
         tool_tip: The tip geom of a mounted tool (its body's geoms are the tool), or None.
+        touchable: Scene bodies the end effector touches by default (free objects, a
+            phantom): their sensors come last.
     """
     robot: set[str] = set()
     stack = [spec.body(robot_root)]
@@ -72,9 +75,16 @@ def add_contact_sensors(
         robot.add(body.name)
         stack.extend(body.bodies)
     scene = ["world"] + [b.name for b in spec.bodies if b.name not in robot and b.name != "world"]
+    # what the end effector touches by default goes last, so that the sensors of forbidden
+    # contacts form one block the guard reads in one go
+    scene.sort(key=lambda name: name in touchable)
     out: list[ContactSensor] = []
+    late: list[tuple[str, str, bool]] = []
 
     def sensor(robot_side: str, partner: str | None, ee: bool, geom: bool) -> None:
+        if partner in touchable and (robot_side, partner, geom) not in late:
+            late.append((robot_side, partner, geom))  # added after every forbidden one
+            return
         name = f"contact__{robot_side}__{partner or 'any'}"
         objtype = mujoco.mjtObj.mjOBJ_GEOM if geom else mujoco.mjtObj.mjOBJ_BODY
         _add(spec, name, objtype, robot_side, partner)
@@ -93,6 +103,9 @@ def add_contact_sensors(
                     sensor(g.name, partner, True, geom=True)
             continue
         sensor(body.name, None, False, geom=False)
+    touchable = set()  # every forbidden sensor is in: now the late ones, in order
+    for robot_side, partner, geom in late:
+        sensor(robot_side, partner, True, geom)
     return out
 
 

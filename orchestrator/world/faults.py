@@ -20,6 +20,8 @@ __all__ = ["OBSTACLE_RGBA", "FaultEffects", "add_fault_obstacles", "fault_obstac
 
 OBSTACLE_RGBA = (0.95, 0.55, 0.1, 1.0)
 """Colour of an obstacle once it has appeared."""
+HIDDEN_CONTYPE = 32
+"""Collision bit of an obstacle that has not appeared yet (no geom has it as affinity)."""
 
 
 def fault_obstacle_name(index: int) -> str:
@@ -38,7 +40,9 @@ def add_fault_obstacles(spec: mujoco.MjSpec, scenario: Scenario) -> None:
             pos=list(fault.pos),
             size=[s / 2.0 for s in fault.size],
         )
-        g.contype, g.conaffinity = 0, 0
+        # A collision bit no geom has an affinity for: with no bits at all, MuJoCo leaves the
+        # geom out of collision detection for good, and it could never appear.
+        g.contype, g.conaffinity = HIDDEN_CONTYPE, 0
         g.rgba = [*OBSTACLE_RGBA[:3], 0.0]
 
 

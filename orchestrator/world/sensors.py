@@ -45,6 +45,10 @@ class JointEncoders:
     ) -> None:
         self._qpos, self._qvel = qpos, qvel
         self._qi, self._vi = q_index, v_index
+        self._truth = (qpos[q_index], qvel[v_index])
+        """Views when the indices are slices (bound once: MjData never reallocates); copies
+        otherwise, refreshed by `read`."""
+        self._views = isinstance(q_index, slice) and isinstance(v_index, slice)
         self.n_arm = n_arm
         self.rng = rng
         self.fault: str | None = None
@@ -56,10 +60,11 @@ class JointEncoders:
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
         """Joint positions [rad] and velocities [rad/s], arm then fingers."""
-        q, v = self._qpos[self._qi], self._qvel[self._vi]
         if self.fault is None or self.failed_over:
-            return q, v
-        q, v = q.copy(), v.copy()
+            if not self._views:
+                self._truth = (self._qpos[self._qi], self._qvel[self._vi])
+            return self._truth
+        q, v = self._qpos[self._qi].copy(), self._qvel[self._vi].copy()
         j = self.joint
         if self.fault == "encoder_freeze":
             q[j], v[j] = self._frozen
@@ -71,14 +76,14 @@ class JointEncoders:
 
     def safety_channel(self) -> tuple[np.ndarray, np.ndarray]:
         """The independent safety encoders: the true joint state. Never faulty."""
-        return self._qpos[self._qi], self._qvel[self._vi]
+        return self._truth
 
     def inject(self, kind: str, joint: int, std_rad: float = 0.0) -> None:
         """Start a fault on arm joint `joint` (1-based)."""
         if not 1 <= joint <= self.n_arm:
             raise ValueError(f"joint {joint} is not an arm joint (1..{self.n_arm})")
         self.fault, self.joint, self.std = kind, joint - 1, std_rad
-        q, v = self.safety_channel()
+        q, v = self._qpos[self._qi], self._qvel[self._vi]
         self._frozen = (float(q[self.joint]), float(v[self.joint]))
 
     def failover(self) -> None:

@@ -86,6 +86,8 @@ class World:
         self.arm_act = np.array(
             [m.actuator(j.replace("joint", "motor")).id for j in robot.arm_joints]
         )
+        self.arm_act_index = as_index(self.arm_act)
+        """`arm_act` as a slice when contiguous."""
         self.arm_effort_limit = m.actuator_ctrlrange[self.arm_act, 1].copy()
         """Torque limit of each arm joint's motor [Nm]. Shape (n_arm,)."""
         self.gripper_act = m.actuator(robot.gripper_actuator).id
@@ -161,8 +163,15 @@ class World:
         add_phantom_scene(spec, scenario, seed)
         add_fault_obstacles(spec, scenario)
         tool: Tool | None = getattr(robot, "tool", None)
+        touchable = {o.name for o in scenario.scene.objects}
+        if scenario.scene.phantom is not None:
+            touchable.add(scenario.scene.phantom.name)
         sensors = add_contact_sensors(
-            spec, robot.root_body, robot.finger_bodies, f"{tool.name}_tip" if tool else None
+            spec,
+            robot.root_body,
+            robot.finger_bodies,
+            f"{tool.name}_tip" if tool else None,
+            touchable,
         )
         model = spec.compile()
         set_tissue_stiffness(model, scenario, seed, robot)
