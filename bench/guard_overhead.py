@@ -80,9 +80,8 @@ def main() -> None:
             a = _wall(full, i)
         ratios.append(a / b)
     q1, med, q3 = statistics.quantiles(ratios, n=4)
-    print(
-        f"{args.scenario}: all guards / base guards wall time = {med:.3f} (IQR {q1:.3f}-{q3:.3f}, {args.pairs} pairs)"
-    )
+    spread = f"IQR {q1:.3f}-{q3:.3f}, {args.pairs} pairs"
+    print(f"{args.scenario}: all guards / base guards wall time = {med:.3f} ({spread})")
     for name, us in sorted(_per_check(full, 0).items(), key=lambda kv: -kv[1]):
         print(f"  {name:15s} {us:6.2f} us per check")
 
