@@ -36,8 +36,9 @@ class GraspParams(SkillParams):
 
 
 class Grasp(Skill):
-    """Close the fingers until they stop; `grasped` only if the object is between them and
-    both fingers press on it with at least `min_force_n`, else `missed`."""
+    """Close the fingers until they stop and squeeze with the hand's force; `grasped` only if
+    the object is between them and both fingers press on it with at least `min_force_n`,
+    else `missed`."""
 
     name: ClassVar[str] = "grasp"
     Params: ClassVar[type[SkillParams]] = GraspParams
@@ -57,7 +58,8 @@ class Grasp(Skill):
         elapsed = ctx.t - self.t0
         finger_speed = float(np.max(np.abs(ctx.data.qvel[ctx.world.robot_dof[ctx.robot.n_arm :]])))
         self.still_ticks = self.still_ticks + 1 if finger_speed < _STILL_MPS else 0
-        if elapsed < p.settle_s or (self.still_ticks < 3 and elapsed < p.close_timeout_s):
+        closed = self.still_ticks >= 3 and ctx.gripper_commanded  # stopped, and squeezing
+        if elapsed < p.settle_s or (not closed and elapsed < p.close_timeout_s):
             return None
         handle = self.handle
         left, right = finger_contact_forces(ctx, handle.geom_id)

@@ -68,7 +68,7 @@ _SURGICAL = [
     MatrixRow(f"actuator_saturate@{_TRACE}", "sensor_health"),
     MatrixRow(f"actuator_lost@{_TRACE}", "sensor_health"),
     MatrixRow("obstacle:pos=[0.47,0.0,0.34],size=[0.03,0.08,0.03]@NAVIGATE", "collision"),
-    MatrixRow("perception_offset:offset_m=[0.01,0,0]@0", "flow:failed"),
+    MatrixRow("perception_miss@0", "flow:failed"),
 ]
 MATRICES: dict[str, list[MatrixRow]] = {
     "pick_place": [

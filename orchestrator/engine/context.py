@@ -26,6 +26,9 @@ if TYPE_CHECKING:
 
 __all__ = ["Context", "Event"]
 
+_GRIP_CONTACT_M = 0.002
+"""A closing finger this far behind its setpoint is blocked by an object [m]."""
+
 
 @dataclass(frozen=True)
 class Event:
@@ -192,6 +195,11 @@ class Context:
         """
         self.gripper_target = float(opening_m)
 
+    @property
+    def gripper_commanded(self) -> bool:
+        """The gripper's setpoint has reached `gripper_target` (closing: it squeezes)."""
+        return float(self.data.ctrl[self.world.gripper_act]) == self.gripper_target
+
     def advance_gripper(self) -> None:
         """Move the gripper's setpoint one control tick towards `gripper_target`."""
         ctrl = self.data.ctrl
@@ -199,8 +207,12 @@ class Context:
         now = float(ctrl[act])
         step = self.robot.gripper_speed_mps * self.dt_control
         goal = self.gripper_target
+        finger = 0.5 * self.gripper_width
         if goal > now:  # opening: from where the fingers are, not from a squeezing setpoint
-            now = max(now, 0.5 * self.gripper_width)
+            now = max(now, finger)
+        elif finger - now > _GRIP_CONTACT_M:  # closing, blocked by what it grasps: squeeze
+            ctrl[act] = goal  # with the hand's full (capped) force, as a grasp command does
+            return
         if now != goal:
             ctrl[act] = goal if abs(goal - now) <= step else now + math.copysign(step, goal - now)
 

@@ -1,0 +1,104 @@
+"""The controlled stop: every abort, e-stop and end of a run leaves the arm at rest, held."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from orchestrator.robots import Controller, get_robot
+
+from orchestrator.engine.runner import run_episode
+from orchestrator.language.load import load_scenario
+
+REST_RAD_S = 0.05
+WORKSPACE_WALL = "guards.workspace.max=[0.95,0.1,1.2]"
+"""A workspace wall the cube's transport crosses at speed (y = 0.1 m)."""
+
+
+class JointSpeeds:
+    """Largest arm joint speed [rad/s] per control tick, with the state."""
+
+    def on_start(self, ctx, executor):
+        self.rows: list[tuple[float, str, float]] = []
+
+    def on_tick(self, ctx, executor):
+        speed = float(np.max(np.abs(ctx.data.qvel[ctx.world.arm_dof])))
+        self.rows.append((ctx.t, executor.leaf, speed))
+
+    def on_end(self, ctx, executor, result):
+        pass
+
+
+def test_controller_brake_profile_stops_2_rad_s_in_time():
+    robot = get_robot("panda")
+    ctrl = Controller(robot, 0.002)
+    q = np.array(robot.home)
+    qd = np.zeros(7)
+    qd[0] = 2.0
+    duration = ctrl.brake(q, qd, 15.0)
+    assert duration == pytest.approx(2.0 / 15.0)  # 133 ms at 15 rad/s^2
+    assert ctrl.brake(q, np.zeros(7), 15.0) == 0.0  # already still: just hold
+    assert ctrl.mode.value == "hold"
+
+
+def test_a_guard_abort_brakes_to_rest_within_150_ms_and_holds():
+    probe = JointSpeeds()
+    result = run_episode(load_scenario("pick_place", [WORKSPACE_WALL]), 3, [probe])
+    assert result.outcome == "aborted" and result.reason["guard"] == "workspace"
+    assert result.final_state == "SAFE_STOP"
+    m = result.metrics
+    assert 0.0 < m["stop_time_s"] <= 0.15
+    assert m["stop_distance_mm"] > 0.0
+    stopped_at = m["abort_t"] + m["stop_time_s"]
+    after = [speed for t, leaf, speed in probe.rows if t >= stopped_at + 0.01]
+    assert after and max(after) < REST_RAD_S  # at rest, and it stays so while held
+    assert m["rest_speed_rad_s"] < REST_RAD_S
+
+
+def test_an_estop_outranks_the_machines_on_abort():
+    result = run_episode(load_scenario("surgical", faults=["estop@EXECUTE.TRACE+0.2"]), 0)
+    assert result.outcome == "aborted" and result.reason["guard"] == "estop"
+    assert result.final_state == "SAFE_STOP"  # not SAFE_HOLD: an e-stop cannot be remapped
+    assert all(not t["to"].startswith("SAFE_HOLD") for t in result.transitions)
+
+
+def test_a_time_limit_inside_the_safety_response_still_ends_aborted():
+    loaded = load_scenario("pick_place", ["physics.time_limit_s=1.205"], ["estop@1.2"])
+    result = run_episode(loaded, 3)
+    assert result.outcome == "aborted" and result.reason["guard"] == "estop"
+    assert result.metrics["rest_speed_rad_s"] < REST_RAD_S
+    assert result.metrics["stop_time_s"] <= 0.15
+
+
+def test_a_huge_hold_is_cut_at_the_time_limit_and_still_aborted():
+    loaded = load_scenario(
+        "pick_place", ["physics.safe_stop.hold_s=100000", "physics.time_limit_s=3"], ["estop@1.0"]
+    )
+    result = run_episode(loaded, 3)
+    assert result.outcome == "aborted"
+    assert result.sim_time == pytest.approx(3.0, abs=0.02)
+    assert result.metrics["rest_speed_rad_s"] < REST_RAD_S
+
+
+def test_the_time_limit_brings_a_moving_arm_to_rest_before_the_run_ends():
+    probe = JointSpeeds()
+    result = run_episode(load_scenario("pick_place", ["physics.time_limit_s=1.0"]), 3, [probe])
+    assert result.outcome == "failed" and result.metrics["time_limit_reached"]
+    moving = [speed for t, _, speed in probe.rows if 0.95 <= t <= 1.0]
+    assert max(moving) > 0.5  # it was moving fast when the time ran out...
+    assert result.metrics["rest_speed_rad_s"] < REST_RAD_S  # ...and ended still
+    assert result.sim_time < 1.0 + 0.5
+
+
+def test_a_failed_final_state_leaves_the_arm_at_rest():
+    # every grasp closes on air: the run ends in FAILED after the retries
+    result = run_episode(load_scenario("pick_place", ["grasp_offset=[0.0, 0.0, 0.06]"]), 3)
+    assert result.outcome == "failed" and result.final_state == "FAILED"
+    assert result.metrics["rest_speed_rad_s"] < REST_RAD_S
+
+
+def test_the_stop_never_pushes_into_an_obstacle_it_hit():
+    obstacle = "obstacle:pos=[0.5,0.17,0.45],size=[0.08,0.03,0.08]@TRANSPORT+0.05"
+    result = run_episode(load_scenario("pick_place", faults=[obstacle]), 3)
+    assert result.reason["guard"] == "collision"
+    assert result.metrics["stop_distance_mm"] < 8.0  # hit at 0.8 m/s: contact + rebound only
+    assert result.metrics["rest_speed_rad_s"] < REST_RAD_S
