@@ -60,6 +60,13 @@ def run(
             "(e.g. estop@1.5, slip:object=cube@TRANSPORT). Repeatable; see docs/safety.md.",
         ),
     ] = None,
+    connect: Annotated[
+        str | None,
+        typer.Option(
+            help="Stream live to a running Rerun viewer or `rerun --serve-web`: "
+            "rerun+http://HOST:PORT/proxy or a port."
+        ),
+    ] = None,
 ) -> None:
     """Run one episode. Exit 0 succeeded, 1 failed, 2 invalid input, 3 aborted by a guard."""
     from .engine.runner import run_episode
@@ -68,10 +75,10 @@ def run(
     try:
         loaded = load_scenario(scenario, set_ or [], fault or [])
         observers = []
-        if rrd is not None or spawn:
+        if rrd is not None or spawn or connect is not None:
             from .recording import RerunRecorder
 
-            observers.append(RerunRecorder(path=rrd, spawn=spawn))
+            observers.append(RerunRecorder(path=rrd, spawn=spawn, connect=connect))
         result = run_episode(loaded, seed, observers)
     except ConfigError as exc:
         _fail_config(exc)

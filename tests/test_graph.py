@@ -48,11 +48,18 @@ def test_pick_place_mermaid_declares_every_node_and_edge(cli):
     for src, dst, _ in edges:
         assert src in nodes and dst in nodes, (src, dst)
     machine = load_machine("pick_place")
-    for path, st, _node in machine.walk():
+    for path, st, node in machine.walk():
         assert _id(path) in nodes, path
         prefix = path.rsplit(".", 1)[0] + "." if "." in path else ""
+        child = node.children.get(path.rsplit(".", 1)[-1])
         for outcome, target in st.transitions.items():
-            assert (_id(path), _id(prefix + target), outcome) in edges
+            # out of a nested machine: from each of its final states with that outcome
+            sources = [
+                f"{path}.{name}" for name, f in (child.states.items() if child else [])
+                if f.final == outcome
+            ] or [path]  # fmt: skip
+            for src in sources:
+                assert (_id(src), _id(prefix + target), outcome) in edges
     # nested machines are clusters, and the abort path is drawn
     assert "subgraph s_PICK__GRASP[" in res.stdout
     assert ("s___guard", "s_SAFE_STOP", "abort") in edges
@@ -103,3 +110,20 @@ def test_dot_output_is_a_balanced_digraph_with_every_transition(cli):
 def test_unknown_format_is_invalid_input(cli, fmt):
     res = cli("graph", "pick_place", "--format", fmt)
     assert res.exit_code == 2 and "valid: mermaid, dot" in res.stderr
+
+
+def test_exits_of_a_nested_machine_start_at_its_final_states(cli):
+    nodes, edges = parse_mermaid(cli("graph", "pick_place").stdout)
+    assert ("s_PICK__PICKED", "s_TRANSPORT", "picked") in edges
+    assert ("s_PICK__MISSED", "s_FAILED", "missed") in edges
+    assert ("s_PICK__GRASP__GRASPED", "s_PICK__PICKED", "grasped") in edges
+    assert not [e for e in edges if e[0] in ("s_PICK", "s_PICK__GRASP")]
+    dot = cli("graph", "pick_place", "--format", "dot").stdout
+    sources = {
+        m.group(2): m.group(1)
+        for m in re.finditer(r"^\s*(\w+) -> \w+ \[label=\"(picked|lost|grasped)\"", dot, re.M)
+    }
+    assert sources == {
+        "picked": "s_PICK__PICKED", "lost": "s_PICK__LOST", "grasped": "s_PICK__GRASP__GRASPED",
+    }  # fmt: skip
+    assert "ltail=cluster_s_PICK" not in dot  # no edge leaves PICK from its entry point

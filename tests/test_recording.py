@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import socket
+import subprocess
+import sys
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,12 +30,15 @@ from orchestrator.recording import (
     model_geometry,
     visible_geoms,
 )
+from orchestrator.recording.blueprint import default_blueprint
 from orchestrator.recording.geometry_chunks import geometry_chunks
-from orchestrator.recording.machine_graph import KIND_COLORS
+from orchestrator.recording.graph_drawing import ACCENT, IDLE
+from orchestrator.recording.graph_layout import label_size
+from orchestrator.recording.machine_graph import GUARD, KIND_COLORS, LIT_MARK
 from orchestrator.recording.state_log import StateLog
 from orchestrator.recording.static_scene import static_scene
 from orchestrator.recording.timeline import Rows, seconds_to_ns
-from orchestrator.recording.viewer import spawn_viewer
+from orchestrator.recording.viewer import connect_url, spawn_viewer
 from orchestrator.world import World
 
 ROW_ID = "rerun.controls.RowId"
@@ -199,12 +205,136 @@ def test_ik_target_is_a_frame_that_vanishes_between_motions(recorded):
 def test_graph_lights_the_active_state_at_every_transition(recorded, pick_place):
     graph = recorded.static["/state_machine/graph"]
     nodes = graph["GraphNodes:node_ids"]
-    assert set(nodes) == {p for p, _, _ in pick_place.machine.walk()} | {SAFE_STOP}
+    assert set(nodes) == {p for p, _, _ in pick_place.machine.walk()} | {SAFE_STOP, GUARD}
     rows = recorded.temporal["/state_machine/graph"]
     assert len(rows) == len(recorded.result.transitions) + 1
-    last = rows[-1]["GraphNodes:radii"]
-    lit = [n for n, r in zip(nodes, last, strict=True) if r > 10]
-    assert lit == ["DONE"]
+    leaves = [recorded.result.transitions[0]["from"]] + [
+        t["to"] for t in recorded.result.transitions
+    ]
+    for row, leaf in zip(rows, leaves, strict=True):
+        lit = [n for n, label in zip(nodes, row["GraphNodes:labels"], strict=True)
+               if label.startswith(LIT_MARK)]  # fmt: skip
+        ancestors = [".".join(leaf.split(".")[: i + 1]) for i in range(leaf.count(".") + 1)]
+        assert sorted(lit) == sorted(ancestors), leaf
+        colors = dict(zip(nodes, row["GraphNodes:colors"], strict=True))
+        assert all(colors[n] in (ACCENT, KIND_COLORS["success"]) for n in lit)
+        assert {colors[n] for n in nodes if n not in lit and "." not in n} <= {
+            IDLE,
+            *KIND_COLORS.values(),
+        }
+    assert leaves[-1] == "DONE"
+
+
+def test_graph_labels_and_colours_are_not_static(recorded):
+    # static values would shadow the lit ones for the whole recording
+    graph = recorded.static["/state_machine/graph"]
+    assert "GraphNodes:labels" not in graph and "GraphNodes:colors" not in graph
+
+
+def _graph_of(rec: Recording) -> tuple[dict, dict, list]:
+    """Node positions, nested frames (owner path -> x0, y0, x1, y1) and edges, as recorded."""
+    graph = rec.static["/state_machine/graph"]
+    positions = dict(
+        zip(graph["GraphNodes:node_ids"], map(tuple, graph["GraphNodes:positions"]), strict=True)
+    )
+    edges = [(e["first"], e["second"]) for e in graph["GraphEdges:edges"]]
+    frames = {}
+    for entity, comps in rec.static.items():
+        if entity.startswith("/state_machine/graph/"):
+            (ax, ay), (bx, by) = comps["GraphNodes:positions"]
+            owner = entity.removeprefix("/state_machine/graph/").replace("/", ".")
+            pad = 10.5  # Rerun outlines an entity 10 px outside its nodes (radius 0.5)
+            frames[owner] = (ax - pad, ay - pad, bx + pad, by + pad)
+    return positions, frames, edges
+
+
+@pytest.fixture(scope="module")
+def surgical_recorded(tmp_path_factory) -> Recording:
+    return record(load_scenario("surgical"), 0, tmp_path_factory.mktemp("rrd") / "s.rrd")
+
+
+@pytest.mark.parametrize("which", ["recorded", "surgical_recorded"])
+def test_graph_reads_top_to_bottom_in_flow_order(which, request):
+    rec = request.getfixturevalue(which)
+    positions, frames, edges = _graph_of(rec)
+    initial = rec.result.transitions[0]["from"].split(".")[0]
+    top_level = [n for n in positions if "." not in n and n != GUARD]
+    # the initial state heads the flow; every arrow of these acyclic machines points down
+    assert positions[initial][1] == min(positions[n][1] for n in top_level)
+    for src, dst in edges:
+        assert positions[dst][1] > positions[src][1], (src, dst)
+    assert frames, "the nested machines are framed"
+
+
+@pytest.mark.parametrize("which", ["recorded", "surgical_recorded"])
+def test_nested_states_lie_inside_their_parents_frame(which, request):
+    rec = request.getfixturevalue(which)
+    positions, frames, _ = _graph_of(rec)
+    graph = build_graph(load_scenario(rec.result.scenario).machine)
+    for owner, (x0, y0, x1, y1) in frames.items():
+        inside = [n for n in positions if n == owner or n.startswith(owner + ".")]
+        assert len(inside) > 2, owner
+        for n in inside:
+            (x, y), (w, h) = positions[n], graph.layout.sizes[n]
+            assert x0 <= x - w / 2 and x + w / 2 <= x1 and y0 <= y - h / 2 and y + h / 2 <= y1, n
+        others = [n for n in positions if n not in inside]
+        for n in others:
+            x, y = positions[n]
+            assert not (x0 < x < x1 and y0 < y < y1), (n, owner)
+
+
+@pytest.mark.parametrize("name", ["pick_place", "surgical", "grasp"])
+def test_graph_labels_do_not_overlap_even_when_lit(name):
+    from orchestrator.language.load import load_machine
+
+    graph = build_graph(load_machine(name))
+    lit_growth = label_size(LIT_MARK + "X")[0] - label_size("X")[0]
+    boxes = []
+    for n, (x, y) in graph.positions.items():
+        w, h = graph.layout.sizes[n]
+        w += lit_growth
+        boxes.append((n, x - w / 2, y - h / 2, x + w / 2, y + h / 2))
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1 :]:
+            overlap = a[1] < b[3] and b[1] < a[3] and a[2] < b[4] and b[2] < a[4]
+            assert not overlap, (a[0], b[0])
+
+
+def test_the_layout_is_computed_once_per_recording_not_per_tick(recorded, monkeypatch, tmp_path):
+    from orchestrator.recording import machine_graph
+
+    calls = []
+    real = machine_graph.layered_layout
+    monkeypatch.setattr(
+        machine_graph, "layered_layout", lambda *a, **k: calls.append(1) or real(*a, **k)
+    )
+    loaded = load_scenario("pick_place")  # a new machine object: its scene is built anew
+    record(loaded, 0, tmp_path / "a.rrd")
+    assert len(calls) == 1
+    record(loaded, 1, tmp_path / "b.rrd")  # the next episode reuses the static scene
+    assert len(calls) == 1
+    # positions and edges are static; a transition sends only labels and colours
+    assert all(
+        set(row) - {"sim_time", "tick"} == {"GraphNodes:labels", "GraphNodes:colors"}
+        for row in recorded.temporal["/state_machine/graph"]
+    )
+
+
+def test_the_layout_is_the_same_in_every_process():
+    code = (
+        "import json; from orchestrator.language.load import load_machine;"
+        "from orchestrator.recording.machine_graph import build_graph;"
+        "print(json.dumps(build_graph(load_machine('surgical')).positions, sort_keys=True))"
+    )
+    outs = {
+        subprocess.run(
+            [sys.executable, "-c", code],
+            env={**os.environ, "PYTHONHASHSEED": seed},
+            capture_output=True, text=True, check=True,
+        ).stdout
+        for seed in ("1", "2")
+    }  # fmt: skip
+    assert len(outs) == 1
 
 
 def test_nested_levels_have_their_own_lanes(recorded):
@@ -329,8 +459,12 @@ def test_machine_graph_kinds_lanes_and_edges(pick_place):
     assert graph.lanes("PICK.SEARCH") == {"": "PICK", "PICK": "SEARCH"}
     assert graph.lanes(SAFE_STOP) == {"": SAFE_STOP}
     assert ("PICK", "PICK.SEARCH") in graph.edges  # entry into the nested machine
-    assert ("TRANSPORT", SAFE_STOP) in graph.edges  # abort from a top-level state
-    assert set(graph.positions) == set(graph.states)
+    assert (GUARD, SAFE_STOP) in graph.edges  # the abort path, from any state
+    # out of a nested machine from the final states its outcomes come from
+    assert ("PICK.PICKED", "TRANSPORT") in graph.edges
+    assert ("PICK.GRASP.MISSED", "PICK.MISSED") in graph.edges
+    assert not [e for e in graph.edges if e[0] in ("PICK", "PICK.GRASP") and "." not in e[1]]
+    assert set(graph.positions) == set(graph.states) | {GUARD}
 
 
 def test_on_abort_state_is_the_abort_colour(write_yaml):
@@ -346,7 +480,7 @@ def test_on_abort_state_is_the_abort_colour(write_yaml):
     graph = build_graph(load_machine(str(path)))
     assert graph.states["HALT"].kind == "abort"
     assert SAFE_STOP not in graph.states
-    assert ("A", "HALT") in graph.edges
+    assert (GUARD, "HALT") in graph.edges
 
 
 def test_lanes_reset_when_their_owner_is_left(pick_place):
@@ -369,7 +503,7 @@ def test_rows_grow_and_times_round_to_nanoseconds():
 
 
 def test_a_recorder_needs_somewhere_to_record():
-    with pytest.raises(RecordingError, match="path=<file.rrd> or spawn=True"):
+    with pytest.raises(RecordingError, match="path=<file.rrd>, spawn=True or connect=<url>"):
         RerunRecorder()
     with pytest.raises(RecordingError, match="flush_every_ticks"):
         RerunRecorder(path="x.rrd", flush_every_ticks=0)
@@ -421,3 +555,44 @@ def test_spawn_without_a_viewer_or_a_file_is_an_error(monkeypatch, pick_place):
 
 def test_recordings_use_their_own_stream_not_the_global_one(recorded):
     assert rr.get_global_data_recording() is None
+
+
+def test_connect_takes_a_port_or_a_rerun_url():
+    assert connect_url("9877") == "rerun+http://127.0.0.1:9877/proxy"
+    url = "rerun+http://10.0.0.5:9876/proxy"
+    assert connect_url(url) == url
+    for bad in ("http://127.0.0.1:9876", "rerun+http://127.0.0.1:9876/", "localhost"):
+        with pytest.raises(RecordingError, match=r"not a Rerun address \(valid: a port"):
+            connect_url(bad)
+
+
+def test_connect_to_nothing_is_an_error_naming_the_fix(cli):
+    res = cli("run", "pick_place", "--connect", str(_free_port()))
+    assert res.exit_code == 2
+    message = " ".join(res.stderr.split())  # the console wraps long lines
+    assert "no Rerun viewer or server at rerun+http://127.0.0.1:" in message
+    assert "rerun --serve-web" in message and "--rrd PATH" in message
+
+
+def test_every_sink_gets_the_blueprint_made_active(monkeypatch, pick_place, tmp_path):
+    # a default-only blueprint loses to the layout a viewer guesses while data streams in
+    # (rerun --serve-web, --connect): it must be made active
+    sent = []
+    monkeypatch.setattr(
+        rr.RecordingStream, "send_blueprint", lambda self, bp, **kw: sent.append((bp, kw))
+    )
+    run_episode(pick_place, 0, [RerunRecorder(path=tmp_path / "x.rrd")])
+    assert [kw for _, kw in sent] == [{"make_active": True, "make_default": True}]
+
+
+def test_the_machine_column_fits_the_graph(pick_place):
+    from orchestrator.recording.blueprint import machine_share
+
+    graph = build_graph(pick_place.machine)
+    x0, y0, x1, y1 = graph.layout.bounds
+    assert (x0, y0) == (0.0, 0.0) and 400 < x1 < 700 and 600 < y1 < 900
+    share = machine_share(graph.layout.bounds)
+    assert share * 1600 >= x1 - x0  # at 1600 px wide the graph fits at zoom ~1
+    assert machine_share(None) == 0.28 and machine_share((0, 0, 5000, 500)) == 0.5
+    blueprint = default_blueprint(None, graph.layout.bounds)
+    assert blueprint is not None

@@ -39,6 +39,20 @@ def _escape(text: str) -> str:
     return text.replace('"', "'")
 
 
+def _exits(node: MachineNode, name: str, outcome: str, prefix: str) -> list[str]:
+    """Paths of the final states of the machine nested in state `name` that end it with
+    `outcome`: its transition on `outcome` is drawn from them, not from the nested machine's
+    entry, so a reader follows the arrow forwards out of the state that ended it."""
+    child = node.children.get(name)
+    if child is None:
+        return []
+    return [
+        f"{prefix}{name}.{final}"
+        for final, st in child.states.items()
+        if st.final is not None and st.final == outcome
+    ]
+
+
 class _Mermaid:
     def __init__(self) -> None:
         self.lines = ["flowchart TD"]
@@ -75,9 +89,8 @@ class _Mermaid:
                 self.lines.append(f'{indent}{nid}["{_escape(_label(name, st))}"]')
         for name, st in node.states.items():
             for outcome, target in st.transitions.items():
-                self.lines.append(
-                    f"{indent}{_id(prefix + name)} -->|{outcome}| {_id(prefix + target)}"
-                )
+                for src in _exits(node, name, outcome, prefix) or [prefix + name]:
+                    self.lines.append(f"{indent}{_id(src)} -->|{outcome}| {_id(prefix + target)}")
 
 
 def to_mermaid(node: MachineNode) -> str:
@@ -152,7 +165,7 @@ class _Dot:
             else:
                 self.lines.append(f'{indent}{_id(path)} [label="{_escape(_label(name, st))}"];')
         for name, st in node.states.items():
-            src, ltail = self.anchor(
+            anchor = self.anchor(
                 prefix + name,
                 node.children.get(name) or (node if st.parallel is not None else None),
             )
@@ -162,12 +175,16 @@ class _Dot:
                     node.children.get(target)
                     or (node if node.states[target].parallel is not None else None),
                 )
-                attrs = [f'label="{outcome}"']
-                if ltail:
-                    attrs.append(f"ltail={ltail}")
-                if lhead:
-                    attrs.append(f"lhead={lhead}")
-                self.lines.append(f"{indent}{src} -> {dst} [{', '.join(attrs)}];")
+                # out of a nested machine: from the final states it ended in; out of a
+                # parallel state: from its cluster's border
+                exits = [(_id(p), "") for p in _exits(node, name, outcome, prefix)]
+                for src, ltail in exits or [anchor]:
+                    attrs = [f'label="{outcome}"']
+                    if ltail:
+                        attrs.append(f"ltail={ltail}")
+                    if lhead:
+                        attrs.append(f"lhead={lhead}")
+                    self.lines.append(f"{indent}{src} -> {dst} [{', '.join(attrs)}];")
 
 
 def to_dot(node: MachineNode) -> str:

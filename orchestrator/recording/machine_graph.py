@@ -1,8 +1,9 @@
 """The machine tree as a graph: state paths, kinds, colours, regions, edges and a layout.
 
-Pure data computed from a `MachineNode` (no Rerun, no simulator): the recorder turns it into
-StateConfiguration, GraphNodes and GraphEdges, and uses `lanes` to split a leaf path into the
-state of every machine level it passes through.
+Pure data computed from a `MachineNode` (no Rerun, no simulator), once per machine: the
+recorder turns it into StateConfiguration, GraphNodes and GraphEdges, and uses `lanes` to split
+a leaf path into the state of every machine level it passes through. The layout is layered,
+top to bottom in flow order, nested machines inside their owner's frame (`graph_layout.py`).
 """
 
 from __future__ import annotations
@@ -11,11 +12,23 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ..language.machine import SAFE_STOP
+from .graph_layout import GraphLayout, Level, layered_layout
+from .paths import frame_path
 
 if TYPE_CHECKING:
     from ..language.loading import MachineNode
 
-__all__ = ["KIND_COLORS", "PALETTE", "MachineGraph", "StateInfo", "build_graph", "on_path"]
+__all__ = [
+    "GUARD",
+    "GUARD_LABEL",
+    "KIND_COLORS",
+    "LIT_MARK",
+    "PALETTE",
+    "MachineGraph",
+    "StateInfo",
+    "build_graph",
+    "on_path",
+]
 
 PALETTE: tuple[int, ...] = (
     0x4E79A7FF,  # blue
@@ -38,8 +51,11 @@ KIND_COLORS: dict[str, int] = {
     "abort": 0xD62728FF,  # the built-in safe stop or the machine's `on_abort` state
 }
 
-_DX, _DY = 150.0, 90.0
-"""Graph layout spacing in the graph view's units."""
+GUARD = ":guard"
+"""Node id of the graph's "guard fires" node, whose edge leads to the abort state."""
+GUARD_LABEL = "guard fires"
+LIT_MARK = "▶ "
+"""Put before the label of an active state in the graph (the layout's gaps leave room)."""
 
 
 @dataclass(frozen=True)
@@ -52,6 +68,7 @@ class StateInfo:
         region: Dotted path of the machine level it belongs to (`""` for the top level).
         kind: `state`, `composite` (runs a nested machine), `success`, `final` or `abort`.
         color: Display colour, 0xRRGGBBAA.
+        final: The outcome a final state ends its machine with (None for other states).
     """
 
     path: str
@@ -59,6 +76,7 @@ class StateInfo:
     region: str
     kind: str
     color: int
+    final: str | None = None
 
 
 def on_path(state: str, leaf: str) -> bool:
@@ -68,22 +86,29 @@ def on_path(state: str, leaf: str) -> bool:
 
 @dataclass(frozen=True)
 class MachineGraph:
-    """The states, regions and edges of a machine tree, with a deterministic layout.
+    """The states, regions and edges of a machine tree, with its layout.
 
     Attributes:
         states: Dotted path -> state, in declaration order (depth first).
         regions: Region path -> the state that owns it (`""` -> `""` for the top level).
-        edges: Directed (source path, target path) pairs: transitions, entry into a nested
-            machine's initial state, and abort from every top-level state.
-        positions: Dotted path -> (x, y) in the graph view.
+        edges: The arrows a reader follows, (source, target) node ids: transitions (out of
+            a nested machine from the final states its outcomes come from, into it to the state
+            that runs it), entry from that state to the nested initial state, and `GUARD` to
+            the abort state.
+        layout: Positions of every node (the states and `GUARD`), frames of nested machines.
         initial_leaf: The leaf state the machine starts in.
     """
 
     states: dict[str, StateInfo]
     regions: dict[str, str]
     edges: list[tuple[str, str]]
-    positions: dict[str, tuple[float, float]]
+    layout: GraphLayout
     initial_leaf: str
+
+    @property
+    def positions(self) -> dict[str, tuple[float, float]]:
+        """Node id -> centre (x, y) in the graph view [px]; y grows downwards."""
+        return self.layout.positions
 
     def lanes(self, leaf: str) -> dict[str, str]:
         """The state of every machine level along `leaf`: region path -> state name.
@@ -137,58 +162,68 @@ def build_graph(root: MachineNode) -> MachineGraph:
         else:
             color = PALETTE[palette_i % len(PALETTE)]
             palette_i += 1
-        states[path] = StateInfo(path, name, region, kind, color)
+        states[path] = StateInfo(path, name, region, kind, color, spec.final)
     if abort not in states:
         states[abort] = StateInfo(abort, abort, "", "abort", KIND_COLORS["abort"])
 
+    initials = {_region_of(path): node.initial for path, _, node in walked}
+    flow: dict[str, list[tuple[str, str]]] = {region: [] for region in regions}
     edges: list[tuple[str, str]] = []
 
     def add(src: str, dst: str) -> None:
-        if src != dst and src in states and dst in states and (src, dst) not in edges:
+        if src != dst and (src, dst) not in edges:
             edges.append((src, dst))
 
-    for path, spec, node in walked:
+    for path, spec, _node in walked:
         region = _region_of(path)
         prefix = region + "." if region else ""
-        for target in spec.transitions.values():
-            add(path, prefix + target)
-        if region and path.rsplit(".", 1)[-1] == node.initial:
-            add(regions[region], path)
-    for info in list(states.values()):
-        if info.region == "" and info.kind in ("state", "composite"):
-            add(info.path, abort)
+        for outcome, target in spec.transitions.items():
+            flow[region].append((path, prefix + target))
+            for src in _exits(path, outcome, states, regions) or [path]:
+                add(src, prefix + target)
+    for region, owner in regions.items():
+        if region:
+            add(owner, f"{region}.{initials[region]}")
+    add(GUARD, abort)
 
     leaf, node = root.initial, root
     while leaf.rsplit(".", 1)[-1] in node.children:
         node = node.children[leaf.rsplit(".", 1)[-1]]
         leaf = f"{leaf}.{node.initial}"
-    return MachineGraph(states, regions, edges, _layout(root, abort), leaf)
+    labels = {path: info.name for path, info in states.items()} | {GUARD: GUARD_LABEL}
+    captions = {o: "/" + frame_path(o) for o in set(regions.values()) if o}
+    layout = layered_layout(_level("", states, regions, flow, initials, abort), labels, captions)
+    return MachineGraph(states, regions, edges, layout, leaf)
 
 
-def _layout(root: MachineNode, abort: str) -> dict[str, tuple[float, float]]:
-    """Top level in a row, each nested level in a zig-zag column below (or a row beside) its
-    owner, alternating with depth; the abort state above the middle of the top row."""
-    pos: dict[str, tuple[float, float]] = {}
+def _exits(
+    path: str, outcome: str, states: dict[str, StateInfo], regions: dict[str, str]
+) -> list[str]:
+    """The final states of the machine nested in `path` that end it with `outcome`."""
+    if regions.get(path) != path:
+        return []  # a skill state, or a parallel state (its outcome is its rule's)
+    return [s.path for s in states.values() if s.region == path and s.final == outcome]
 
-    def place(node: MachineNode, prefix: str, x0: float, y0: float, row: bool) -> None:
-        for i, name in enumerate(node.states):
-            if row:
-                x, y = x0 + i * _DX, y0
-            else:
-                x, y = x0 + (i % 2) * _DX * 0.5, y0 + (i + 1) * _DY
-            pos[prefix + name] = (x, y)
-            nested = [(f"{prefix}{name}.", node.children[name])] if name in node.children else []
-            for bname, branch in getattr(node, "branches", {}).get(name, {}).items():
-                if hasattr(branch, "states"):
-                    nested.append((f"{prefix}{name}.{bname}.", branch))
-            for k, (sub_prefix, sub) in enumerate(nested):
-                if row:
-                    place(sub, sub_prefix, x + k * _DX, y, row=False)
-                else:
-                    place(sub, sub_prefix, x + _DX, y + k * _DY, row=True)
 
-    place(root, "", 0.0, 0.0, row=True)
-    if abort not in pos:
-        top = [p for p in pos if "." not in p]
-        pos[abort] = ((len(top) - 1) * _DX / 2.0, -_DY * 1.5)
-    return pos
+def _level(
+    region: str,
+    states: dict[str, StateInfo],
+    regions: dict[str, str],
+    flow: dict[str, list[tuple[str, str]]],
+    initials: dict[str, str],
+    abort: str,
+) -> Level:
+    """The layout input of one machine level and, recursively, of the levels nested in it."""
+    prefix = region + "." if region else ""
+    nodes = [s.path for s in states.values() if s.region == region]
+    level = Level(nodes, list(flow.get(region, [])), prefix + initials.get(region, ""))
+    if region:
+        level.exits = [n for n in nodes if states[n].final is not None]
+    for node in nodes:
+        owned = [r for r, owner in regions.items() if r and owner == node]
+        if owned:
+            level.nested[node] = [_level(r, states, regions, flow, initials, abort) for r in owned]
+    if not region:
+        level.nodes.append(GUARD)
+        level.edges.append((GUARD, abort))
+    return level

@@ -19,6 +19,7 @@ __all__ = [
     "TICK",
     "WORLD",
     "body_path",
+    "frame_path",
     "geom_path",
     "level_path",
     "part",
@@ -65,6 +66,12 @@ def body_path(name: str) -> str:
 def geom_path(body: str, geom: str) -> str:
     """Entity path of a geom under its body."""
     return f"{body_path(body)}/{GEOMS}/{part(geom)}"
+
+
+def frame_path(owner: str) -> str:
+    """Entity path of the frame around the machine nested in state `owner` in the graph
+    (`PICK.GRASP` -> `state_machine/graph/PICK/GRASP`)."""
+    return "/".join([GRAPH, *(part(p) for p in owner.split("."))])
 
 
 def level_path(region: str) -> str:

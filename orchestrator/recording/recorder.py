@@ -18,7 +18,7 @@ from .state_log import StateLog
 from .static_scene import static_scene
 from .targets import Targets
 from .timeline import Rows
-from .viewer import spawn_viewer, viewer_url
+from .viewer import connect_url, reachable, spawn_viewer, viewer_url
 
 if TYPE_CHECKING:
     from ..engine.context import Context, Event
@@ -42,23 +42,29 @@ class RerunRecorder:
     guard margins, state changes and events are buffered every control tick and sent as
     column batches every `flush_every_ticks` ticks and at the end.
 
-    The stream opens at the first send: at once with `spawn` (the viewer shows the scene from
-    the start), else at the first flush (for most episodes `on_end`), so Rerun's writer
-    threads never compete with the simulation. `on_end` closes it: the file is complete when
-    `run_episode` returns. Construction has no side effects. A recorder may be reused for
-    consecutive episodes (each gets a new recording; a fixed `path` is overwritten).
+    The stream opens at the first send: at once when live (`spawn` or `connect`: the viewer
+    shows the scene from the start), else at the first flush (for most episodes `on_end`), so
+    Rerun's writer threads never compete with the simulation. `on_end` closes it: the file is
+    complete when `run_episode` returns. Construction has no side effects. A recorder may be
+    reused for consecutive episodes (each gets a new recording; a fixed `path` is overwritten).
 
     Args:
         path: Save the recording to this `.rrd` file (parent directories are created).
         spawn: Start a Rerun viewer and stream to it live.
+        connect: Stream live to a viewer or `rerun --serve-web` server already running: its
+            gRPC URL (`rerun+http://127.0.0.1:9876/proxy`) or port.
         application_id: Rerun application id.
         recording_id: Id of the recording (default: a fresh random id per episode).
-        flush_every_ticks: Send buffered data every N control ticks. Default: 20 with `spawn`
-            (the viewer follows the run live), else 1000 (bounds memory on long episodes).
+        flush_every_ticks: Send buffered data every N control ticks. Default: 20 when live
+            (the viewer follows the run), else 1000 (bounds memory on long episodes).
         port: TCP port of the spawned viewer.
 
+    Every sink receives the default blueprint, made active: a viewer shows the designed
+    layout whichever way the recording reaches it (see docs/recording.md).
+
     Raises:
-        RecordingError: Neither `path` nor `spawn` was given.
+        RecordingError: None of `path`, `spawn` and `connect` was given, or `connect` is not
+            a Rerun address.
     """
 
     def __init__(
@@ -66,20 +72,25 @@ class RerunRecorder:
         path: str | Path | None = None,
         spawn: bool = False,
         *,
+        connect: str | None = None,
         application_id: str = APPLICATION_ID,
         recording_id: str | None = None,
         flush_every_ticks: int | None = None,
         port: int = 9876,
     ) -> None:
-        if path is None and not spawn:
-            raise RecordingError("nothing to record to: pass path=<file.rrd> or spawn=True")
+        if path is None and not spawn and connect is None:
+            raise RecordingError(
+                "nothing to record to: pass path=<file.rrd>, spawn=True or connect=<url>"
+            )
         if flush_every_ticks is not None and flush_every_ticks < 1:
             raise RecordingError(f"flush_every_ticks must be >= 1 (got {flush_every_ticks})")
         self.path = Path(path) if path is not None else None
         self.spawn = spawn
+        self.connect = connect_url(connect) if connect is not None else None
         self.application_id = application_id
         self.recording_id = recording_id
-        self.flush_every_ticks = flush_every_ticks or (20 if spawn else 1000)
+        self.live = spawn or connect is not None
+        self.flush_every_ticks = flush_every_ticks or (20 if self.live else 1000)
         self.port = port
         self.rec: rr.RecordingStream | None = None
 
@@ -90,6 +101,7 @@ class RerunRecorder:
         self.rec = None
         scene = static_scene(ctx, executor.root)
         self._static = scene.chunks
+        self._graph_bounds = scene.graph.layout.bounds
         self._poses = scene.poses
         self._states = StateLog(scene.graph)
         self._signals = RobotSignals(ctx)
@@ -106,7 +118,7 @@ class RerunRecorder:
         self._last_tick = -1
         self._states.enter(ctx.tick, ctx.t, self._states.graph.initial_leaf)
         ctx.listeners.append(self._on_event)
-        if self.spawn:
+        if self.live:
             self._flush()
 
     def on_tick(self, ctx: Context, executor: Executor) -> None:
@@ -159,6 +171,13 @@ class RerunRecorder:
                     RuntimeWarning,
                     stacklevel=2,
                 )
+        if self.connect is not None:
+            if not reachable(self.connect):
+                raise RecordingError(
+                    f"no Rerun viewer or server at {self.connect}: start one first (`rerun`, or"
+                    " `rerun --serve-web` for a browser), or record with --rrd PATH"
+                )
+            sinks.append(rr.GrpcSink(self.connect))
         if self.path is not None:
             try:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -208,7 +227,9 @@ class RerunRecorder:
         self.rec.send_chunks(chunks)
         if first:
             self.rec.send_blueprint(
-                default_blueprint(self._ctx.model), make_active=False, make_default=True
+                default_blueprint(self._ctx.model, self._graph_bounds),
+                make_active=True,
+                make_default=True,
             )
             self.rec.send_chunks(self._static)
         chunks = self._guards.chunks()

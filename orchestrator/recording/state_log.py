@@ -9,16 +9,12 @@ import rerun as rr
 from rerun.chunk import Chunk
 
 from .batches import StaticBatch
+from .graph_drawing import GraphDrawing
 from .machine_graph import MachineGraph, on_path
-from .paths import ACTIVE_STATE, GRAPH, level_path
+from .paths import ACTIVE_STATE, level_path
 from .timeline import time_columns
 
 __all__ = ["StateLog"]
-
-_DIM_ALPHA = 0x50
-"""Alpha of inactive graph nodes (their own colour, faded)."""
-_RADIUS_ACTIVE, _RADIUS_IDLE = 14.0, 8.0
-"""Graph node radii in the graph view's units."""
 
 
 def _rgba(colors: Iterable[int]) -> np.ndarray:
@@ -36,8 +32,8 @@ class StateLog:
     * `state_machine/levels/<region>`: one lane per machine level (`root`, `PICK`, ...), so a
       nested machine's states sit under the state that runs it; a lane is reset (a gap) when
       its owning state is left.
-    * `state_machine/graph`: node colours and radii over time, the active leaf and its
-      ancestors in full colour, every other node faded.
+    * `state_machine/graph`: the machine's graph (`GraphDrawing`), the active leaf and its
+      ancestors lit.
 
     Args:
         graph: The machine tree's graph.
@@ -45,13 +41,11 @@ class StateLog:
 
     def __init__(self, graph: MachineGraph) -> None:
         self.graph = graph
-        self.node_ids = list(graph.states)
         self._active: list[tuple[int, float, str]] = []
         self._lanes: dict[str, list[tuple[int, float, str]]] = {}
         self._lane_now: dict[str, str] = {}
         self._leaf: str | None = None
-        self._base = np.array([s.color for s in graph.states.values()], dtype=np.uint32)
-        self._dim = (self._base & np.uint32(0xFFFFFF00)) | np.uint32(_DIM_ALPHA)
+        self.drawing = GraphDrawing(graph)
 
     def log_static(self, static: StaticBatch) -> None:
         """State colours per lane, graph nodes (ids, labels, positions) and edges."""
@@ -70,16 +64,7 @@ class StateLog:
                     values=[s.name for s in lane], colors=_rgba(s.color for s in lane)
                 ),
             )
-        static.log(
-            GRAPH,
-            rr.GraphNodes(
-                node_ids=self.node_ids,
-                labels=[s.name for s in states],
-                positions=[self.graph.positions.get(p, (0.0, 0.0)) for p in self.node_ids],
-                show_labels=True,
-            ),
-            rr.GraphEdges(edges=self.graph.edges, graph_type="directed"),
-        )
+        self.drawing.log_static(static)
 
     def enter(self, tick: int, t_s: float, leaf: str) -> None:
         """The machine entered leaf state `leaf` at control tick `tick`, time `t_s` [s]."""
@@ -106,7 +91,7 @@ class StateLog:
         out = []
         if self._active:
             out.append(self._states(ACTIVE_STATE, self._active))
-            out.append(self._graph(self._active))
+            out += self.drawing.chunks(*zip(*self._active, strict=True))
             self._active = []
         for region, rows in self._lanes.items():
             if rows:
@@ -121,18 +106,4 @@ class StateLog:
             entity,
             indexes=time_columns(np.array(ticks), np.array(t_s)),
             columns=rr.StateChange.columns(state=list(values)),
-        )
-
-    def _graph(self, rows: list[tuple[int, float, str]]) -> Chunk:
-        ticks, t_s, leaves = zip(*rows, strict=True)
-        n = len(self.node_ids)
-        lit = np.array(
-            [[on_path(node, leaf) for node in self.node_ids] for leaf in leaves], dtype=bool
-        )
-        colors = np.where(lit, self._base, self._dim).ravel()
-        radii = np.where(lit, _RADIUS_ACTIVE, _RADIUS_IDLE).astype(np.float32).ravel()
-        return Chunk.from_columns(
-            GRAPH,
-            indexes=time_columns(np.array(ticks), np.array(t_s)),
-            columns=rr.GraphNodes.columns(colors=colors, radii=radii).partition([n] * len(rows)),
         )
