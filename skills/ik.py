@@ -64,6 +64,8 @@ class IKSolver:
         self.damping = damping
         self.velocity = np.zeros(self.n)
         self.acceleration = np.zeros(self.n)
+        self.reference_velocity = np.zeros(self.n)
+        """The IK's own joint velocity on the last `step` (before the limiter) [rad/s]."""
         self._error: np.ndarray | None = np.zeros(6)
         margin = COMMAND_MARGIN
         self.limiter = JointLimiter(
@@ -134,8 +136,14 @@ class IKSolver:
         self.config.integrate_inplace(v, self.dt)  # the IK's own reference, open loop
         self.velocity[:] = lim.velocity
         self.acceleration[:] = lim.acceleration
+        self.reference_velocity = v[:n]
         self._error = None
         return self.command
+
+    @property
+    def lag(self) -> float:
+        """Largest lag of the limited command behind the IK's own reference [rad]."""
+        return float(np.max(np.abs(self.config.q[: self.n] - self.limiter.position)))
 
     @property
     def command(self) -> np.ndarray:

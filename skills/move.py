@@ -12,6 +12,7 @@ from orchestrator.world.pose import Pose
 
 from .base import SCENE_TARGET, Skill, SkillParams
 from .targets import resolve_target, rot_down, yaw_of_rot
+from .time_scaling import feasible_time_scale
 from .trajectory import CartesianLine
 
 if TYPE_CHECKING:
@@ -99,6 +100,8 @@ class Move(Skill):
             p.max_angular_accel,
         )
         self.t0 = ctx.t
+        self.stretch = feasible_time_scale(ctx.ik, self.line, ctx.q) if self.reachable else 1.0
+        self.duration = self.line.duration * self.stretch
         self.ik_stalled_ticks = 0
         self.last_tcp = ctx.tcp_pos.copy()
         ctx.ik_target = Pose(pos=pos1.tolist(), quat=_rot_to_quat(rot1).tolist())
@@ -109,11 +112,11 @@ class Move(Skill):
             return "unreachable"
         p = self.params
         elapsed = ctx.t - self.t0
-        pos, rot = self.line.sample_so3(elapsed)
+        pos, rot = self.line.sample_so3(elapsed / self.stretch)
         q = ctx.ik.step(pos, rot)
         ctx.controller.set_joint_target(q, ctx.ik.velocity, ctx.ik.acceleration)
         tcp = ctx.tcp_pos
-        if elapsed < self.line.duration:
+        if elapsed < self.duration:
             self.last_tcp[:] = tcp
             return None
         tcp_speed = float(np.linalg.norm(tcp - self.last_tcp)) / ctx.dt_control
@@ -133,7 +136,7 @@ class Move(Skill):
                 return "unreachable"
         else:
             self.ik_stalled_ticks = 0
-        if elapsed > self.line.duration + p.settle_s:
+        if elapsed > self.duration + p.settle_s:
             return "unreachable" if not ik_converged else "timeout"
         return None
 
