@@ -119,26 +119,37 @@ class IKSolver:
             The new joint angles [rad]; `velocity` and `acceleration` hold the joint velocity
             and acceleration there (within the robot's limits, jerk-limited).
         """
+        q_ref = self.config.q[: self.n].copy()
+        v = self.reference_step(pos, rot, self.dt)
+        lim = self.limiter
+        lim.step(q_ref, v)  # the reference at the start of the tick and the velocity it moves on
+        self.velocity[:] = lim.velocity
+        self.acceleration[:] = lim.acceleration
+        return self.command
+
+    def reference_step(self, pos: np.ndarray, rot: np.ndarray | mink.SO3, dt: float) -> np.ndarray:
+        """Advance the IK's own reference by `dt` [s] towards the world pose, without the
+        limiter (what `step` does before limiting; also for dry runs of a motion).
+
+        Returns:
+            The reference's arm joint velocity over the step [rad/s] (also in
+            `reference_velocity`). Shape (n,).
+        """
         so3 = rot if isinstance(rot, mink.SO3) else mink.SO3.from_matrix(rot)
         target = mink.SE3.from_rotation_and_translation(so3, np.asarray(pos) - self.base_pos)
         self.frame_task.set_target(target)
         v = mink.solve_ik(
             self.config,
             [self.frame_task, self.posture_task],
-            self.dt,
+            dt,
             "daqp",
             damping=self.damping,
             limits=self.limits,
         )
-        n = self.n
-        lim = self.limiter
-        lim.step(self.config.q[:n], v[:n])  # the reference now and the velocity it moves on
-        self.config.integrate_inplace(v, self.dt)  # the IK's own reference, open loop
-        self.velocity[:] = lim.velocity
-        self.acceleration[:] = lim.acceleration
-        self.reference_velocity = v[:n]
+        self.config.integrate_inplace(v, dt)  # the IK's own reference, open loop
+        self.reference_velocity = v[: self.n]
         self._error = None
-        return self.command
+        return self.reference_velocity
 
     @property
     def lag(self) -> float:
