@@ -28,7 +28,7 @@ from orchestrator.world.pose import Pose
 
 from . import impedance
 from .base import Skill, SkillParams
-from .trajectory import Trapezoid
+from .trajectory import Profile
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -172,7 +172,7 @@ class Contact(Skill):
         self.phase = "tare" if p.tare_s > 0.0 else "approach"
         self.tare: list[np.ndarray] = []
         self.t_force: float | None = None
-        self.profile: Trapezoid | None = None
+        self.profile: Profile | None = None
         self.t_trace = 0.0
         self.trace: list[tuple[float, float, float]] = []
         """(normal force error [N], force norm [N], lateral deviation [m]) per tick."""
@@ -245,7 +245,7 @@ class Contact(Skill):
         if self.planned is None:
             return "done"
         if self.profile is None:
-            self.profile = Trapezoid(self.planned.length, p.speed, p.accel)
+            self.profile = Profile(self.planned.length, p.speed, p.accel)
             self.t_trace = ctx.t
         elapsed = ctx.t - self.t_trace
         fraction, _ = self.profile.progress(elapsed)

@@ -8,7 +8,7 @@ import numpy as np
 from pydantic import Field, PositiveFloat
 
 from .base import Skill, SkillParams
-from .trajectory import Trapezoid
+from .trajectory import Profile
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -27,7 +27,7 @@ class MoveJointsParams(SkillParams):
 
 
 class MoveJoints(Skill):
-    """Move every arm joint to `to` on one trapezoidal timing law: `reached` or `timeout`."""
+    """Move every arm joint to `to` on one jerk-limited timing law: `reached` or `timeout`."""
 
     name: ClassVar[str] = "move_joints"
     Params: ClassVar[type[SkillParams]] = MoveJointsParams
@@ -47,7 +47,7 @@ class MoveJoints(Skill):
         self.q0 = ctx.controller.q_d.copy()
         self.delta = goal - self.q0
         dist = float(np.max(np.abs(self.delta)))
-        self.profile = Trapezoid(dist, p.max_speed, p.max_accel)
+        self.profile = Profile(dist, p.max_speed, p.max_accel)
         self.goal = goal
         self.t0 = ctx.t
 

@@ -9,7 +9,7 @@ from pydantic import Field, PositiveFloat
 
 from . import impedance
 from .base import Skill, SkillParams
-from .trajectory import Trapezoid
+from .trajectory import Profile
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -37,7 +37,7 @@ class RetractParams(SkillParams):
 
 class Retract(Skill):
     """Move the TCP `distance_m` back along the tool axis (the TCP's -z) from where the
-    controller holds it, on a trapezoidal profile.
+    controller holds it, on a jerk-limited profile.
 
     Outcomes: `retracted` (the tip is within tolerance of the end point), `blocked` (it is
     not, `settle_s` after the motion: something holds the tool).
@@ -55,7 +55,7 @@ class Retract(Skill):
         self.pos0, self.rot = impedance.setpoint(ctx, self.gains.stiffness[:3])
         back = -self.rot[:, 2]  # the tool points along the TCP's z axis
         self.end = self.pos0 + p.distance_m * back
-        self.profile = Trapezoid(p.distance_m, p.speed, p.accel)
+        self.profile = Profile(p.distance_m, p.speed, p.accel)
         self.q_null = ctx.q.copy()
         self.t0 = ctx.t
 
