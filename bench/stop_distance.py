@@ -20,12 +20,13 @@ from orchestrator.engine.runner import run_episode
 from orchestrator.language.load import load_scenario
 
 WHEN = (
-    "PICK.GRASP.DESCEND+0.1",
+    "PICK.GRASP.APPROACH+0.3",
+    "PICK.GRASP.APPROACH+0.7",
     "PICK.GRASP.LIFT+0.1",
     "TRANSPORT+0.1",
     "TRANSPORT+0.3",
     "TRANSPORT+0.5",
-    "LOWER+0.1",
+    "TRANSPORT+0.7",
     "RETREAT+0.1",
 )
 

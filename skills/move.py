@@ -6,13 +6,14 @@ import math
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import Field, PositiveFloat
+from pydantic import BaseModel, ConfigDict, Field, PositiveFloat
 
 from orchestrator.world.pose import Pose
 
 from .base import SCENE_TARGET, Skill, SkillParams
+from .blended_path import BlendedPath
 from .targets import resolve_target, rot_down, yaw_of_rot
-from .time_scaling import feasible_time_scale
+from .time_scaling import feasible_time_scale, fit_path_to_joints
 from .trajectory import CartesianLine
 
 if TYPE_CHECKING:
@@ -24,6 +25,23 @@ _AT_REST_MPS = 0.005
 """TCP speed below which the arm counts as at rest [m/s]."""
 _CAUGHT_UP_RAD = 0.01
 """The limited joint command is this close to the IK's solution: hold the solution [rad]."""
+
+
+class Via(BaseModel):
+    """A point the motion passes through without stopping."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    target: Any = Field(
+        description="`[x, y, z]` in the world [m], an object or marker name, or a pose.",
+        json_schema_extra=SCENE_TARGET,
+    )
+    offset: list[float] = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0],
+        min_length=3,
+        max_length=3,
+        description="Added to the via point's position, world frame [m].",
+    )
 
 
 class MoveParams(SkillParams):
@@ -57,10 +75,38 @@ class MoveParams(SkillParams):
     settle_s: PositiveFloat = Field(
         default=1.0, description="Time allowed after the line ends to settle within tolerance [s]."
     )
+    stop_at_target: bool = Field(
+        default=True,
+        description="Come to rest at the target before `reached`; false: `reached` as soon as "
+        "the TCP is within tolerance at the end of the motion (for a motion the next state "
+        "continues, e.g. a lift or a retreat).",
+    )
+    via: list[Via] = Field(
+        default_factory=list,
+        max_length=16,
+        description="Points passed through on the way without stopping, in order (e.g. a "
+        "hover point above the target); the corners are rounded by `blend_m` and the "
+        "orientation is reached at the last one.",
+    )
+    blend_m: float = Field(
+        default=0.03,
+        ge=0.0,
+        le=0.5,
+        description="How far before and after a via point the path starts and ends rounding "
+        "its corner [m] (0: a sharp corner, passed at rest).",
+    )
+    gripper_m: float | None = Field(
+        default=None,
+        ge=0.0,
+        le=0.1,
+        description="Set each finger to this opening at the start of the motion (as "
+        "`release`'s `opening_m`), so the fingers pre-shape while the arm moves [m].",
+    )
 
 
 class Move(Skill):
-    """Drive the TCP to a pose along a straight line with trapezoidal timing.
+    """Drive the TCP to a pose along a straight line with jerk-limited timing, or through
+    `via` points with blended corners and a time-optimal timing law.
 
     Outcomes: `reached` (TCP within tolerance and at rest), `unreachable` (outside the arm's
     reach, or the IK cannot get there), `timeout` (the arm did not settle in `settle_s`).
@@ -87,19 +133,37 @@ class Move(Skill):
         else:
             rot1 = _quat_to_rot(np.asarray(p.orientation, float))
         self.pos1, self.rot1 = pos1, rot1
-        self.reachable = _within_reach(ctx, pos1)
+        vias = [np.asarray(resolve_target(ctx, v.target).pos) + np.asarray(v.offset) for v in p.via]
+        self.reachable = all(_within_reach(ctx, x) for x in (*vias, pos1))
         ctx.ik.reset(ctx.q)
-        self.line = CartesianLine(
-            ctx.tcp_pos.copy(),
-            rot0,
-            pos1,
-            rot1,
-            p.max_speed,
-            p.max_accel,
-            p.max_angular_speed,
-            p.max_angular_accel,
-        )
+        if p.gripper_m is not None:
+            ctx.set_gripper(p.gripper_m)
+        self.line: CartesianLine | BlendedPath
+        if vias:
+            self.line = BlendedPath(
+                np.array([ctx.tcp_pos, *vias, pos1]),
+                rot0,
+                rot1,
+                p.max_speed,
+                p.max_accel,
+                p.max_angular_speed,
+                p.max_angular_accel,
+                p.blend_m,
+            )
+        else:
+            self.line = CartesianLine(
+                ctx.tcp_pos.copy(),
+                rot0,
+                pos1,
+                rot1,
+                p.max_speed,
+                p.max_accel,
+                p.max_angular_speed,
+                p.max_angular_accel,
+            )
         self.t0 = ctx.t
+        if self.reachable and isinstance(self.line, BlendedPath):
+            fit_path_to_joints(ctx.ik, self.line, ctx.q)
         self.stretch = feasible_time_scale(ctx.ik, self.line, ctx.q) if self.reachable else 1.0
         self.duration = self.line.duration * self.stretch
         self.ik_stalled_ticks = 0
@@ -123,7 +187,7 @@ class Move(Skill):
         self.last_tcp[:] = tcp
         pos_err, ang_err = self.tcp_error(ctx)
         if pos_err <= p.tolerance_m and ang_err <= math.radians(p.tolerance_deg):
-            if tcp_speed < _AT_REST_MPS:
+            if tcp_speed < _AT_REST_MPS or not p.stop_at_target:
                 return "reached"
         ik_err = ctx.ik.error
         ik_converged = np.linalg.norm(ik_err[:3]) <= 0.5 * p.tolerance_m and np.linalg.norm(

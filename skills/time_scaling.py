@@ -1,6 +1,6 @@
 """Slow a Cartesian motion down, as a whole, until the joints can follow it.
 
-A move's straight line with its trapezoidal timing says nothing about the joints: near the
+A move's straight line with its jerk-limited timing says nothing about the joints: near the
 arm's limits of reach, or with a brisk `max_accel`, the IK would need joint velocities or
 accelerations beyond the robot's. The joint limiter then clips each joint on its own, which
 bends the TCP's path (a pre-grasp move dipped 7 cm below its target into the object, 6 of 200
@@ -17,10 +17,11 @@ import math
 
 import numpy as np
 
+from .blended_path import BlendedPath
 from .ik import IKSolver
 from .trajectory import CartesianLine
 
-__all__ = ["feasible_time_scale"]
+__all__ = ["feasible_time_scale", "fit_path_to_joints"]
 
 MARGIN = 0.95
 """Fraction of the limiter's limits the stretched reference may use."""
@@ -31,7 +32,7 @@ of a move (whose ramps last 0.1 s and more) at a third of the cost of running ev
 
 
 def feasible_time_scale(
-    ik: IKSolver, line: CartesianLine, q0: np.ndarray, searches: int = 4
+    ik: IKSolver, line: CartesianLine | BlendedPath, q0: np.ndarray, searches: int = 4
 ) -> float:
     """The factor (>= 1) by which `line`'s duration must grow for the joints to follow it.
 
@@ -60,7 +61,7 @@ _FEASIBLE = 1.08
 """Excess tolerated: the limiter absorbs it (its limits are already inside the robot's)."""
 
 
-def _excess(ik: IKSolver, line: CartesianLine, q0: np.ndarray, k: float) -> float:
+def _excess(ik: IKSolver, line: CartesianLine | BlendedPath, q0: np.ndarray, k: float) -> float:
     """How far the IK's reference along `line` stretched by `k` exceeds the limits (>= 1)."""
     dt = STRIDE * ik.dt
     steps = max(2, math.ceil(line.duration * k / dt) + 1)
@@ -74,3 +75,46 @@ def _excess(ik: IKSolver, line: CartesianLine, q0: np.ndarray, k: float) -> floa
     k_v = float(np.max(np.abs(v) / (MARGIN * ik.limiter.v_max)))
     k_a = math.sqrt(float(np.max(np.abs(acc) / (MARGIN * ik.limiter.a_max))))
     return max(1.0, k_v, k_a)
+
+
+def fit_path_to_joints(ik: IKSolver, path: BlendedPath, q0: np.ndarray, passes: int = 2) -> None:
+    """Retime `path` so that, point by point, the joints can follow it (a path is slowed
+    only where a joint limits it, not as a whole).
+
+    A dry run of the IK along the path gives each joint's rate of change along the path,
+    dq/ds [rad/m]; where the path moves at ds/dt, joint j moves at dq_j/ds * ds/dt. So the
+    path's speed is capped at min_j v_max_j / |dq_j/ds|, its acceleration along the path at
+    min_j a_max_j / |dq_j/ds|, and its speed again where dq/ds changes fast (the centripetal
+    term d2q/ds2 * (ds/dt)^2) at sqrt(a_max_j / |d2q_j/ds2|). Run twice: the first dry run
+    may saturate the IK's velocity limit and understate dq/ds.
+    """
+    dt = STRIDE * ik.dt
+    v_max = MARGIN * ik.limiter.v_max
+    a_max = MARGIN * ik.limiter.a_max
+    for _ in range(passes):
+        steps = max(3, math.ceil(path.duration / dt) + 1)
+        ik.reset(q0)
+        s = np.empty(steps + 1)
+        s[0] = 0.0
+        v = np.empty((steps, ik.n))
+        for i in range(steps):
+            t = (i + 1) * dt
+            s[i + 1] = path.progress(t)
+            pos, rot = path.sample_so3(t)
+            v[i] = ik.reference_step(pos, rot, dt)
+        ik.reset(q0)
+        sdot = np.diff(s) / dt
+        moving = sdot > 0.02  # dq/ds is noise where the path barely moves
+        if np.count_nonzero(moving) < 3:
+            return
+        s_mid = 0.5 * (s[:-1] + s[1:])[moving]
+        dq_ds = v[moving] / sdot[moving, None]
+        d2q_ds2 = np.gradient(dq_ds, s_mid, axis=0) if len(s_mid) > 2 else np.zeros_like(dq_ds)
+        slope = np.maximum(np.abs(dq_ds), 1e-9)
+        v_cap = np.min(v_max / slope, axis=1)
+        v_cap = np.minimum(
+            v_cap, np.min(np.sqrt(a_max / np.maximum(np.abs(d2q_ds2), 1e-9)), axis=1)
+        )
+        a_cap = np.min(a_max / slope, axis=1)
+        order = np.argsort(s_mid, kind="stable")
+        path.limit_speed(s_mid[order], v_cap[order], a_cap[order])

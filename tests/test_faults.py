@@ -80,7 +80,7 @@ def test_every_fault_kind_is_known_to_the_language():
 
 
 def test_the_same_seed_and_fault_give_the_same_result():
-    loaded = load_scenario("pick_place", faults=["encoder_noise@PICK.GRASP.DESCEND"])
+    loaded = load_scenario("pick_place", faults=["encoder_noise@PICK.GRASP.APPROACH+0.6"])
     a, b = run_episode(loaded, 4).to_json_dict(), run_episode(loaded, 4).to_json_dict()
     a.pop("wall_time"), b.pop("wall_time")
     assert a == b and a["reason"]["guard"] == "sensor_health"

@@ -137,7 +137,7 @@ def mutations(draw) -> tuple[str, str]:
                     "PICK",
                     "DONE",
                     "FAILED",
-                    "LOWER",
+                    "TRANSPORT",
                     "OPEN",
                     "CLOSE",
                     "VERIFY",
@@ -197,7 +197,7 @@ def test_a_mutation_that_breaks_the_machine_is_reported(cli, tmp_path):
     for name, original in BUNDLED.items():
         (tmp_path / Path(name).name).write_text(original)
     (tmp_path / "pick_place.yaml").write_text(
-        BUNDLED["machines/pick_place.yaml"].replace("LOWER:", "LOWR:")
+        BUNDLED["machines/pick_place.yaml"].replace("OPEN:", "OPN:")
     )
     res = cli("validate", str(tmp_path / "pick_place.yaml"))
-    assert res.exit_code == 2 and "unknown state 'LOWER'" in res.stderr
+    assert res.exit_code == 2 and "unknown state 'OPEN'" in res.stderr

@@ -54,7 +54,7 @@ class RowResult:
         return asdict(self)
 
 
-_APPROACH = "PICK.GRASP.DESCEND+0.05"
+_APPROACH = "PICK.GRASP.APPROACH+0.75"
 _TRACE = "EXECUTE.TRACE+0.5"
 _SURGICAL = [
     MatrixRow(f"estop@{_TRACE}", "estop"),

@@ -24,7 +24,7 @@ from .executor import Executor, Stopper
 from .faults import FaultInjector
 from .result import RunResult
 from .safety_stop import SafetyStop
-from .success import evaluate
+from .success import errors, evaluate
 
 __all__ = ["Observer", "run_episode"]
 
@@ -183,6 +183,8 @@ def run_episode(
         "control_ticks": ctx.tick,
     }
     metrics.update(ctx.metrics)
+    if not diverged:
+        metrics.update(errors(ctx, scn.success))
     abort_stop = executor.stop
     if executor.violation is not None and abort_stop is not None:
         metrics["abort_t"] = round(executor.violation_t or 0.0, 6)

@@ -10,12 +10,25 @@ import numpy as np
 from ..language.scenario import SuccessCheck
 from .context import Context
 
-__all__ = ["evaluate"]
+__all__ = ["errors", "evaluate"]
 
 
 def evaluate(ctx: Context, checks: dict[str, SuccessCheck]) -> dict[str, bool]:
     """Name -> passed, for every criterion of the scenario."""
     return {name: _check(ctx, c) for name, c in checks.items()}
+
+
+def errors(ctx: Context, checks: dict[str, SuccessCheck]) -> dict[str, float]:
+    """The measured error of every `object_at` criterion, as a metric: `<name>_xy_error_mm`,
+    the distance in the table plane from the object's centre to its target [mm]."""
+    out = {}
+    for name, c in checks.items():
+        if c.kind == "object_at" and c.target is not None:
+            pos = ctx.object_pose(c.object).pos
+            target = ctx.world.markers[c.target]
+            err = float(np.linalg.norm(np.asarray(pos[:2]) - target[:2]))
+            out[f"{name}_xy_error_mm"] = round(err * 1000.0, 3)
+    return out
 
 
 def _check(ctx: Context, c: SuccessCheck) -> bool:

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import typing
+from typing import Any
+
+from pydantic import BaseModel
+
 from ..guards import GUARDS
 from ..robots import ROBOTS
 from ..skills import SKILLS, skill_names
@@ -44,6 +49,12 @@ def check_scene_names(
     def check(src: SourceMap, at: tuple, model, params: dict) -> list[Diagnostic]:
         found = []
         for field, info in model.model_fields.items():
+            sub = _item_model(info.annotation)
+            if sub is not None and isinstance(params.get(field), list):
+                for i, item in enumerate(params[field]):  # e.g. `move`'s via points
+                    if isinstance(item, dict):
+                        found += check(src, (*at, field, i), sub, item)
+                continue
             extra = info.json_schema_extra
             kind = extra.get("scene_ref") if isinstance(extra, dict) else None
             if kind is None or field not in params:
@@ -148,3 +159,12 @@ def check_faults(
                 )
             )
     return out
+
+
+def _item_model(annotation: Any) -> type[BaseModel] | None:
+    """The model of a `list[Model]` parameter's items (None for any other annotation)."""
+    if typing.get_origin(annotation) is list:
+        (item,) = typing.get_args(annotation) or (None,)
+        if isinstance(item, type) and issubclass(item, BaseModel):
+            return item
+    return None

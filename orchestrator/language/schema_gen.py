@@ -64,7 +64,10 @@ def _guard_schema(defs: dict[str, Any]) -> dict:
 def _skill_conditions(defs: dict[str, Any]) -> list[dict]:
     conditions = []
     for name in skill_names():
-        params = _allow_refs(_model_schema(SKILLS[name].Params, defs, prefix=f"skill_{name}_"))
+        prefix = f"skill_{name}_"
+        params = _allow_refs(_model_schema(SKILLS[name].Params, defs, prefix=prefix))
+        for sub in [d for d in defs if d.startswith(prefix)]:  # nested models, e.g. via points
+            defs[sub] = _allow_refs(defs[sub])
         conditions.append(
             {
                 "if": {"properties": {"skill": {"const": name}}, "required": ["skill"]},

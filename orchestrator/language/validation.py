@@ -371,6 +371,8 @@ def _check_params(
             if "missing required key" in d.message and leaf in unknown_refs:
                 continue
             ref = parse_ref(params.get(leaf))
+            if ref is not None and any(m in d.message for m in _RANGE_MESSAGES):
+                continue  # the sample of the key's type is out of range, not the key's value
             if ref is not None:  # a typed `$key` whose type does not fit the parameter
                 declared = types.get(ref[0], "any")
                 out.append(
@@ -384,6 +386,11 @@ def _check_params(
             else:
                 out.append(d)
     return out
+
+
+_RANGE_MESSAGES = ("Input should be greater than", "Input should be less than")
+"""How pydantic's range errors read: a `$key` of the right type is
+checked against the parameter's range when the state starts, with its value."""
 
 
 def _contains_none(value: Any) -> bool:
