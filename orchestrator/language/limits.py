@@ -34,16 +34,17 @@ class InputLimits:
             everything it expands to (stops "billion laughs" before any memory is spent).
         max_machine_depth: Machines nested in machines, inline `states:` and included files
             alike.
+        max_states: States in a machine tree once nested and included machines are expanded
+            (an included machine counts once per place that includes it).
         max_ref_chars: Length of a `machine:` reference [characters].
-        max_retry: Largest `retry:` of a state.
     """
 
     max_file_bytes: int = 1 << 20
     max_depth: int = 64
     max_nodes: int = 250_000
     max_machine_depth: int = 24
+    max_states: int = 50_000
     max_ref_chars: int = 1024
-    max_retry: int = 1000
 
 
 def current_limits() -> InputLimits:
