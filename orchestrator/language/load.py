@@ -170,6 +170,8 @@ def load_scenario(
                     )
     if machine is not None:
         problems += validate_machine(machine)
+    if scenario is not None and not problems:
+        problems += _compiles(scenario, doc.source)
     if problems:
         raise ConfigError([_attribute(d, overridden, doc.source.file) for d in problems])
     assert scenario is not None and machine is not None
@@ -227,6 +229,19 @@ def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagn
                 f"<{option}>", 0, 0, diag.path, f"{diag.message} (from {origin})", diag.valid
             )
     return diag
+
+
+def _compiles(scenario: Scenario, source: SourceMap) -> list[Diagnostic]:
+    """Build the scenario's world once (about 10 ms): what MuJoCo refuses to compile is
+    reported by `validate` too, not only by `run` after the user waited for it."""
+    from ..world.world import World
+
+    try:
+        World.build(scenario, 0)
+    except Exception as exc:  # MjSpec reports bad geometry as ValueError or its own errors
+        text = " ".join(str(exc).split()) or type(exc).__name__
+        return [source.diag(("scene",), f"MuJoCo cannot build this scene: {text}")]
+    return []
 
 
 def _arm_joints(scenario: Scenario) -> int:
