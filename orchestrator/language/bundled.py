@@ -6,7 +6,14 @@ import re
 from importlib import resources
 from pathlib import Path
 
-__all__ = ["BUNDLED_NAME", "bundled_folder", "bundled_names", "bundled_path", "resolve_file"]
+__all__ = [
+    "BUNDLED_NAME",
+    "bundled_folder",
+    "bundled_names",
+    "bundled_path",
+    "is_file",
+    "resolve_file",
+]
 
 BUNDLED_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,127}$")
 """What a bundled name may look like: no `/`, no `..`, nothing that leaves the folder."""

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from ..exceptions import ConfigError
-from .bundled import resolve_file
+from .bundled import is_file, resolve_file
 from .diagnostics import Diagnostic
 from .load import load_machine, load_scenario
 from .yamlio import load_yaml
@@ -15,7 +16,7 @@ __all__ = ["validate_paths"]
 
 def _kind(ref: str) -> tuple[str, str] | None:
     path = Path(ref)
-    if path.is_file():
+    if is_file(path):
         try:
             data = load_yaml(path).data
         except ConfigError:
@@ -36,8 +37,15 @@ def _kind(ref: str) -> tuple[str, str] | None:
     return None
 
 
-def validate_paths(refs: list[str]) -> tuple[list[Diagnostic], list[tuple[str, str]]]:
-    """Every problem in `refs`, and the (kind, name) of each file that passed."""
+def validate_paths(
+    refs: list[str], allow_paths: Sequence[Path | str] = ()
+) -> tuple[list[Diagnostic], list[tuple[str, str]]]:
+    """Every problem in `refs`, and the (kind, name) of each file that passed.
+
+    Args:
+        refs: Files or bundled names.
+        allow_paths: Directories includes may name besides each file's own tree.
+    """
     problems: list[Diagnostic] = []
     ok: list[tuple[str, str]] = []
     for ref in refs:
@@ -49,9 +57,9 @@ def validate_paths(refs: list[str]) -> tuple[list[Diagnostic], list[tuple[str, s
             continue
         try:
             if kind[0] == "machine":
-                load_machine(kind[1])
+                load_machine(kind[1], allow_paths=allow_paths)
             else:
-                load_scenario(kind[1])
+                load_scenario(kind[1], allow_paths=allow_paths)
         except ConfigError as exc:
             problems += exc.diagnostics
             continue

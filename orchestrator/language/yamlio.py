@@ -35,6 +35,7 @@ _LOADER: Any = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 _STD = "tag:yaml.org,2002:"
 _SCALAR_TAGS = {_STD + t for t in ("str", "int", "float", "bool", "null", "timestamp")}
 _MERGE = _STD + "merge"
+_STR = _STD + "str"
 _VALID_TAGS = ("!!str", "!!int", "!!float", "!!bool", "!!null", "!!timestamp", "!!map", "!!seq")
 
 # What YAML allows in a file (PyYAML's reader refuses the rest, without a usable position).
@@ -117,6 +118,8 @@ class _Assembler:
         self.source = source
         self.limits = limits
         self.resolver = yaml.SafeLoader("")
+        self.special = set(self.resolver.yaml_implicit_resolvers)
+        """First characters some implicit resolver (int, float, bool, null, ...) looks at."""
         self.stack: list[_Frame] = []
         self.anchors: dict[str, _Anchor] = {}
         self.count = 0
@@ -157,7 +160,10 @@ class _Assembler:
         return (*top.path, top.key)
 
     def feed(self, event: Any) -> None:
-        if isinstance(event, yaml.DocumentStartEvent):
+        kind = type(event)
+        if kind is yaml.ScalarEvent:  # most events: the fast path first
+            self.scalar(event)
+        elif isinstance(event, yaml.DocumentStartEvent):
             self.documents += 1
             if self.documents > 1:
                 raise self.fatal(
@@ -174,9 +180,38 @@ class _Assembler:
             self.alias(event)
 
     def scalar(self, event: Any) -> None:
-        pos = self.at(event.start_mark)
-        self.count_nodes(1, pos)
+        mark = event.start_mark
+        pos = (mark.line + 1, mark.column + 1)
+        self.count += 1
+        if self.count > self.limits.max_nodes:
+            self.count_nodes(0, pos)
         tag = event.tag
+        text = event.value
+        if (
+            tag is None
+            and event.anchor is None
+            and text
+            and (text[0] not in self.special or not event.implicit[0])
+            and self.stack
+        ):
+            # a plain word no implicit resolver claims, or a quoted string (state names, keys,
+            # most values): a str. The common cases are assembled inline; this loop runs for
+            # every value of a 1 MiB file within the 2 s every answer must take.
+            top = self.stack[-1]
+            key = top.key
+            if not top.is_map:
+                self.source.marks.setdefault((*top.path, len(top.value)), pos)
+                top.value.append(text)
+                return
+            if key is _NO_KEY and text not in top.value:
+                top.key = text
+                self.source.marks[(*top.path, text)] = pos
+                return
+            if key is not _NO_KEY and key is not _MERGE_KEY and key is not _BAD_KEY:
+                self.source.marks.setdefault((*top.path, key), pos)
+                top.value[key] = text
+                top.key = _NO_KEY
+                return
         if tag is None or tag == "!":
             implicit = event.implicit if tag is None else (False, False)
             tag = self.resolver.resolve(yaml.ScalarNode, event.value, implicit)
@@ -224,11 +259,21 @@ class _Assembler:
         )
 
     def open(self, event: Any) -> None:
-        is_map = isinstance(event, yaml.MappingStartEvent)
-        pos = self.at(event.start_mark)
-        self.count_nodes(1, pos)
-        path = self.child_path()
-        if event.tag not in (None, "!", _STD + ("map" if is_map else "seq")):
+        is_map = type(event) is yaml.MappingStartEvent
+        mark = event.start_mark
+        pos = (mark.line + 1, mark.column + 1)
+        self.count += 1
+        if self.count > self.limits.max_nodes:
+            self.count_nodes(0, pos)
+        stack = self.stack
+        top = stack[-1] if stack else None
+        if top is None:
+            path: Path_ | None = ()
+        elif not top.is_map:
+            path = (*top.path, len(top.value))
+        else:
+            path = self.child_path()
+        if event.tag is not None and event.tag not in ("!", _STD + ("map" if is_map else "seq")):
             self.errors.append(self._bad_tag(event.tag, pos, path))
         if path is None:  # a mapping or list used as a key
             self.errors.append(
@@ -239,14 +284,14 @@ class _Assembler:
                     "a key must be a plain value, not a mapping or a list",
                 )
             )
-            path = (*self.stack[-1].path, "<key>")
+            path = (*stack[-1].path, "<key>")
         self.source.marks.setdefault(path, pos)
         frame = _Frame(is_map, path, pos, self.count)
         if event.anchor is not None:
             frame.anchor = event.anchor
             self.anchors[event.anchor] = _Anchor(frame.value, 0, 0, True)
-        self.stack.append(frame)
-        if len(self.stack) > self.limits.max_depth:
+        stack.append(frame)
+        if len(stack) > self.limits.max_depth:
             raise self.fatal(
                 pos,
                 f"nested deeper than {self.limits.max_depth} levels (limit max_depth; see "
@@ -255,7 +300,7 @@ class _Assembler:
 
     def close(self) -> None:
         frame = self.stack.pop()
-        if frame.is_map:
+        if frame.merges:
             for merged in frame.merges:
                 for key, value in merged.items():
                     if key not in frame.value:
@@ -265,6 +310,19 @@ class _Assembler:
             self.anchors[frame.anchor] = _Anchor(
                 frame.value, self.count - frame.start + 1, height, False
             )
+        if self.stack:  # the common case inline: a value of a mapping or an item of a list
+            top = self.stack[-1]
+            key = top.key
+            if not top.is_map or (
+                key is not _NO_KEY and key is not _MERGE_KEY and key is not _BAD_KEY
+            ):
+                top.height = max(top.height, height)
+                if top.is_map:
+                    top.value[key] = frame.value
+                    top.key = _NO_KEY
+                else:
+                    top.value.append(frame.value)
+                return
         self.complete(frame.value, frame.pos, height, None, None)
 
     def alias(self, event: Any) -> None:
@@ -392,9 +450,13 @@ def parse_yaml(text: str, file: str, limits: InputLimits | None = None) -> YamlD
         )
     assembler = _Assembler(source, limits)
     loader = _LOADER(text)
+    feed = assembler.feed
     try:
-        while loader.check_event():
-            assembler.feed(loader.get_event())
+        while True:
+            event = loader.get_event()
+            if event is None or type(event) is yaml.StreamEndEvent:
+                break
+            feed(event)
     except _Fatal as exc:
         raise ConfigError([exc.diag]) from None
     except yaml.MarkedYAMLError as exc:
