@@ -52,6 +52,15 @@ def _fail(message: str) -> None:
     raise typer.Exit(EXIT_INVALID)
 
 
+def _allowed(paths: list[Path] | None) -> tuple[Path, ...]:
+    """The `--allow-path` directories, each checked to be one."""
+    for path in paths or ():
+        if not path.is_dir():
+            what = "does not exist" if not path.exists() else "is not a directory"
+            _fail(f"--allow-path {path}: {what} (give a directory that holds machine files)")
+    return tuple(paths or ())
+
+
 def _check_writable(path: Path, option: str) -> None:
     """Refuse an output file that cannot be written, before anything runs."""
     if path.is_dir():
@@ -126,7 +135,7 @@ def run(
     if rrd is not None:
         _check_writable(rrd, "--rrd")
     try:
-        loaded = load_scenario(scenario, set_ or [], fault or [], allow_path or ())
+        loaded = load_scenario(scenario, set_ or [], fault or [], _allowed(allow_path))
         observers = []
         if rrd is not None or spawn or connect is not None:
             from .recording import RerunRecorder
@@ -154,6 +163,10 @@ def run(
     raise typer.Exit(result.exit_code)
 
 
+_TABLE_ENDS = 20
+"""Transitions printed at each end of a long run's table."""
+
+
 def _print_result(result) -> None:
     style = {"succeeded": "green", "failed": "yellow", "aborted": "red"}[result.outcome]
     rtf = result.sim_time / max(result.wall_time, 1e-9)
@@ -163,7 +176,14 @@ def _print_result(result) -> None:
         f"({result.wall_time:.2f} s wall, {rtf:.0f}x real time)"
     )
     table = Table("t [s]", "from", "to", "trigger", box=None, pad_edge=False)
-    for tr in result.transitions:
+    shown = result.transitions
+    cut = len(shown) - 2 * _TABLE_ENDS
+    if cut > 1:  # a retry loop can make thousands: the first and last ones tell the story
+        shown = [*shown[:_TABLE_ENDS], None, *shown[-_TABLE_ENDS:]]
+    for tr in shown:
+        if tr is None:
+            table.add_row("...", f"({cut} more transitions: --json lists them all)", "", "")
+            continue
         table.add_row(f"{tr['t']:.2f}", escape(tr["from"]), escape(tr["to"]), escape(tr["trigger"]))
     out.print(table)
     if result.reason:
@@ -238,7 +258,7 @@ def validate(
     from .language.validate_paths import validate_paths
 
     try:
-        problems, checked = validate_paths(paths, allow_path or ())
+        problems, checked = validate_paths(paths, _allowed(allow_path))
     except ConfigError as exc:  # e.g. a bad $ORCHESTRATOR_LIMITS
         problems, checked = exc.diagnostics, []
     if problems:
@@ -263,7 +283,7 @@ def graph(
         err.print(f"--format: unknown format {fmt[:80]!r} (valid: mermaid, dot)", markup=False)
         raise typer.Exit(EXIT_INVALID)
     try:
-        node = load_machine(machine, allow_paths=allow_path or ())
+        node = load_machine(machine, allow_paths=_allowed(allow_path))
     except ConfigError as exc:
         _fail_config(exc)
         return
@@ -371,7 +391,7 @@ def batch(
         overrides=tuple(set_ or ()),
         record=record,
         max_wall_s=DEFAULT_MAX_WALL_S if max_wall_s is None else max_wall_s,
-        allow_paths=tuple(str(p) for p in allow_path or ()),
+        allow_paths=tuple(str(p) for p in _allowed(allow_path)),
     )
     show = sys.stdout.isatty() and not as_json
     progress = RichProgress(out, label=Path(scenario).stem) if show else NullProgress()
