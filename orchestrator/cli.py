@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Annotated, Literal
@@ -59,6 +60,11 @@ def _allowed(paths: list[Path] | None) -> tuple[Path, ...]:
             what = "does not exist" if not path.exists() else "is not a directory"
             _fail(f"--allow-path {path}: {what} (give a directory that holds machine files)")
     return tuple(paths or ())
+
+
+def _check_wall(max_wall_s: float | None) -> None:
+    if max_wall_s is not None and not math.isfinite(max_wall_s):
+        _fail(f"--max-wall-s {max_wall_s}: give a finite number of seconds (omit it for no limit)")
 
 
 def _check_writable(path: Path, option: str) -> None:
@@ -132,6 +138,7 @@ def run(
     from .engine.runner import WallTimeExceeded, run_episode
     from .language.load import load_scenario
 
+    _check_wall(max_wall_s)
     if rrd is not None:
         _check_writable(rrd, "--rrd")
     try:
@@ -372,6 +379,7 @@ def batch(
     from .batch.progress import NullProgress, RichProgress
     from .batch.report import print_summary
 
+    _check_wall(max_wall_s)
     if seed_base + episodes - 1 > MAX_SEED:
         _fail(f"--seed-base {seed_base} + -n {episodes} runs past the largest seed {MAX_SEED}")
     if resume and out_dir is None:

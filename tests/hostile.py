@@ -4,10 +4,12 @@ to hand to the command, and the line the answer must point at (0: any real line)
 
 from __future__ import annotations
 
+import random
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+REPO = Path(__file__).resolve().parent.parent
 SCENARIO_HEAD = "name: s\nmachine: m.yaml\n"
 MACHINE_HEAD = "name: m\ninitial: A\n"
 
@@ -191,6 +193,89 @@ def rich_markup_in_names() -> Hostile:
     return Hostile(
         "rich markup in a value", {"m.yaml": text}, line=4, fragment="[bold red]:100:[/]"
     )
+
+
+BUNDLED = {
+    "machine": (REPO / "machines" / "pick_place.yaml").read_text(),
+    "grasp": (REPO / "machines" / "grasp.yaml").read_text(),
+    "scenario": (REPO / "scenarios" / "pick_place.yaml")
+    .read_text()
+    .replace("machine: pick_place", "machine: pick_place.yaml"),
+}
+FRAGMENTS = [
+    "!!python/object/apply:os.system [echo]",
+    "!!binary aGk=",
+    "!foo x",
+    "!!int abc",
+    "!!float 1.2.3",
+    "!!bool maybe",
+    "&a [*a]",
+    "*nowhere",
+    "1" * 5000,
+    ".nan",
+    "-.inf",
+    "1e999",
+    "[" * 200 + "]" * 200,
+    "{" * 100,
+    "'" + "x" * 3000 + "'",
+    "{<<: *x}",
+    "\x00",
+    "\x1b[31m",
+    "\u202e",
+    "\ufeff",
+    "../../../etc/passwd",
+    "/etc/shadow",
+    "${HOME}",
+    ":100:",
+    "[bold]x[/]",
+    "- - - -",
+    "? complex key",
+    "|",
+    "%YAML 1.1",
+    "--- \n...",
+]
+
+
+def write_bundled(root: Path, which: str, data: bytes) -> Path:
+    """Write the bundled pick_place files into `root` with `which` replaced by `data`; return
+    the file to validate (the machine for the machines, else the scenario)."""
+    names = {"machine": "pick_place.yaml", "grasp": "grasp.yaml", "scenario": "scenario.yaml"}
+    for key, name in names.items():
+        (root / name).write_text(BUNDLED[key])
+    (root / names[which]).write_bytes(data)
+    return root / ("pick_place.yaml" if which == "machine" else "scenario.yaml")
+
+
+def random_mutation(rng: random.Random) -> tuple[str, bytes]:
+    """(which bundled file, its bytes) with a hostile fragment spliced into a line (as a value,
+    a key, a new line, or raw) or random bytes inserted: the plain-random twin of the
+    hypothesis strategy in test_hostile.py, for the campaign in bench/fuzz_campaign.py."""
+    which = rng.choice(sorted(BUNDLED))
+    lines = BUNDLED[which].splitlines(keepends=True)
+    i = rng.randrange(len(lines))
+    how = rng.choice(["value", "key", "line", "raw", "bytes"])
+    if how == "bytes":
+        text = BUNDLED[which].encode()
+        at = rng.randrange(len(text) + 1)
+        return which, text[:at] + rng.randbytes(rng.randint(1, 8)) + text[at:]
+    return which, splice(lines, i, how, rng.choice(FRAGMENTS), rng.randrange(len(lines[i]) + 1))
+
+
+def splice(lines: list[str], i: int, how: str, frag: str, at: int) -> bytes:
+    """`lines` with `frag` put on line `i`: as its value, as a key, on a new line before it, or
+    raw at column `at`."""
+    lines = list(lines)
+    line = lines[i]
+    indent = line[: len(line) - len(line.lstrip())]
+    if how == "value" and ":" in line:
+        lines[i] = f"{line.split(':', 1)[0]}: {frag}\n"
+    elif how == "key":
+        lines[i] = f"{indent}{frag}: 1\n"
+    elif how == "line":
+        lines.insert(i, f"{indent}{frag}\n")
+    else:
+        lines[i] = line[:at] + frag + line[at:]
+    return "".join(lines).encode("utf-8", errors="surrogatepass")
 
 
 PICK_PLACE = (Path(__file__).resolve().parent.parent / "scenarios" / "pick_place.yaml").read_text()

@@ -23,7 +23,15 @@ from orchestrator.batch.lock import LOCK, BatchLock
 from orchestrator.engine.runner import WallTimeExceeded, run_episode
 from orchestrator.language.load import load_scenario
 
-from .hostile import Hostile, every_hostile, final_start_retry
+from .hostile import (
+    BUNDLED,
+    FRAGMENTS,
+    Hostile,
+    every_hostile,
+    final_start_retry,
+    splice,
+    write_bundled,
+)
 
 REPO = Path(__file__).resolve().parent.parent
 POSITION = re.compile(r"^(?P<file>.+?):(?P<line>\d+):(?P<col>\d+): \S")
@@ -90,46 +98,6 @@ def test_user_text_reaches_the_terminal_verbatim_not_as_markup_or_emoji(cli, tmp
 
 # --- mutations: the bundled files with hostile fragments spliced in ---------------------------
 
-BUNDLED = {
-    "machine": (REPO / "machines" / "pick_place.yaml").read_text(),
-    "grasp": (REPO / "machines" / "grasp.yaml").read_text(),
-    "scenario": (REPO / "scenarios" / "pick_place.yaml")
-    .read_text()
-    .replace("machine: pick_place", "machine: pick_place.yaml"),
-}
-FRAGMENTS = [
-    "!!python/object/apply:os.system [echo]",
-    "!!binary aGk=",
-    "!foo x",
-    "!!int abc",
-    "!!float 1.2.3",
-    "!!bool maybe",
-    "&a [*a]",
-    "*nowhere",
-    "1" * 5000,
-    ".nan",
-    "-.inf",
-    "1e999",
-    "[" * 200 + "]" * 200,
-    "{" * 100,
-    "'" + "x" * 3000 + "'",
-    "{<<: *x}",
-    "\x00",
-    "\x1b[31m",
-    "\u202e",
-    "\ufeff",
-    "../../../etc/passwd",
-    "/etc/shadow",
-    "${HOME}",
-    ":100:",
-    "[bold]x[/]",
-    "- - - -",
-    "? complex key",
-    "|",
-    "%YAML 1.1",
-    "--- \n...",
-]
-
 
 @st.composite
 def hostile_mutations(draw) -> tuple[str, bytes]:
@@ -140,43 +108,15 @@ def hostile_mutations(draw) -> tuple[str, bytes]:
     i = draw(st.integers(0, len(lines) - 1))
     how = draw(st.sampled_from(["value", "key", "line", "raw", "bytes"]))
     if how == "bytes":
-        blob = draw(st.binary(min_size=1, max_size=8))
         text = BUNDLED[which].encode()
         at = draw(st.integers(0, len(text)))
-        return which, text[:at] + blob + text[at:]
+        return which, text[:at] + draw(st.binary(min_size=1, max_size=8)) + text[at:]
     frag = draw(st.sampled_from(FRAGMENTS))
-    line = lines[i]
-    indent = line[: len(line) - len(line.lstrip())]
-    if how == "value" and ":" in line:
-        key = line.split(":", 1)[0]
-        lines[i] = f"{key}: {frag}\n"
-    elif how == "key":
-        lines[i] = f"{indent}{frag}: 1\n"
-    elif how == "line":
-        lines.insert(i, f"{indent}{frag}\n")
-    else:
-        at = draw(st.integers(0, len(line)))
-        lines[i] = line[:at] + frag + line[at:]
-    return which, "".join(lines).encode("utf-8", errors="surrogatepass")
+    return which, splice(lines, i, how, frag, draw(st.integers(0, len(lines[i]))))
 
 
-@settings(
-    max_examples=120,
-    deadline=None,
-    derandomize=True,
-    database=None,
-    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
-)
-@given(mutation=hostile_mutations())
-def test_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory, cli, mutation):
-    which, data = mutation
-    root = tmp_path_factory.mktemp("hostile")
-    (root / "pick_place.yaml").write_text(BUNDLED["machine"])
-    (root / "grasp.yaml").write_text(BUNDLED["grasp"])
-    (root / "scenario.yaml").write_text(BUNDLED["scenario"])
-    name = {"machine": "pick_place.yaml", "grasp": "grasp.yaml", "scenario": "scenario.yaml"}
-    (root / name[which]).write_bytes(data)
-    entry = root / ("pick_place.yaml" if which == "machine" else "scenario.yaml")
+def _check_mutation(root: Path, cli, which: str, data: bytes) -> None:
+    entry = write_bundled(root, which, data)
     t0 = time.perf_counter()
     res = cli("validate", str(entry))
     assert time.perf_counter() - t0 < HANG_S
@@ -189,6 +129,28 @@ def test_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory, cli
             assert line >= 1 and col >= 1, text
 
 
+MUTATIONS = settings(
+    max_examples=120,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+
+
+@MUTATIONS
+@given(mutation=hostile_mutations())
+def test_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory, cli, mutation):
+    _check_mutation(tmp_path_factory.mktemp("hostile"), cli, *mutation)
+
+
+@pytest.mark.slow
+@settings(MUTATIONS, max_examples=2500, derandomize=False)
+@given(mutation=hostile_mutations())
+def test_many_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory, cli, mutation):
+    _check_mutation(tmp_path_factory.mktemp("hostile"), cli, *mutation)
+
+
 # --- run, batch: invocations ------------------------------------------------------------------
 
 
@@ -199,6 +161,10 @@ def test_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory, cli
         (["--seed", "1" * 30], "--seed"),
         (["--max-wall-s", "0"], "--max-wall-s"),
         (["--max-wall-s", "nan"], "--max-wall-s"),
+        (["--max-wall-s", "inf"], "finite"),
+        (["--set", "physics.timestep_s=" + "1" * 5000], "too long"),
+        (["--set", "physics.timestep_s=!!python/object/apply:os.system [ls]"], "unknown YAML tag"),
+        (["--set", "guards=&a [*a]"], "recursive alias"),
         (["--allow-path", "/nonexistent-issue10"], "does not exist"),
         (["--rrd", "/nonexistent-issue10/x.rrd"], "does not exist"),
         (["--set", "physics.control_hz=1e-6"], "physics.control_hz"),
