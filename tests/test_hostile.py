@@ -278,3 +278,17 @@ def test_a_lock_left_by_a_dead_batch_is_taken_over_and_released(tmp_path):
         with pytest.raises(BatchError, match="in use by another batch"):
             BatchLock(tmp_path).acquire()  # held by a live process (this one)
     assert not (tmp_path / LOCK).exists()
+
+
+def test_nan_in_a_blackboard_default_or_override_is_refused_before_simulating(cli, tmp_path):
+    (tmp_path / "m.yaml").write_text(
+        "name: m\ninitial: A\nblackboard:\n  x: [0.1, .nan]\nstates:\n"
+        "  A: {skill: hold, with: {duration_s: 0.1}, transitions: {held: B}}\n"
+        "  B: {final: succeeded}\n"
+    )
+    res = cli("validate", str(tmp_path / "m.yaml"))
+    assert res.exit_code == 2
+    assert f"{tmp_path / 'm.yaml'}:4:3: blackboard.x:" in res.stderr and "NaN" in res.stderr
+    res = cli("run", "pick_place", "--set", "place_at=[.nan,0,0]")
+    assert res.exit_code == 2
+    assert "blackboard.place_at" in res.stderr and "nothing was simulated" in res.stderr

@@ -11,7 +11,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from ..exceptions import ConfigError
-from .blackboard_types import check_type
+from .blackboard_types import all_finite, check_type
 from .bundled import bundled_names, resolve_file
 from .diagnostics import Diagnostic
 from .faults import parse_fault_spec
@@ -166,6 +166,13 @@ def load_scenario(
                             ("blackboard", key),
                             f"{value!r} is not a {types[key]}, the type the "
                             "machine declares for this key",
+                        )
+                    )
+                elif not all_finite(value):
+                    problems.append(
+                        doc.source.diag(
+                            ("blackboard", key),
+                            f"{value!r} holds NaN or infinity: give finite numbers",
                         )
                     )
     if machine is not None:

@@ -9,7 +9,7 @@ from pydantic import ValidationError
 
 from ..guards import GUARDS
 from ..skills import SKILLS, get_skill, skill_names
-from .blackboard_types import check_type, sample_value
+from .blackboard_types import all_finite, check_type, sample_value
 from .diagnostics import Diagnostic
 from .loading import MachineNode
 from .machine import BranchSpec, GuardRef, StateSpec, guard_entries
@@ -141,6 +141,10 @@ def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Dia
         type_ = node.types.get(key, "any")
         if not check_type(value, type_):
             out.append(src.diag(kat, f"default {value!r} is not a {type_}"))
+        elif not all_finite(value):
+            out.append(
+                src.diag(kat, f"default {value!r} holds NaN or infinity: give finite numbers")
+            )
         out += _check_refs(value, types, src, kat)
     writes = skill_writes_of(node)
     for key, type_ in writes.items():
