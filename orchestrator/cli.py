@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Annotated, Literal
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from .exceptions import ConfigError, OrchestratorError
@@ -22,10 +24,64 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
-err = Console(stderr=True, highlight=False)
-out = Console(highlight=False)
+# Whatever a user file holds can reach these consoles (state names, messages, paths): no
+# emoji codes (`:100:` in `file:100:7` would print as an emoji), no highlighting, and every
+# user string passes `markup=False` or `escape()`.
+err = Console(stderr=True, highlight=False, emoji=False)
+out = Console(highlight=False, emoji=False)
 
 EXIT_INVALID = 2
+MAX_SEED = 2**63 - 1
+"""Seeds are non-negative 64-bit integers (numpy's generators take any of them)."""
+
+SeedOption = Annotated[
+    int, typer.Option(min=0, max=MAX_SEED, help="Episode seed: randomization and noise (>= 0).")
+]
+AllowPathOption = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--allow-path",
+        help="A directory whose machine files `machine:` may include, besides the including "
+        "file's own directory tree and the bundled machines. Repeatable.",
+    ),
+]
+
+
+def _fail(message: str) -> None:
+    """One clean line on stderr, exit 2."""
+    err.print(f"error: {message}", markup=False, soft_wrap=True)
+    raise typer.Exit(EXIT_INVALID)
+
+
+def _allowed(paths: list[Path] | None) -> tuple[Path, ...]:
+    """The `--allow-path` directories, each checked to be one."""
+    for path in paths or ():
+        if not path.is_dir():
+            what = "does not exist" if not path.exists() else "is not a directory"
+            _fail(f"--allow-path {path}: {what} (give a directory that holds machine files)")
+    return tuple(paths or ())
+
+
+def _check_wall(max_wall_s: float | None) -> None:
+    if max_wall_s is not None and not math.isfinite(max_wall_s):
+        _fail(f"--max-wall-s {max_wall_s}: give a finite number of seconds (omit it for no limit)")
+
+
+def _check_writable(path: Path, option: str) -> None:
+    """Refuse an output file that cannot be written, before anything runs."""
+    if path.is_dir():
+        _fail(f"{option} {path}: is a directory; give a file name, e.g. {path / 'run.rrd'}")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        _fail(f"{option} {path}: the directory {parent} does not exist")
+    existed = path.exists()
+    try:
+        with path.open("ab"):
+            pass
+    except OSError as exc:
+        _fail(f"{option} {path}: cannot write it ({exc.strerror})")
+    if not existed:
+        path.unlink(missing_ok=True)
 
 
 def _fail_config(exc: ConfigError) -> None:
@@ -42,7 +98,7 @@ def run(
     scenario: Annotated[
         str, typer.Argument(help="Scenario file or bundled name (e.g. pick_place).")
     ],
-    seed: Annotated[int, typer.Option(help="Episode seed: randomization and noise.")] = 0,
+    seed: SeedOption = 0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the RunResult as JSON.")] = False,
     set_: Annotated[
         list[str] | None,
@@ -67,22 +123,43 @@ def run(
             "rerun+http://HOST:PORT/proxy or a port."
         ),
     ] = None,
+    max_wall_s: Annotated[
+        float | None,
+        typer.Option(
+            min=0.001,
+            help="Wall-clock limit [s]: past it the machine is halted, the arm brought to rest "
+            "and the run ends with exit 1 and the reason (default: no limit).",
+        ),
+    ] = None,
+    allow_path: AllowPathOption = None,
 ) -> None:
-    """Run one episode. Exit 0 succeeded, 1 failed, 2 invalid input, 3 aborted by a guard."""
-    from .engine.runner import run_episode
+    """Run one episode. Exit 0 succeeded, 1 failed (or stopped by --max-wall-s), 2 invalid
+    input, 3 aborted by a guard."""
+    from .engine.runner import WallTimeExceeded, run_episode
     from .language.load import load_scenario
 
+    _check_wall(max_wall_s)
+    if rrd is not None:
+        _check_writable(rrd, "--rrd")
     try:
-        loaded = load_scenario(scenario, set_ or [], fault or [])
+        loaded = load_scenario(scenario, set_ or [], fault or [], _allowed(allow_path))
         observers = []
         if rrd is not None or spawn or connect is not None:
             from .recording import RerunRecorder
 
             observers.append(RerunRecorder(path=rrd, spawn=spawn, connect=connect))
-        result = run_episode(loaded, seed, observers)
+        result = run_episode(loaded, seed, observers, max_wall_s)
     except ConfigError as exc:
         _fail_config(exc)
         return
+    except WallTimeExceeded as exc:
+        if as_json:
+            line = exc.result.to_json_dict()
+            line["outcome"] = "error"
+            line["error"] = {"type": type(exc).__name__, "message": str(exc), "traceback": None}
+            sys.stdout.write(json.dumps(line) + "\n")
+        err.print(f"error: {exc}", markup=False, soft_wrap=True)
+        raise typer.Exit(1) from None
     except OrchestratorError as exc:
         err.print(f"error: {exc}", markup=False)
         raise typer.Exit(EXIT_INVALID) from None
@@ -93,37 +170,48 @@ def run(
     raise typer.Exit(result.exit_code)
 
 
+_TABLE_ENDS = 20
+"""Transitions printed at each end of a long run's table."""
+
+
 def _print_result(result) -> None:
     style = {"succeeded": "green", "failed": "yellow", "aborted": "red"}[result.outcome]
     rtf = result.sim_time / max(result.wall_time, 1e-9)
     out.print(
-        f"[bold]{result.scenario}[/] seed {result.seed}: [{style}]{result.outcome}[/] in "
-        f"{result.final_state} after {result.sim_time:.2f} s simulated "
+        f"[bold]{escape(result.scenario)}[/] seed {result.seed}: [{style}]{result.outcome}[/] in "
+        f"{escape(str(result.final_state))} after {result.sim_time:.2f} s simulated "
         f"({result.wall_time:.2f} s wall, {rtf:.0f}x real time)"
     )
     table = Table("t [s]", "from", "to", "trigger", box=None, pad_edge=False)
-    for tr in result.transitions:
-        table.add_row(f"{tr['t']:.2f}", tr["from"], tr["to"], tr["trigger"])
+    shown = result.transitions
+    cut = len(shown) - 2 * _TABLE_ENDS
+    if cut > 1:  # a retry loop can make thousands: the first and last ones tell the story
+        shown = [*shown[:_TABLE_ENDS], None, *shown[-_TABLE_ENDS:]]
+    for tr in shown:
+        if tr is None:
+            table.add_row("...", f"({cut} more transitions: --json lists them all)", "", "")
+            continue
+        table.add_row(f"{tr['t']:.2f}", escape(tr["from"]), escape(tr["to"]), escape(tr["trigger"]))
     out.print(table)
     if result.reason:
         r = result.reason
         out.print(
-            f"[red]aborted by {r['guard']}[/]: {r['message']} "
+            f"[red]aborted by {escape(str(r['guard']))}[/]: {escape(str(r['message']))} "
             f"(value {r['value']}, limit {r['limit']})"
         )
     if result.success:
         marks = ", ".join(f"{k} {'ok' if v else 'FAILED'}" for k, v in result.success.items())
-        out.print(f"success: {marks}")
+        out.print(f"success: {marks}", markup=False)
     metrics = ", ".join(f"{k} {v}" for k, v in result.metrics.items())
-    out.print(f"metrics: {metrics}")
+    out.print(f"metrics: {metrics}", markup=False, soft_wrap=True)
     if result.retries:
-        out.print(f"retries: {result.retries}")
+        out.print(f"retries: {result.retries}", markup=False)
 
 
 @app.command()
 def faults(
     scenario: Annotated[str, typer.Argument(help="Scenario file or bundled name.")],
-    seed: Annotated[int, typer.Option(help="The seed every row runs.")] = 0,
+    seed: SeedOption = 0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the rows as JSON.")] = False,
     set_: Annotated[
         list[str] | None,
@@ -153,9 +241,9 @@ def faults(
         for r in rows:
             mark = {True: "[green]ok[/]", False: "[red]MISMATCH[/]", None: ""}[r.ok]
             table.add_row(
-                r.fault,
-                r.expect or "-",
-                r.guard or "-",
+                escape(r.fault),
+                escape(r.expect or "-"),
+                escape(r.guard or "-"),
                 str(r.exit_code),
                 "-" if r.detect_s is None else f"{r.detect_s:.3f}",
                 "-" if r.stop_time_s is None else f"{r.stop_time_s:.3f}",
@@ -171,15 +259,19 @@ def validate(
     paths: Annotated[
         list[str], typer.Argument(help="Machine or scenario files (or bundled names).")
     ],
+    allow_path: AllowPathOption = None,
 ) -> None:
     """Check machines and scenarios without simulating: all errors at once, exit 2 if any."""
     from .language.validate_paths import validate_paths
 
-    problems, checked = validate_paths(paths)
+    try:
+        problems, checked = validate_paths(paths, _allowed(allow_path))
+    except ConfigError as exc:  # e.g. a bad $ORCHESTRATOR_LIMITS
+        problems, checked = exc.diagnostics, []
     if problems:
         _fail_config(ConfigError(problems))
     for kind, name in checked:
-        out.print(f"ok  {kind:8} {name}")
+        out.print(f"ok  {kind:8} {name}", markup=False)
 
 
 @app.command()
@@ -188,16 +280,17 @@ def graph(
     fmt: Annotated[
         str, typer.Option("--format", help="mermaid (no system package needed) or dot (Graphviz).")
     ] = "mermaid",
+    allow_path: AllowPathOption = None,
 ) -> None:
     """Draw a machine: states, outcome-labelled transitions, nested clusters, the abort path."""
     from .language.graph import to_dot, to_mermaid
     from .language.load import load_machine
 
     if fmt not in ("mermaid", "dot"):
-        err.print(f"--format: unknown format {fmt!r} (valid: mermaid, dot)")
+        err.print(f"--format: unknown format {fmt[:80]!r} (valid: mermaid, dot)", markup=False)
         raise typer.Exit(EXIT_INVALID)
     try:
-        node = load_machine(machine)
+        node = load_machine(machine, allow_paths=_allowed(allow_path))
     except ConfigError as exc:
         _fail_config(exc)
         return
@@ -212,7 +305,7 @@ def schema(
     from .language.schema_gen import schema_text
 
     if kind not in ("machine", "scenario"):
-        err.print(f"unknown schema {kind!r} (valid: machine, scenario)")
+        err.print(f"unknown schema {kind[:80]!r} (valid: machine, scenario)", markup=False)
         raise typer.Exit(EXIT_INVALID)
     sys.stdout.write(schema_text(kind))
 
@@ -243,7 +336,9 @@ def list_() -> None:
 def batch(
     scenario: Annotated[str, typer.Argument(help="Scenario file or bundled name.")],
     episodes: Annotated[int, typer.Option("-n", "--episodes", min=1, help="Number of episodes.")],
-    seed_base: Annotated[int, typer.Option(help="Episode i runs seed SEED_BASE + i.")] = 0,
+    seed_base: Annotated[
+        int, typer.Option(min=0, max=MAX_SEED, help="Episode i runs seed SEED_BASE + i (>= 0).")
+    ] = 0,
     workers: Annotated[
         int | None, typer.Option(min=1, help="Worker processes / Ray CPUs (default: every core).")
     ] = None,
@@ -266,14 +361,27 @@ def batch(
         Literal["failures", "all", "none"] | None,
         typer.Option(help="Save DIR/episodes/seed_S.rrd for these episodes (default: failures)."),
     ] = None,
+    max_wall_s: Annotated[
+        float | None,
+        typer.Option(
+            min=0.001,
+            help="Wall-clock limit of one episode [s] (default 600): past it the episode is "
+            "stopped and recorded as `error` with the reason.",
+        ),
+    ] = None,
+    allow_path: AllowPathOption = None,
 ) -> None:
     """Run N seeded episodes in parallel: exit 0 all ran, 1 some raised, 2 invalid input."""
     import time as _time
 
     from .batch import BatchConfig, BatchError, run_batch
+    from .batch.config import DEFAULT_MAX_WALL_S
     from .batch.progress import NullProgress, RichProgress
     from .batch.report import print_summary
 
+    _check_wall(max_wall_s)
+    if seed_base + episodes - 1 > MAX_SEED:
+        _fail(f"--seed-base {seed_base} + -n {episodes} runs past the largest seed {MAX_SEED}")
     if resume and out_dir is None:
         err.print("error: --resume needs --out DIR (the batch to continue)", markup=False)
         raise typer.Exit(EXIT_INVALID)
@@ -290,6 +398,8 @@ def batch(
         resume=resume,
         overrides=tuple(set_ or ()),
         record=record,
+        max_wall_s=DEFAULT_MAX_WALL_S if max_wall_s is None else max_wall_s,
+        allow_paths=tuple(str(p) for p in _allowed(allow_path)),
     )
     show = sys.stdout.isatty() and not as_json
     progress = RichProgress(out, label=Path(scenario).stem) if show else NullProgress()

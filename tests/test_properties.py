@@ -182,7 +182,9 @@ def test_mutated_bundled_files_exit_2_or_run_never_a_traceback(tmp_path_factory,
         text = text.replace("machine: pick_place", "machine: ../machines/pick_place.yaml")
     target.write_text(text)
     assume(text != BUNDLED[which])
-    res = cli("run", str(scenario), "--json", "--set", "physics.time_limit_s=8")
+    res = cli(
+        "run", str(scenario), "--json", "--set", "physics.time_limit_s=8", "--allow-path", str(root)
+    )
     assert res.exception is None, f"traceback for mutation of {which}: {res.exception!r}"
     assert "Traceback" not in res.stderr
     assert res.exit_code in (0, 1, 2, 3)

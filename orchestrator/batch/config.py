@@ -7,13 +7,24 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-__all__ = ["BackendName", "BatchConfig", "RecordMode", "default_workers", "portable_ref"]
+__all__ = [
+    "DEFAULT_MAX_WALL_S",
+    "BackendName",
+    "BatchConfig",
+    "RecordMode",
+    "default_workers",
+    "portable_ref",
+]
 
 BackendName = Literal["local", "ray"]
 """Where episodes run: `local` worker processes or `ray` tasks."""
 
 RecordMode = Literal["failures", "all", "none"]
 """Which episodes leave a Rerun recording in `DIR/episodes/seed_<S>.rrd`."""
+
+
+DEFAULT_MAX_WALL_S = 600.0
+"""Default wall-clock limit of one batch episode [s]: generous (pick_place takes ~2 s)."""
 
 
 def default_workers() -> int:
@@ -49,6 +60,9 @@ class BatchConfig:
         resume: Skip seeds already in `results.jsonl` instead of refusing to overwrite it.
         overrides: `--set KEY=VALUE` texts, applied to the scenario in every worker.
         record: Which episodes to record; None means `failures` if recording is available.
+        max_wall_s: Wall-clock limit of one episode [s]: past it the episode is stopped and
+            recorded as `error` (its worker is killed if it does not stop within a grace).
+        allow_paths: Directories the scenario's includes may name (`--allow-path`).
     """
 
     scenario: str
@@ -61,6 +75,8 @@ class BatchConfig:
     resume: bool = False
     overrides: tuple[str, ...] = field(default_factory=tuple)
     record: RecordMode | None = None
+    max_wall_s: float | None = DEFAULT_MAX_WALL_S
+    allow_paths: tuple[str, ...] = ()
 
     @property
     def seeds(self) -> range:

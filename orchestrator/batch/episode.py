@@ -10,20 +10,22 @@ import traceback
 from typing import Any
 
 from ..engine.result import RunResult
-from ..engine.runner import Observer, run_episode
+from ..engine.runner import Observer, WallTimeExceeded, run_episode
 from ..language.load import LoadedScenario, load_scenario
 from .task import EpisodeTask, error_line, rrd_name
 
 __all__ = ["loaded_scenario", "run_task", "same_episode"]
 
-_LOADED: dict[tuple[str, tuple[str, ...]], LoadedScenario] = {}
+_LOADED: dict[tuple[str, tuple[str, ...], tuple[str, ...]], LoadedScenario] = {}
 
 
-def loaded_scenario(ref: str, overrides: tuple[str, ...]) -> LoadedScenario:
+def loaded_scenario(
+    ref: str, overrides: tuple[str, ...], allow_paths: tuple[str, ...] = ()
+) -> LoadedScenario:
     """The scenario `ref` with `overrides`, loaded once per process."""
-    key = (ref, overrides)
+    key = (ref, overrides, allow_paths)
     if key not in _LOADED:
-        _LOADED[key] = load_scenario(ref, list(overrides))
+        _LOADED[key] = load_scenario(ref, list(overrides), allow_paths=allow_paths)
     return _LOADED[key]
 
 
@@ -39,14 +41,16 @@ def run_task(task: EpisodeTask) -> dict[str, Any]:
     `rrd` when a recording was saved; outcome `error` with the traceback if anything raised.
     """
     try:
-        loaded = loaded_scenario(task.scenario, task.overrides)
+        loaded = loaded_scenario(task.scenario, task.overrides, task.allow_paths)
         if task.record == "all":
-            result = run_episode(loaded, task.seed, [_recorder(task)])
+            result = run_episode(loaded, task.seed, [_recorder(task)], task.max_wall_s)
             line = result.to_json_dict()
             line["rrd"] = rrd_name(task.seed)
             return line
-        result = run_episode(loaded, task.seed)
+        result = run_episode(loaded, task.seed, max_wall_s=task.max_wall_s)
         line = result.to_json_dict()
+    except WallTimeExceeded as exc:  # the episode was stopped: its reason, not a traceback
+        return error_line(task, type(exc).__name__, str(exc), None)
     except Exception as exc:  # crash isolation: whatever went wrong is this episode's error
         return error_line(task, type(exc).__name__, _one_line(exc), traceback.format_exc())
     if task.record == "failures" and result.outcome != "succeeded":
@@ -57,7 +61,7 @@ def run_task(task: EpisodeTask) -> dict[str, Any]:
 def _record_again(loaded: LoadedScenario, task: EpisodeTask, result: RunResult) -> dict[str, Any]:
     """Re-run a failed episode with a recorder; episodes are deterministic, so it is the same."""
     try:
-        again = run_episode(loaded, task.seed, [_recorder(task)])
+        again = run_episode(loaded, task.seed, [_recorder(task)], task.max_wall_s)
     except Exception as exc:  # the episode's result stands; say why there is no recording
         return {"rrd_error": f"{type(exc).__name__}: {_one_line(exc)}"}
     extra: dict[str, Any] = {"rrd": rrd_name(task.seed)}

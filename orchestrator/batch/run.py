@@ -13,6 +13,7 @@ from ..language.load import load_scenario
 from .backends import Backend, make_backend
 from .config import BatchConfig, RecordMode, portable_ref
 from .exceptions import BatchError
+from .lock import BatchLock
 from .progress import BatchProgress, NullProgress
 from .store import ResultsStore
 from .summary import SUMMARY, BatchSummary, summarize
@@ -55,9 +56,14 @@ def run_batch(
         BatchError: The batch directory or backend cannot be used as asked.
     """
     progress = progress or NullProgress()
+    if config.seed_base < 0:
+        raise BatchError(
+            f"--seed-base must be >= 0 (seeds are non-negative), got {config.seed_base}"
+        )
     if config.address and config.backend != "ray":
         raise BatchError(f"--address {config.address} is a Ray cluster: add --backend ray")
-    loaded = load_scenario(config.scenario, list(config.overrides))
+    allow = tuple(str(Path(a).resolve()) for a in config.allow_paths)
+    loaded = load_scenario(config.scenario, list(config.overrides), allow_paths=allow)
     ref = portable_ref(config.scenario)
     no_recording = recording_unavailable()
     record = _record_mode(config.record, no_recording, warn)
@@ -68,47 +74,51 @@ def run_batch(
         "scenario_path": str(loaded.path.resolve()),
         "overrides": list(config.overrides),
     }
-    existing = _check_out_dir(out_dir, store, manifest, config.resume)
-    if backend is None:
-        backend = make_backend(config.backend, config.workers, config.address)
+    with BatchLock(out_dir):  # one batch per directory: a second one exits naming this one
+        existing = _check_out_dir(out_dir, store, manifest, config.resume)
+        if backend is None:
+            backend = make_backend(config.backend, config.workers, config.address)
 
-    seeds = set(config.seeds)
-    finished = [line for seed, line in sorted(existing.items()) if seed in seeds]
-    todo = [s for s in config.seeds if s not in existing]
-    tasks = [EpisodeTask(ref, config.overrides, s, record, str(out_dir)) for s in todo]
-    out_dir.mkdir(parents=True, exist_ok=True)
-    _write_json(out_dir / MANIFEST, manifest)
-    new: list[dict[str, Any]] = []
-    t0 = time.perf_counter()
-    store.open()
-    progress.start(len(seeds), finished)
-    try:
-        if tasks:
-            for line in backend.run(tasks):
-                if line.get("scenario") is None:
-                    line["scenario"] = loaded.name
-                store.append(line)
-                new.append(line)
-                progress.advance(line)
-    finally:
-        store.close()
-        progress.stop()
-    wall = time.perf_counter() - t0
-    summary = summarize(
-        finished + new,
-        scenario=loaded.name,
-        scenario_ref=ref,
-        overrides=config.overrides,
-        seed_base=config.seed_base,
-        backend=backend.name,
-        workers=backend.workers,
-        wall_time_s=wall,
-        episodes_run=len(new),
-        results=store.path,
-        rrd_dir=None if no_recording else out_dir,
-    )
-    _write_json(out_dir / SUMMARY, summary.to_json_dict())
-    return summary
+        seeds = set(config.seeds)
+        finished = [line for seed, line in sorted(existing.items()) if seed in seeds]
+        todo = [s for s in config.seeds if s not in existing]
+        tasks = [
+            EpisodeTask(ref, config.overrides, s, record, str(out_dir), config.max_wall_s, allow)
+            for s in todo
+        ]
+        out_dir.mkdir(parents=True, exist_ok=True)
+        _write_json(out_dir / MANIFEST, manifest)
+        new: list[dict[str, Any]] = []
+        t0 = time.perf_counter()
+        store.open()
+        progress.start(len(seeds), finished)
+        try:
+            if tasks:
+                for line in backend.run(tasks):
+                    if line.get("scenario") is None:
+                        line["scenario"] = loaded.name
+                    store.append(line)
+                    new.append(line)
+                    progress.advance(line)
+        finally:
+            store.close()
+            progress.stop()
+        wall = time.perf_counter() - t0
+        summary = summarize(
+            finished + new,
+            scenario=loaded.name,
+            scenario_ref=ref,
+            overrides=config.overrides,
+            seed_base=config.seed_base,
+            backend=backend.name,
+            workers=backend.workers,
+            wall_time_s=wall,
+            episodes_run=len(new),
+            results=store.path,
+            rrd_dir=None if no_recording else out_dir,
+        )
+        _write_json(out_dir / SUMMARY, summary.to_json_dict())
+        return summary
 
 
 def _record_mode(

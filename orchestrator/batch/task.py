@@ -30,6 +30,10 @@ class EpisodeTask:
         record: `all` records the episode; `failures` re-runs a failed or aborted episode
             with a recorder (same seed, same episode); `none` records nothing.
         out_dir: Absolute batch directory; recordings go to `out_dir/episodes/`.
+        max_wall_s: Wall-clock limit of the episode [s]; past it the episode is stopped and
+            recorded as `error` (None: no limit).
+        allow_paths: Directories the scenario's `machine:` includes may name besides its own
+            tree (`--allow-path`), absolute.
     """
 
     scenario: str
@@ -37,6 +41,8 @@ class EpisodeTask:
     seed: int
     record: RecordMode = "none"
     out_dir: str | None = None
+    max_wall_s: float | None = None
+    allow_paths: tuple[str, ...] = ()
 
     def rrd_path(self) -> Path:
         """Absolute path of this episode's recording."""

@@ -11,6 +11,7 @@ through the controlled stop (the built-in SAFE_STOP state); once it is at rest, 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import transitions
@@ -32,6 +33,20 @@ __all__ = ["Executor"]
 _EPS = 1e-9
 
 Finished = tuple[str, str]
+
+_MAX_INSTANT_ENTRIES = 20_000
+"""States one tick may enter through nested machines that finish as they start (retries
+included; `retry` is at most 10,000): beyond it the machine loops without time passing."""
+
+
+@dataclass(frozen=True)
+class _Instant:
+    """A nested machine finished the moment it started, with `outcome` in state `src`."""
+
+    outcome: str
+    src: str
+
+
 """(outcome, dotted path of the leaf state it came from)."""
 
 
@@ -284,6 +299,12 @@ class _Region:
         self._enter(src, "stopped")
 
     def _outcome(self, outcome: str, src: str) -> Finished | None:
+        trigger, retry = self._next(outcome)
+        return self._enter(src, trigger, retry)
+
+    def _next(self, outcome: str) -> tuple[str, int | None]:
+        """Take the transition (or the retry) for `outcome`; returns the entry's trigger and
+        retry number."""
         st = self.spec
         path = self.prefix + self.state
         outcomes = state_outcomes(self.node, self.state)
@@ -294,13 +315,36 @@ class _Region:
             self.ex.retries[path] = self.ex.retries.get(path, 0) + 1
             self.ex.ctx.log("retry", f"{path}: {outcome}, retry {used + 1} of {st.retry}")
             self.model.trigger("retry")
-            return self._enter(src, outcome, retry=used + 1)
+            return outcome, used + 1
         self.model.trigger(outcome)
-        return self._enter(src, outcome)
+        return outcome, None
 
     def _enter(
         self, src: str | None, trigger: str | None, retry: int | None = None
     ) -> Finished | None:
+        """Enter the current state. Nested machines that finish the moment they start are
+        followed in a loop, not by recursion: a `retry: 10000` on one costs no stack."""
+        for _ in range(_MAX_INSTANT_ENTRIES):
+            finished = self._enter_once(src, trigger, retry)
+            if not isinstance(finished, _Instant):
+                return finished
+            outcome, src = finished.outcome, finished.src
+            trigger, retry = self._next(outcome)
+        raise ConfigError(
+            [
+                self.node.source.diag(
+                    (*self.node.at, "states", self.state),
+                    f"{_MAX_INSTANT_ENTRIES} states entered without simulated time passing "
+                    "(nested machines that finish as they start, in a loop): give the loop a "
+                    "state that takes time, or an exit",
+                )
+            ],
+            during_run=True,
+        )
+
+    def _enter_once(
+        self, src: str | None, trigger: str | None, retry: int | None
+    ) -> Finished | _Instant | None:
         ex, name, st = self.ex, self.state, self.spec
         path = self.prefix + name
         self.entered_t = ex.ctx.t
@@ -329,7 +373,7 @@ class _Region:
         ex.changed()
         if finished is not None:  # the nested machine starts in a final state
             self.activity = None
-            return self._outcome(*finished)
+            return _Instant(*finished)
         return None
 
 

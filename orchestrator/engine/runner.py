@@ -10,6 +10,7 @@ from typing import Any, Protocol
 import mujoco
 import numpy as np
 
+from ..exceptions import OrchestratorError
 from ..guards import get_guard
 from ..guards.base import Guard
 from ..language.load import LoadedScenario
@@ -26,7 +27,24 @@ from .result import RunResult
 from .safety_stop import SafetyStop
 from .success import errors, evaluate
 
-__all__ = ["Observer", "run_episode"]
+__all__ = ["WALL_GRACE_S", "Observer", "WallTimeExceeded", "run_episode"]
+
+WALL_GRACE_S = 5.0
+"""Wall time the controlled stop may take after the wall limit before the run is cut [s]."""
+
+
+class WallTimeExceeded(OrchestratorError):
+    """The episode ran longer than its wall-clock limit; it was stopped (arm brought to rest).
+
+    Attributes:
+        result: What the episode had done when it was stopped (outcome `failed`, the reason in
+            `metrics["error"]`).
+    """
+
+    def __init__(self, message: str, result: RunResult) -> None:
+        super().__init__(message)
+        self.result = result
+
 
 SETTLE_S = 0.2
 """Simulated time kept running after the machine finishes, before success is judged [s]."""
@@ -64,9 +82,23 @@ def make_guards(refs, ctx: Context) -> list[Guard]:
 
 
 def run_episode(
-    loaded: LoadedScenario, seed: int, observers: Sequence[Observer] | None = None
+    loaded: LoadedScenario,
+    seed: int,
+    observers: Sequence[Observer] | None = None,
+    max_wall_s: float | None = None,
 ) -> RunResult:
-    """Run one episode of `loaded` with `seed`: same inputs, same result, bit for bit."""
+    """Run one episode of `loaded` with `seed`: same inputs, same result, bit for bit.
+
+    Args:
+        loaded: The validated scenario.
+        seed: Episode seed.
+        observers: Told about the run on simulated time (the Rerun recorder).
+        max_wall_s: Wall-clock limit [s] (None: none). Past it the machine is halted and the
+            arm brought to rest, as at the time limit, then `WallTimeExceeded` is raised.
+
+    Raises:
+        WallTimeExceeded: The episode ran past `max_wall_s`.
+    """
     observers = observers or []
     wall0 = time.perf_counter()
     scn = loaded.scenario
@@ -107,6 +139,8 @@ def run_episode(
     diverged: str | None = None
     end_stop: Stopper | None = None  # the controlled stop that ends the run
     settle_until = math.inf
+    wall_cut: str | None = None  # why the wall-clock limit ended the run
+    wall_deadline = wall0 + max_wall_s if max_wall_s is not None else math.inf
     for obs in observers:
         obs.on_start(ctx, executor)
     executor.start()
@@ -169,6 +203,16 @@ def run_episode(
         if ctx.t >= time_limit and not executor.done:
             timed_out = executor.violation is None
             executor.halt()
+        if time.perf_counter() > wall_deadline:  # one clock read per control tick
+            if wall_cut is None:
+                wall_cut = (
+                    f"the episode ran past its wall-clock limit of {max_wall_s:g} s at "
+                    f"simulated t={ctx.t:.3f} s (state {executor.leaf}); the arm was stopped"
+                )
+                executor.halt()
+                wall_deadline += WALL_GRACE_S  # for the controlled stop
+            else:
+                break
 
     outcome = executor.outcome or "failed"
     final_state = executor.final_state
@@ -198,6 +242,8 @@ def run_episode(
         metrics["time_limit_reached"] = True
     if diverged:
         metrics["error"] = diverged
+    if wall_cut:
+        metrics["error"] = wall_cut
     wall = time.perf_counter() - wall0
     result = RunResult(
         scenario=scn.name,
@@ -214,4 +260,6 @@ def run_episode(
     )
     for obs in observers:
         obs.on_end(ctx, executor, result)
+    if wall_cut:
+        raise WallTimeExceeded(wall_cut, result)
     return result

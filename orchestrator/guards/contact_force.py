@@ -16,7 +16,11 @@ __all__ = ["ContactForce"]
 
 
 class ContactForceParams(GuardParams):
-    max_n: PositiveFloat = Field(default=40.0, description="Largest allowed force norm [N].")
+    max_n: PositiveFloat = Field(
+        default=40.0,
+        le=10_000.0,
+        description="Largest allowed force norm [N] (at most 10 kN: a larger limit never fires).",
+    )
 
 
 class ContactForce(Guard):

@@ -9,7 +9,18 @@ from pydantic import ValidationError
 
 from ..world.pose import Pose
 
-__all__ = ["check_type", "sample_value"]
+__all__ = ["all_finite", "check_type", "sample_value"]
+
+
+def all_finite(value: Any) -> bool:
+    """No NaN or infinity anywhere in `value` (nested at most `max_depth` deep by the loader)."""
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, dict):
+        return all(all_finite(v) for v in value.values())
+    if isinstance(value, list):
+        return all(all_finite(v) for v in value)
+    return True
 
 
 def _number(v: Any) -> bool:

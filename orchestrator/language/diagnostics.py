@@ -2,10 +2,34 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-__all__ = ["Diagnostic", "format_path"]
+__all__ = ["Diagnostic", "clip", "format_path"]
+
+MAX_QUOTED = 80
+"""Longest quoted user value a message shows [characters]; longer ones are cut in the middle."""
+MAX_VALID = 30
+"""Most valid options a message lists."""
+_QUOTED = re.compile(
+    rf"(?<!\w)'[^'\n]{{{MAX_QUOTED},}}'(?!\w)|(?<!\w)\"[^\"\n]{{{MAX_QUOTED},}}\"(?!\w)"
+)
+
+
+def clip(text: str, limit: int = MAX_QUOTED) -> str:
+    """`text` cut in the middle to about `limit` characters (`abc…xyz (5000 chars)`)."""
+    if len(text) <= limit:
+        return text
+    half = (limit - 20) // 2
+    return f"{text[:half]}…{text[-half:]} ({len(text)} chars)"
+
+
+def _clip_quoted(message: str) -> str:
+    """Every quoted value in `message` cut to about MAX_QUOTED characters."""
+    if len(message) <= MAX_QUOTED:
+        return message
+    return _QUOTED.sub(lambda m: m.group()[0] + clip(m.group()[1:-1]) + m.group()[0], message)
 
 
 def format_path(path: Iterable[str | int]) -> str:
@@ -38,6 +62,16 @@ class Diagnostic:
     path: str
     message: str
     valid: tuple[str, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        # Whatever a user file holds reaches the terminal only in short, quoted pieces.
+        object.__setattr__(self, "file", clip(self.file, 200))
+        object.__setattr__(self, "path", clip(self.path, 120))
+        object.__setattr__(self, "message", clip(_clip_quoted(self.message), 600))
+        valid = tuple(clip(str(v)) for v in self.valid[:MAX_VALID])
+        if len(self.valid) > MAX_VALID:
+            valid += (f"… {len(self.valid) - MAX_VALID} more",)
+        object.__setattr__(self, "valid", valid)
 
     def __str__(self) -> str:
         text = f"{self.file}:{self.line}:{self.col}: {self.path}: {self.message}"

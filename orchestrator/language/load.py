@@ -4,18 +4,21 @@ points of the language."""
 from __future__ import annotations
 
 import copy
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from pydantic import ValidationError
 
 from ..exceptions import ConfigError
-from .blackboard_types import check_type
+from .blackboard_types import all_finite, check_type
 from .bundled import bundled_names, resolve_file
 from .diagnostics import Diagnostic
 from .faults import parse_fault_spec
+from .includes import resolve_include
+from .limits import current_limits
 from .loading import MachineNode, load_machine_file
-from .overrides import apply_override, parse_override
+from .overrides import Override, apply_override, parse_override
 from .pydantic_errors import diagnostics_from_validation
 from .scenario import Scenario
 from .scenario_checks import check_faults, check_scenario_refs, check_scene_names
@@ -40,7 +43,10 @@ class LoadedScenario:
 
 
 def load_scenario(
-    ref: str, overrides: list[str] | None = None, faults: list[str] | None = None
+    ref: str,
+    overrides: list[str] | None = None,
+    faults: list[str] | None = None,
+    allow_paths: Sequence[Path | str] = (),
 ) -> LoadedScenario:
     """Load and validate a scenario by path or bundled name.
 
@@ -48,6 +54,8 @@ def load_scenario(
         ref: A scenario file or a bundled name.
         overrides: `--set KEY=VALUE` texts.
         faults: `--fault SPEC` texts, added to the scenario's `faults:`.
+        allow_paths: Directories outside the scenario's own tree that `machine:` may name
+            (`--allow-path`).
 
     Raises:
         ConfigError: With every problem found in the scenario, its machine and the overrides.
@@ -66,7 +74,9 @@ def load_scenario(
                 )
             ]
         )
-    doc = load_yaml(path)
+    limits = current_limits()
+    allow = tuple(Path(a) for a in allow_paths)
+    doc = load_yaml(path, limits)
     problems = list(doc.problems)
     data = doc.data
     if not isinstance(data, dict):
@@ -75,25 +85,29 @@ def load_scenario(
         )
         raise ConfigError(problems)
     data = copy.deepcopy(data)
+    overridden: dict[str, str] = {}
+    """Path of a value set on the command line -> the option that set it (`--set k=v`)."""
+    parsed = [parse_override(text) for text in overrides or []]
+    for ov in parsed:  # `--set machine=...` chooses the machine: apply it before loading one
+        if isinstance(ov, Override) and ov.path == ("machine",):
+            if not isinstance(ov.value, str):
+                want = f"expected a machine file or bundled name, got {ov.value!r}"
+                problems.append(ov.diag(want))
+                continue
+            data["machine"] = ov.value
+            overridden["machine"] = f"--set {ov.text}"
     machine: MachineNode | None = None
     machine_ref = data.get("machine")
     if isinstance(machine_ref, str):
-        mpath = resolve_file(machine_ref, "machines", path.parent)
-        if mpath is None:
-            problems.append(
-                doc.source.diag(
-                    ("machine",),
-                    f"machine {machine_ref!r} not found (relative to {path.parent}, nor bundled)",
-                    tuple(bundled_names("machines")),
-                )
-            )
+        found = resolve_include(machine_ref, path, allow, limits, what="machine")
+        if found.path is None:
+            diag = doc.source.diag(("machine",), found.error or "", found.valid)
+            problems.append(_attribute(diag, overridden, doc.source.file))
         else:
-            machine, sub = load_machine_file(mpath)
+            machine, sub = load_machine_file(found.path, allow, limits)
             problems += sub
     types = blackboard_types(machine) if machine else {}
     keys = set(types)
-    overridden: dict[str, str] = {}
-    """Path of a value set on the command line -> the option that set it (`--set k=v`)."""
     for text in faults or []:
         raw = parse_fault_spec(text)
         if isinstance(raw, Diagnostic):
@@ -103,19 +117,20 @@ def load_scenario(
         if isinstance(listed, list):
             overridden[f"faults[{len(listed)}]"] = f"--fault {text}"
             listed.append(raw)
-    for text in overrides or []:
-        ov = parse_override(text)
+    for ov in parsed:
         if isinstance(ov, Diagnostic):
             problems.append(ov)
             continue
-        diag = apply_override(data, ov, keys)
-        if diag is not None:
-            problems.append(diag)
+        if ov.path == ("machine",):
+            continue  # applied above
+        refused = apply_override(data, ov, keys)
+        if refused is not None:
+            problems.append(refused)
         else:
             dotted = ".".join(ov.path)
             overridden[
                 "blackboard." + dotted if len(ov.path) == 1 and dotted in keys else dotted
-            ] = f"--set {text}"
+            ] = f"--set {ov.text}"
     scenario: Scenario | None = None
     try:
         scenario = Scenario.model_validate(data)
@@ -153,16 +168,32 @@ def load_scenario(
                             "machine declares for this key",
                         )
                     )
+                elif not all_finite(value):
+                    problems.append(
+                        doc.source.diag(
+                            ("blackboard", key),
+                            f"{value!r} holds NaN or infinity: give finite numbers",
+                        )
+                    )
     if machine is not None:
         problems += validate_machine(machine)
+    if scenario is not None and not problems:
+        problems += _compiles(scenario, doc.source)
     if problems:
         raise ConfigError([_attribute(d, overridden, doc.source.file) for d in problems])
     assert scenario is not None and machine is not None
     return LoadedScenario(scenario, machine, path, doc.source)
 
 
-def load_machine(ref: str, base_dir: Path | None = None) -> MachineNode:
+def load_machine(
+    ref: str, base_dir: Path | None = None, allow_paths: Sequence[Path | str] = ()
+) -> MachineNode:
     """Load and statically validate a machine by path or bundled name.
+
+    Args:
+        ref: A machine file or a bundled name.
+        base_dir: Directory `ref` is relative to (default: the working directory).
+        allow_paths: Directories outside the machine's own tree that its includes may name.
 
     Raises:
         ConfigError: With every problem found, each located in its file.
@@ -181,7 +212,7 @@ def load_machine(ref: str, base_dir: Path | None = None) -> MachineNode:
                 )
             ]
         )
-    node, problems = load_machine_file(path)
+    node, problems = load_machine_file(path, tuple(Path(a) for a in allow_paths))
     if node is not None:
         problems += validate_machine(node)
     if problems:
@@ -205,6 +236,19 @@ def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagn
                 f"<{option}>", 0, 0, diag.path, f"{diag.message} (from {origin})", diag.valid
             )
     return diag
+
+
+def _compiles(scenario: Scenario, source: SourceMap) -> list[Diagnostic]:
+    """Build the scenario's world once (about 10 ms): what MuJoCo refuses to compile is
+    reported by `validate` too, not only by `run` after the user waited for it."""
+    from ..world.world import World
+
+    try:
+        World.build(scenario, 0)
+    except Exception as exc:  # MjSpec reports bad geometry as ValueError or its own errors
+        text = " ".join(str(exc).split()) or type(exc).__name__
+        return [source.diag(("scene",), f"MuJoCo cannot build this scene: {text}")]
+    return []
 
 
 def _arm_joints(scenario: Scenario) -> int:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -9,8 +10,9 @@ from typing import Any
 from pydantic import ValidationError
 
 from ..exceptions import ConfigError
-from .bundled import bundled_names, resolve_file
 from .diagnostics import Diagnostic
+from .includes import resolve_include
+from .limits import InputLimits, current_limits
 from .machine import BlackboardKey, BranchSpec, GuardRef, MachineSpec, StateSpec
 from .pydantic_errors import diagnostics_from_validation
 from .yamlio import SourceMap, load_yaml
@@ -102,108 +104,193 @@ def _declarations(raw: dict[str, Any]) -> tuple[dict[str, Any], dict[str, str]]:
 
 
 def load_machine_file(
-    path: Path, _stack: tuple[Path, ...] = ()
+    path: Path, allow: Sequence[Path] = (), limits: InputLimits | None = None
 ) -> tuple[MachineNode | None, list[Diagnostic]]:
     """Parse one machine file and its includes. Returns the tree (None if unusable) and every
-    problem found; nothing is raised for user mistakes."""
-    try:
-        doc = load_yaml(path)
-    except ConfigError as exc:
-        return None, exc.diagnostics
-    problems = list(doc.problems)
-    if not isinstance(doc.data, dict):
-        problems.append(
-            doc.source.diag(
-                (), "a machine file must be a mapping with `name`, `initial` and `states`"
+    problem found; nothing is raised for user mistakes.
+
+    Each included file is read once, however often it is included (a diamond of includes
+    costs one read per file); machines nest at most `limits.max_machine_depth` deep and the
+    whole tree, includes expanded, holds at most `limits.max_states` states.
+
+    Args:
+        path: The machine file.
+        allow: Directories besides the including file's own tree that `machine:` may name.
+        limits: Input limits (default: `current_limits()`).
+    """
+    loader = _Loader(tuple(allow), limits or current_limits())
+    node, problems = loader.file(path, (), 0)
+    if node is not None:
+        total = _tree_size(node, {})
+        if total > loader.limits.max_states:
+            problems.append(
+                node.source.diag(
+                    ("states",),
+                    f"the machine tree holds {total} states once its nested and included "
+                    f"machines are expanded, more than {loader.limits.max_states} (limit "
+                    "max_states; see docs/machine-language.md#limits)",
+                )
             )
-        )
-        return None, problems
-    try:
-        spec = MachineSpec.model_validate(doc.data)
-    except ValidationError as exc:
-        reported = {d.path for d in problems}
-        problems += [
-            d
-            for d in diagnostics_from_validation(exc, MachineSpec, doc.source, doc.data)
-            if d.path not in reported
-        ]
-        return None, problems
-    defaults, types = _declarations(spec.blackboard)
-    node = MachineNode(
-        name=spec.name,
-        initial=spec.initial,
-        states=spec.states,
-        blackboard=defaults,
-        types=types,
-        guards=list(spec.guards),
-        on_abort=spec.on_abort,
-        source=doc.source,
-    )
-    problems += _load_children(node, path, (*_stack, path.resolve()))
+            return None, problems
     return node, problems
 
 
-def _load_children(node: MachineNode, path: Path, stack: tuple[Path, ...]) -> list[Diagnostic]:
-    problems: list[Diagnostic] = []
-    for name, st in node.states.items():
-        at = (*node.at, "states", name)
-        child, sub = _load_nested(st, name, node.source, at, path, stack)
-        problems += sub
-        if child is not None:
-            node.children[name] = child
-        for bname, branch in (st.parallel or {}).items():
-            bat = (*at, "parallel", bname)
-            if branch.skill is not None:
-                node.branches.setdefault(name, {})[bname] = branch
-                continue
-            child, sub = _load_nested(branch, bname, node.source, bat, path, stack)
+def _tree_size(node: MachineNode, memo: dict[int, int]) -> int:
+    """States in the tree below `node`, every shared (included) machine counted each time."""
+    if id(node) in memo:
+        return memo[id(node)]
+    total = len(node.states)
+    for child in node.children.values():
+        total += _tree_size(child, memo)
+    for branches in node.branches.values():
+        for branch in branches.values():
+            if isinstance(branch, MachineNode):
+                total += _tree_size(branch, memo)
+    memo[id(node)] = total
+    return total
+
+
+def _height(node: MachineNode, memo: dict[int, int]) -> int:
+    """Levels of machines nested below `node` (0: none)."""
+    if id(node) not in memo:
+        below = list(node.children.values())
+        for branches in node.branches.values():
+            below += [b for b in branches.values() if isinstance(b, MachineNode)]
+        memo[id(node)] = max((1 + _height(c, memo) for c in below), default=0)
+    return memo[id(node)]
+
+
+class _Loader:
+    """One machine tree being loaded: the include cache, the allowed directories, the limits."""
+
+    def __init__(self, allow: tuple[Path, ...], limits: InputLimits) -> None:
+        self.allow = allow
+        self.limits = limits
+        self.cache: dict[Path, MachineNode | None] = {}
+
+    def file(
+        self, path: Path, stack: tuple[Path, ...], depth: int
+    ) -> tuple[MachineNode | None, list[Diagnostic]]:
+        real = path.resolve()
+        if real in self.cache:
+            return self.cache[real], []  # already loaded (and its problems reported) once
+        try:
+            doc = load_yaml(path, self.limits)
+        except ConfigError as exc:
+            self.cache[real] = None
+            return None, exc.diagnostics
+        problems = list(doc.problems)
+        if not isinstance(doc.data, dict):
+            problems.append(
+                doc.source.diag(
+                    (), "a machine file must be a mapping with `name`, `initial` and `states`"
+                )
+            )
+            self.cache[real] = None
+            return None, problems
+        try:
+            spec = MachineSpec.model_validate(doc.data)
+        except ValidationError as exc:
+            reported = {d.path for d in problems}
+            problems += [
+                d
+                for d in diagnostics_from_validation(exc, MachineSpec, doc.source, doc.data)
+                if d.path not in reported
+            ]
+            self.cache[real] = None
+            return None, problems
+        defaults, types = _declarations(spec.blackboard)
+        node = MachineNode(
+            name=spec.name,
+            initial=spec.initial,
+            states=spec.states,
+            blackboard=defaults,
+            types=types,
+            guards=list(spec.guards),
+            on_abort=spec.on_abort,
+            source=doc.source,
+        )
+        problems += self.children(node, path, (*stack, real), depth)
+        self.cache[real] = node
+        return node, problems
+
+    def children(
+        self, node: MachineNode, path: Path, stack: tuple[Path, ...], depth: int
+    ) -> list[Diagnostic]:
+        problems: list[Diagnostic] = []
+        for name, st in node.states.items():
+            at = (*node.at, "states", name)
+            child, sub = self.nested(st, name, node.source, at, path, stack, depth)
             problems += sub
             if child is not None:
-                node.branches.setdefault(name, {})[bname] = child
-    return problems
+                node.children[name] = child
+            for bname, branch in (st.parallel or {}).items():
+                bat = (*at, "parallel", bname)
+                if branch.skill is not None:
+                    node.branches.setdefault(name, {})[bname] = branch
+                    continue
+                child, sub = self.nested(branch, bname, node.source, bat, path, stack, depth)
+                problems += sub
+                if child is not None:
+                    node.branches.setdefault(name, {})[bname] = child
+        return problems
 
-
-def _load_nested(
-    st: StateSpec | BranchSpec,
-    name: str,
-    source: SourceMap,
-    at: tuple,
-    path: Path,
-    stack: tuple[Path, ...],
-) -> tuple[MachineNode | None, list[Diagnostic]]:
-    """The nested machine of a state or branch (inline or included), if it has one."""
-    if st.states is not None:
-        child = MachineNode(
-            name=name,
-            initial=st.initial or "",
-            states=st.states,
-            blackboard={},
-            guards=[],
-            on_abort=None,
-            source=source,
-            at=at,
-            top=False,
-        )
-        return child, _load_children(child, path, stack)
-    if st.machine is None:
-        return None, []
-    target = resolve_file(st.machine, "machines", path.parent)
-    if target is None:
-        return None, [
-            source.diag(
-                (*at, "machine"),
-                f"machine file {st.machine!r} not found (relative to {path.parent}, "
-                "nor a bundled machine)",
-                tuple(bundled_names("machines")),
+    def nested(
+        self,
+        st: StateSpec | BranchSpec,
+        name: str,
+        source: SourceMap,
+        at: tuple,
+        path: Path,
+        stack: tuple[Path, ...],
+        depth: int,
+    ) -> tuple[MachineNode | None, list[Diagnostic]]:
+        """The nested machine of a state or branch (inline or included), if it has one."""
+        if st.states is None and st.machine is None:
+            return None, []
+        if depth + 1 > self.limits.max_machine_depth:
+            key = "states" if st.states is not None else "machine"
+            return None, [
+                source.diag(
+                    (*at, key),
+                    f"machines nest deeper than {self.limits.max_machine_depth} levels here "
+                    "(limit max_machine_depth; see docs/machine-language.md#limits)",
+                )
+            ]
+        if st.states is not None:
+            child = MachineNode(
+                name=name,
+                initial=st.initial or "",
+                states=st.states,
+                blackboard={},
+                guards=[],
+                on_abort=None,
+                source=source,
+                at=at,
+                top=False,
             )
-        ]
-    if target.resolve() in stack:
-        cycle = " -> ".join(p.name for p in (*stack, target.resolve()))
-        return None, [source.diag((*at, "machine"), f"include cycle: {cycle}")]
-    included, sub = load_machine_file(target, stack)
-    if included is not None:
-        included.top = False
-    return included, sub
+            return child, self.children(child, path, stack, depth + 1)
+        assert st.machine is not None
+        found = resolve_include(st.machine, path, self.allow, self.limits)
+        if found.path is None:
+            return None, [source.diag((*at, "machine"), found.error or "", found.valid)]
+        target = found.path
+        if target.resolve() in stack:
+            cycle = " -> ".join(p.name for p in (*stack, target.resolve()))
+            return None, [source.diag((*at, "machine"), f"include cycle: {cycle}")]
+        included, sub = self.file(target, stack, depth + 1)
+        if included is not None:
+            included.top = False
+            if depth + 1 + _height(included, {}) > self.limits.max_machine_depth:
+                # loaded before at a shallower place: its own nesting was checked from there
+                return None, [
+                    source.diag(
+                        (*at, "machine"),
+                        f"machines nest deeper than {self.limits.max_machine_depth} levels "
+                        "through this include (limit max_machine_depth)",
+                    )
+                ]
+        return included, sub
 
 
 def initial_values(machine: MachineNode, overrides: dict[str, Any]) -> dict[str, Any]:

@@ -127,7 +127,7 @@ class StateSpec(_Strict):
         default=None, description="Simulated seconds before the state ends with outcome `timeout`."
     )
     retry: NonNegativeInt = Field(
-        default=0, description="Re-enter the state up to N times on a failure outcome."
+        default=0, le=10_000, description="Re-enter the state up to N times on a failure outcome."
     )
     retry_on: list[str] | None = Field(
         default=None,

@@ -5,9 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import yaml
-
+from ..exceptions import ConfigError
 from .diagnostics import Diagnostic
+from .yamlio import parse_yaml
 
 __all__ = ["Override", "apply_override", "parse_override"]
 
@@ -32,10 +32,13 @@ def parse_override(text: str) -> Override | Diagnostic:
         return Diagnostic(
             "<--set>", 0, 0, text, "expected KEY=VALUE, e.g. --set place_at=[0.5,0.2,0.3]"
         )
-    try:
-        value = yaml.safe_load(raw) if raw.strip() else ""
-    except yaml.YAMLError as exc:
-        return Diagnostic("<--set>", 0, 0, key, f"cannot parse value {raw!r} as YAML: {exc}")
+    if not raw.strip():
+        return Override(text, tuple(key.split(".")), "")
+    try:  # the loader of the files, with their caps: no tags, huge integers or alias bombs
+        value = parse_yaml(raw, "<--set>").data
+    except ConfigError as exc:
+        why = "; ".join(d.message for d in exc.diagnostics)
+        return Diagnostic("<--set>", 0, 0, key, f"cannot read value {raw!r}: {why}")
     return Override(text, tuple(key.split(".")), value)
 
 

@@ -25,8 +25,23 @@ __all__ = [
     "Zone",
 ]
 
-Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
-Range = Annotated[list[float], Field(min_length=2, max_length=2)]
+# Physical ranges: wide enough for any bench-top cell, narrow enough that every accepted
+# value compiles in MuJoCo and steps in bounded time (a 1e-300 m cube or a 1e300 kg mass
+# once crashed or hung `run` after `validate` accepted them).
+Coord = Annotated[float, Field(ge=-10.0, le=10.0, description="A position coordinate [m].")]
+Size = Annotated[float, Field(ge=1e-3, le=10.0, description="An edge length [m] (1 mm to 10 m).")]
+Mass = Annotated[float, Field(ge=1e-4, le=100.0, description="A mass [kg] (0.1 g to 100 kg).")]
+Friction = Annotated[float, Field(ge=1e-3, le=10.0, description="Sliding friction coefficient.")]
+Unit = Annotated[float, Field(ge=0.0, le=1.0)]
+Angle = Annotated[float, Field(ge=-360.0, le=360.0, description="[deg]")]
+Vec3 = Annotated[list[Coord], Field(min_length=3, max_length=3)]
+XY = Annotated[list[Coord], Field(min_length=2, max_length=2)]
+Size3 = Annotated[list[Size], Field(min_length=3, max_length=3)]
+Size2 = Annotated[list[Size], Field(min_length=2, max_length=2)]
+RGBA = Annotated[list[Unit], Field(min_length=4, max_length=4)]
+Range = Annotated[list[Coord], Field(min_length=2, max_length=2)]
+Scale = Annotated[float, Field(ge=0.01, le=100.0)]
+AngleRange = Annotated[list[Angle], Field(min_length=2, max_length=2)]
 
 
 class _Strict(BaseModel):
@@ -43,14 +58,12 @@ class RobotRef(_Strict):
 class Table(_Strict):
     """A table: a box whose top surface is at `height`."""
 
-    center_xy: Annotated[list[float], Field(min_length=2, max_length=2)] = Field(
-        default_factory=lambda: [0.55, 0.0]
+    center_xy: XY = Field(default_factory=lambda: [0.55, 0.0])
+    size_xy: Size2 = Field(default_factory=lambda: [0.7, 0.9], description="Top surface size [m].")
+    height: float = Field(
+        default=0.2, ge=0.01, le=3.0, description="Height of the top surface [m]."
     )
-    size_xy: Annotated[list[float], Field(min_length=2, max_length=2)] = Field(
-        default_factory=lambda: [0.7, 0.9], description="Top surface size [m]."
-    )
-    height: PositiveFloat = Field(default=0.2, description="Height of the top surface [m].")
-    friction: PositiveFloat = 1.0
+    friction: Friction = 1.0
 
 
 class Randomize(_Strict):
@@ -58,7 +71,7 @@ class Randomize(_Strict):
 
     x: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
     y: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
-    yaw_deg: Range = Field(default_factory=lambda: [0.0, 0.0], description="[deg]")
+    yaw_deg: AngleRange = Field(default_factory=lambda: [0.0, 0.0], description="[deg]")
 
     @model_validator(mode="after")
     def _ordered(self) -> Randomize:
@@ -74,17 +87,13 @@ class ObjectSpec(_Strict):
 
     name: str
     shape: Literal["box"] = "box"
-    size: Vec3 = Field(description="Full edge lengths [m].")
-    mass: PositiveFloat = Field(default=0.1, description="[kg]")
-    xy: Annotated[list[float], Field(min_length=2, max_length=2)] = Field(
-        description="Nominal position on the table [m]."
-    )
-    yaw_deg: float = 0.0
+    size: Size3 = Field(description="Full edge lengths [m].")
+    mass: Mass = Field(default=0.1, description="[kg]")
+    xy: XY = Field(description="Nominal position on the table [m].")
+    yaw_deg: Angle = 0.0
     randomize: Randomize = Field(default_factory=Randomize)
-    friction: PositiveFloat = 1.0
-    rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
-        default_factory=lambda: [0.85, 0.2, 0.2, 1.0]
-    )
+    friction: Friction = 1.0
+    rgba: RGBA = Field(default_factory=lambda: [0.85, 0.2, 0.2, 1.0])
 
     @model_validator(mode="after")
     def _positive_size(self) -> ObjectSpec:
@@ -97,13 +106,9 @@ class Marker(_Strict):
     """A visual-only target on the table (a place pad): no collision."""
 
     name: str
-    xy: Annotated[list[float], Field(min_length=2, max_length=2)]
-    size_xy: Annotated[list[float], Field(min_length=2, max_length=2)] = Field(
-        default_factory=lambda: [0.08, 0.08]
-    )
-    rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
-        default_factory=lambda: [0.2, 0.7, 0.3, 1.0]
-    )
+    xy: XY
+    size_xy: Size2 = Field(default_factory=lambda: [0.08, 0.08])
+    rgba: RGBA = Field(default_factory=lambda: [0.2, 0.7, 0.3, 1.0])
 
 
 class PhantomRandomize(_Strict):
@@ -111,7 +116,7 @@ class PhantomRandomize(_Strict):
 
     x: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
     y: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
-    stiffness_scale: Range = Field(
+    stiffness_scale: Annotated[list[Scale], Field(min_length=2, max_length=2)] = Field(
         default_factory=lambda: [1.0, 1.0],
         description="True stiffness = nominal stiffness x a factor drawn from this range.",
     )
@@ -136,22 +141,21 @@ class Phantom(_Strict):
     """
 
     name: str = "phantom"
-    size: Vec3 = Field(description="Full edge lengths [m].")
-    xy: Annotated[list[float], Field(min_length=2, max_length=2)] = Field(
-        description="Nominal position of its centre on the table [m]."
+    size: Size3 = Field(description="Full edge lengths [m].")
+    xy: XY = Field(description="Nominal position of its centre on the table [m].")
+    yaw_deg: Angle = 0.0
+    stiffness_n_per_m: float = Field(
+        default=500.0,
+        ge=1.0,
+        le=1e6,
+        description="Nominal (registered) stiffness of the surface [N/m].",
     )
-    yaw_deg: float = 0.0
-    stiffness_n_per_m: PositiveFloat = Field(
-        default=500.0, description="Nominal (registered) stiffness of the surface [N/m]."
+    damping_n_s_per_m: float = Field(
+        default=20.0, ge=0.01, le=1e5, description="Damping of the surface [N s/m]."
     )
-    damping_n_s_per_m: PositiveFloat = Field(
-        default=20.0, description="Damping of the surface [N s/m]."
-    )
-    friction: PositiveFloat = 0.1
+    friction: Friction = 0.1
     randomize: PhantomRandomize = Field(default_factory=PhantomRandomize)
-    rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
-        default_factory=lambda: [0.93, 0.7, 0.66, 1.0]
-    )
+    rgba: RGBA = Field(default_factory=lambda: [0.93, 0.7, 0.66, 1.0])
 
     @model_validator(mode="after")
     def _positive_size(self) -> Phantom:
@@ -162,7 +166,7 @@ class Phantom(_Strict):
 
 class _SceneBox(_Strict):
     name: str
-    size: Vec3 = Field(description="Full edge lengths [m].")
+    size: Size3 = Field(description="Full edge lengths [m].")
     center: Vec3 = Field(description="Centre in `frame` [m].")
     frame: Literal["world", "phantom"] = Field(
         default="world",
@@ -180,17 +184,13 @@ class Zone(_SceneBox):
     """A no-go zone (a critical structure): a box no robot or tool geom may enter. It is drawn
     but has no collision: the `no_go_zone` guard watches it."""
 
-    rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
-        default_factory=lambda: [0.85, 0.1, 0.1, 0.35]
-    )
+    rgba: RGBA = Field(default_factory=lambda: [0.85, 0.1, 0.1, 0.35])
 
 
 class Obstacle(_SceneBox):
     """A rigid fixed box (e.g. a hard inclusion on the phantom that registration missed)."""
 
-    rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
-        default_factory=lambda: [0.95, 0.95, 0.85, 1.0]
-    )
+    rgba: RGBA = Field(default_factory=lambda: [0.95, 0.95, 0.85, 1.0])
 
 
 class SceneSpec(_Strict):
@@ -253,15 +253,36 @@ class SafeStop(_Strict):
 
 
 class Physics(_Strict):
-    timestep_s: PositiveFloat = Field(default=0.002, le=0.01, description="Physics step [s].")
-    control_hz: PositiveFloat = Field(default=100.0, le=1000.0, description="Control rate [Hz].")
+    """Integration step, control rate and how long a run may last (all simulated time)."""
+
+    timestep_s: float = Field(
+        default=0.002, ge=1e-4, le=0.01, description="Physics step [s] (0.1 ms to 10 ms)."
+    )
+    control_hz: float = Field(
+        default=100.0,
+        ge=1.0,
+        le=1000.0,
+        description="Control rate [Hz] (1 to 1000, at most one tick per physics step).",
+    )
     time_limit_s: PositiveFloat = Field(
-        default=30.0, description="Simulated time after which the run ends `failed`."
+        default=30.0,
+        le=86_400.0,
+        description="Simulated time after which the run ends `failed` [s] (at most a day; "
+        "bound the wall time with `run --max-wall-s`).",
     )
     safe_stop: SafeStop = Field(
         default_factory=SafeStop,
         description="The controlled stop after an abort, an e-stop or at the end of a run.",
     )
+
+    @model_validator(mode="after")
+    def _tick_fits_steps(self) -> Physics:
+        if self.control_hz * self.timestep_s > 1.0 + 1e-9:
+            raise ValueError(
+                f"control_hz {self.control_hz} ticks faster than the physics steps "
+                f"(timestep_s {self.timestep_s}: at most {1.0 / self.timestep_s:g} Hz)"
+            )
+        return self
 
 
 class SuccessCheck(_Strict):
@@ -275,9 +296,9 @@ class SuccessCheck(_Strict):
     kind: Literal["object_at", "gripper_clear"]
     object: str
     target: str | None = None
-    xy_tol_m: PositiveFloat = 0.01
-    upright_tol_deg: PositiveFloat = 10.0
-    min_distance_m: float = Field(default=0.01, ge=0.0)
+    xy_tol_m: float = Field(default=0.01, gt=0.0, le=10.0)
+    upright_tol_deg: float = Field(default=10.0, gt=0.0, le=180.0)
+    min_distance_m: float = Field(default=0.01, ge=0.0, le=10.0)
 
     @model_validator(mode="after")
     def _target(self) -> SuccessCheck:
@@ -289,8 +310,8 @@ class SuccessCheck(_Strict):
 class Perception(_Strict):
     """Noise of the simulated perception used by `search`."""
 
-    position_noise_m: float = Field(default=0.0, ge=0.0, description="Std. dev. [m].")
-    yaw_noise_deg: float = Field(default=0.0, ge=0.0, description="Std. dev. [deg].")
+    position_noise_m: float = Field(default=0.0, ge=0.0, le=1.0, description="Std. dev. [m].")
+    yaw_noise_deg: float = Field(default=0.0, ge=0.0, le=180.0, description="Std. dev. [deg].")
 
 
 class ToolSpec(_Strict):
@@ -301,19 +322,17 @@ class ToolSpec(_Strict):
     """
 
     name: str = "probe"
-    mass_kg: PositiveFloat = Field(default=0.25, description="[kg]")
-    length_m: PositiveFloat = Field(
-        default=0.2, le=0.5, description="From the flange to the tip [m]."
+    mass_kg: float = Field(default=0.25, ge=1e-3, le=3.0, description="[kg] (the Panda carries 3).")
+    length_m: float = Field(
+        default=0.2, ge=0.01, le=0.5, description="From the flange to the tip [m]."
     )
-    shaft_radius_m: PositiveFloat = Field(default=0.004, le=0.05, description="[m]")
-    tip_radius_m: PositiveFloat = Field(default=0.0025, le=0.05, description="[m]")
+    shaft_radius_m: float = Field(default=0.004, ge=1e-4, le=0.05, description="[m]")
+    tip_radius_m: float = Field(default=0.0025, ge=1e-4, le=0.05, description="[m]")
     com_m: PositiveFloat | None = Field(
         default=None, description="Centre of mass on the axis, from the flange [m] (default: L/2)."
     )
-    friction: PositiveFloat = Field(default=0.1, description="Sliding friction of the tip.")
-    rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
-        default_factory=lambda: [0.75, 0.78, 0.82, 1.0]
-    )
+    friction: Friction = Field(default=0.1, description="Sliding friction of the tip.")
+    rgba: RGBA = Field(default_factory=lambda: [0.75, 0.78, 0.82, 1.0])
     controller_payload: bool = Field(
         default=True,
         description="The controller's model knows the tool's mass (false: an unmodelled payload).",

@@ -9,7 +9,7 @@ from pydantic import ValidationError
 
 from ..guards import GUARDS
 from ..skills import SKILLS, get_skill, skill_names
-from .blackboard_types import check_type, sample_value
+from .blackboard_types import all_finite, check_type, sample_value
 from .diagnostics import Diagnostic
 from .loading import MachineNode
 from .machine import BranchSpec, GuardRef, StateSpec, guard_entries
@@ -120,10 +120,13 @@ def validate_machine(node: MachineNode, extra_keys: Iterable[str] = ()) -> list[
     types = blackboard_types(node)
     for key in extra_keys:
         types.setdefault(key, "any")
-    return _check(node, types)
+    return _check(node, types, set())
 
 
-def _check(node: MachineNode, types: dict[str, str]) -> list[Diagnostic]:
+def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Diagnostic]:
+    if id(node) in seen:
+        return []  # a machine included in several places is checked once
+    seen.add(id(node))
     src, at = node.source, node.at
     out: list[Diagnostic] = []
     names = tuple(node.states)
@@ -138,6 +141,10 @@ def _check(node: MachineNode, types: dict[str, str]) -> list[Diagnostic]:
         type_ = node.types.get(key, "any")
         if not check_type(value, type_):
             out.append(src.diag(kat, f"default {value!r} is not a {type_}"))
+        elif not all_finite(value):
+            out.append(
+                src.diag(kat, f"default {value!r} holds NaN or infinity: give finite numbers")
+            )
         out += _check_refs(value, types, src, kat)
     writes = skill_writes_of(node)
     for key, type_ in writes.items():
@@ -150,23 +157,22 @@ def _check(node: MachineNode, types: dict[str, str]) -> list[Diagnostic]:
                 )
             )
     for name, st in node.states.items():
-        out += _check_state(node, name, st, types)
+        out += _check_state(node, name, st, types, names)
     out += _check_graph(node)
     for child in node.children.values():
-        out += _check(child, types)
+        out += _check(child, types, seen)
     for branches in node.branches.values():
         for branch in branches.values():
             if isinstance(branch, MachineNode):
-                out += _check(branch, types)
+                out += _check(branch, types, seen)
     return out
 
 
 def _check_state(
-    node: MachineNode, name: str, st: StateSpec, types: dict[str, str]
+    node: MachineNode, name: str, st: StateSpec, types: dict[str, str], names: tuple[str, ...]
 ) -> list[Diagnostic]:
     src = node.source
     sat = (*node.at, "states", name)
-    names = tuple(node.states)
     out: list[Diagnostic] = []
     known = True
     if st.skill is not None:
@@ -260,14 +266,18 @@ def _check_graph(node: MachineNode) -> list[Diagnostic]:
                 )
             )
     finals = {n for n, st in states.items() if st.final is not None}
+    # states that can finish: walk the edges backwards from the finals (linear in the edges)
+    sources: dict[str, list[str]] = {n: [] for n in states}
+    for n, targets in edges.items():
+        for t in targets:
+            sources[t].append(n)
     can_finish = set(finals)
-    changed = True
-    while changed:
-        changed = False
-        for n, targets in edges.items():
-            if n not in can_finish and targets & can_finish:
+    todo = list(finals)
+    while todo:
+        for n in sources[todo.pop()]:
+            if n not in can_finish:
                 can_finish.add(n)
-                changed = True
+                todo.append(n)
     if not finals:
         out.append(
             src.diag(

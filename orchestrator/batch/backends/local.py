@@ -9,8 +9,10 @@ threads (the progress bar's).
 
 from __future__ import annotations
 
+import math
 import multiprocessing
 import signal
+import time
 from collections import deque
 from collections.abc import Iterator, Sequence
 from multiprocessing.connection import Connection, wait
@@ -23,6 +25,9 @@ __all__ = ["LocalBackend"]
 
 _PRELOAD = ["orchestrator.batch.episode"]
 _STOP_TIMEOUT_S = 5.0
+_HARD_GRACE_S = 60.0
+"""Wall time past an episode's own limit after which its worker is killed [s] (the episode
+stops itself at its limit; this catches one stuck inside a single physics step)."""
 
 
 class LocalBackend(Backend):
@@ -62,12 +67,27 @@ class LocalBackend(Backend):
                     if w.task is None and queue:
                         w.assign(queue.popleft())
                 busy = [w for w in pool if w.task is not None]
-                wait([h for w in busy for h in (w.conn, w.process.sentinel)])
+                deadlines = [w.deadline for w in busy]
+                timeout = max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
+                wait([h for w in busy for h in (w.conn, w.process.sentinel)], timeout)
                 for i, w in enumerate(pool):
                     task = w.task
                     if task is None:
                         continue
                     line = w.poll()
+                    if line is None and time.monotonic() > w.deadline:
+                        # the episode's own wall limit did not stop it (stuck in one step)
+                        w.close()
+                        pool[i] = _Worker(mp, run_fn)
+                        yield error_line(
+                            task,
+                            "WallTimeExceeded",
+                            f"the episode ran past its wall-clock limit of {task.max_wall_s:g} s "
+                            f"and did not stop within {_HARD_GRACE_S:g} s more: its worker was "
+                            "killed",
+                            None,
+                        )
+                        continue
                     if line is None and not w.alive:
                         line = w.poll()  # it may have sent its line just before it died
                     if line is not None:
@@ -100,6 +120,7 @@ class _Worker:
         self.process.start()
         child.close()  # so that the parent sees EOF when the worker dies
         self.task: EpisodeTask | None = None
+        self.deadline = math.inf
 
     @property
     def alive(self) -> bool:
@@ -107,6 +128,8 @@ class _Worker:
 
     def assign(self, task: EpisodeTask) -> None:
         self.task = task
+        if task.max_wall_s is not None:
+            self.deadline = time.monotonic() + task.max_wall_s + _HARD_GRACE_S
         try:
             self.conn.send(task)
         except (BrokenPipeError, ConnectionResetError):
@@ -122,6 +145,7 @@ class _Worker:
             self.process.join(_STOP_TIMEOUT_S)
             return None
         self.task = None
+        self.deadline = math.inf
         return line
 
     def death(self) -> str:

@@ -1,0 +1,294 @@
+"""Hostile and broken inputs (issue 10, part 3): every one is answered with exit 2 and
+messages naming a real `file:line:col` — never a traceback, never a hang. The inputs come from
+`tests/hostile.py` (one generator per class that once broke the tool) and from hypothesis
+mutations of the bundled files; `bench/fuzz_campaign.py` runs the large campaign and measures
+answer times against the 2 s target."""
+
+from __future__ import annotations
+
+import os
+import re
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
+
+from orchestrator.batch.exceptions import BatchError
+from orchestrator.batch.lock import LOCK, BatchLock
+from orchestrator.engine.runner import WallTimeExceeded, run_episode
+from orchestrator.language.load import load_scenario
+
+from .hostile import (
+    BUNDLED,
+    FRAGMENTS,
+    Hostile,
+    every_hostile,
+    final_start_retry,
+    splice,
+    write_bundled,
+)
+
+REPO = Path(__file__).resolve().parent.parent
+POSITION = re.compile(r"^(?P<file>.+?):(?P<line>\d+):(?P<col>\d+): \S")
+SUMMARY = re.compile(r"^\d+ errors?; (nothing was simulated|the run was stopped)\.$")
+HANG_S = 15.0
+"""A bound that only a hang or a super-linear blow-up crosses (the campaign found 116 s and
+150 s+ answers) with room for a loaded CI machine; the 2 s target itself is measured by
+`bench/fuzz_campaign.py` on one run, not asserted here."""
+
+VALID = {"20000 chained states", final_start_retry().name}
+"""Hostile-looking inputs that are valid: they must pass, in time."""
+
+
+def _diagnostics(stderr: str, file: Path) -> list[tuple[int, int, str]]:
+    """(line, col, text) of every message; asserts each has the form `file:line:col: ...`."""
+    lines = [ln for ln in stderr.splitlines() if ln.strip()]
+    assert lines and SUMMARY.match(lines[-1]), f"no summary line in {stderr!r}"
+    found = []
+    for ln in lines[:-1]:
+        m = POSITION.match(ln)
+        assert m, f"not `file:line:col: message`: {ln!r}"
+        assert Path(m["file"]).parent.resolve() == file.parent.resolve() or m["file"] == str(file)
+        found.append((int(m["line"]), int(m["col"]), ln))
+    return found
+
+
+@pytest.mark.parametrize("hostile", every_hostile(), ids=lambda h: h.name)
+def test_hostile_input_is_answered_fast_at_its_position(cli, tmp_path, hostile: Hostile):
+    entry = hostile.write(tmp_path)
+    t0 = time.perf_counter()
+    res = cli("validate", str(entry))
+    took = time.perf_counter() - t0
+    assert res.exception is None, f"{hostile.name}: {res.exception!r}"
+    assert "Traceback" not in res.stderr + res.stdout
+    assert took < HANG_S, f"{hostile.name}: answered in {took:.1f} s"
+    if hostile.name in VALID:
+        assert res.exit_code == 0, res.stderr
+        return
+    assert res.exit_code == 2, f"{hostile.name}: exit {res.exit_code}\n{res.stdout}"
+    diags = _diagnostics(res.stderr, entry)
+    line, col, first = diags[0]
+    assert line >= 1 and col >= 1, first
+    if hostile.line:
+        assert line == hostile.line, first
+    assert hostile.fragment in res.stderr
+    # what an include names is never echoed: a message quotes at most ~80 characters of it
+    assert "hunter2" not in res.stderr and "secret-hash" not in res.stderr
+    assert all(len(text) < 600 for _, _, text in diags), max(diags, key=lambda d: len(d[2]))
+
+
+def test_user_text_reaches_the_terminal_verbatim_not_as_markup_or_emoji(cli, tmp_path):
+    # an error on line 100 once printed as `file💯7`; markup in a value was interpreted
+    (tmp_path / "m.yaml").write_text(
+        "name: m\ninitial: A\nstates:\n  A: {skill: hold, transitions: {held: B}}\n"
+        + "# pad\n" * 95
+        + "  B: {final: ok, colour: '[bold red]:smile:[/]'}\n"
+    )
+    res = cli("validate", str(tmp_path / "m.yaml"))
+    assert res.exit_code == 2
+    assert f"{tmp_path / 'm.yaml'}:100:" in res.stderr
+    assert "'[bold red]:smile:[/]'" in res.stderr or "colour" in res.stderr
+    assert "💯" not in res.stderr and "😄" not in res.stderr
+
+
+# --- mutations: the bundled files with hostile fragments spliced in ---------------------------
+
+
+@st.composite
+def hostile_mutations(draw) -> tuple[str, bytes]:
+    """(which file, its bytes): a hostile fragment spliced into a line (as a value, a key, a
+    new line, or raw), or raw bytes (non-UTF-8, control characters) inserted anywhere."""
+    which = draw(st.sampled_from(sorted(BUNDLED)))
+    lines = BUNDLED[which].splitlines(keepends=True)
+    i = draw(st.integers(0, len(lines) - 1))
+    how = draw(st.sampled_from(["value", "key", "line", "raw", "bytes"]))
+    if how == "bytes":
+        text = BUNDLED[which].encode()
+        at = draw(st.integers(0, len(text)))
+        return which, text[:at] + draw(st.binary(min_size=1, max_size=8)) + text[at:]
+    frag = draw(st.sampled_from(FRAGMENTS))
+    return which, splice(lines, i, how, frag, draw(st.integers(0, len(lines[i]))))
+
+
+def _check_mutation(root: Path, cli, which: str, data: bytes) -> None:
+    entry = write_bundled(root, which, data)
+    t0 = time.perf_counter()
+    res = cli("validate", str(entry))
+    assert time.perf_counter() - t0 < HANG_S
+    assert res.exception is None, repr(res.exception)
+    assert "Traceback" not in res.stderr
+    assert res.exit_code in (0, 2), res.stderr
+    event(f"exit {res.exit_code}")
+    if res.exit_code == 2:
+        for line, col, text in _diagnostics(res.stderr, entry):
+            assert line >= 1 and col >= 1, text
+
+
+MUTATIONS = settings(
+    max_examples=120,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+
+
+@MUTATIONS
+@given(mutation=hostile_mutations())
+def test_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory, cli, mutation):
+    _check_mutation(tmp_path_factory.mktemp("hostile"), cli, *mutation)
+
+
+@pytest.mark.slow
+@settings(MUTATIONS, max_examples=2500, derandomize=False)
+@given(mutation=hostile_mutations())
+def test_many_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory, cli, mutation):
+    _check_mutation(tmp_path_factory.mktemp("hostile"), cli, *mutation)
+
+
+# --- run, batch: invocations ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["--seed", "-1"], "--seed"),
+        (["--seed", "1" * 30], "--seed"),
+        (["--max-wall-s", "0"], "--max-wall-s"),
+        (["--max-wall-s", "nan"], "--max-wall-s"),
+        (["--max-wall-s", "inf"], "finite"),
+        (["--set", "physics.timestep_s=" + "1" * 5000], "too long"),
+        (["--set", "physics.timestep_s=!!python/object/apply:os.system [ls]"], "unknown YAML tag"),
+        (["--set", "guards=&a [*a]"], "recursive alias"),
+        (["--allow-path", "/nonexistent-issue10"], "does not exist"),
+        (["--rrd", "/nonexistent-issue10/x.rrd"], "does not exist"),
+        (["--set", "physics.control_hz=1e-6"], "physics.control_hz"),
+        (["--set", "physics.timestep_s=1e-300"], "physics.timestep_s"),
+        (["--set", "physics.time_limit_s=1e300"], "physics.time_limit_s"),
+        (["--set", "machine=" + "a" * 5000], "machine"),
+        (["--set", "machine=../../etc/passwd"], "machine"),
+    ],
+)
+def test_bad_run_invocations_exit_2_before_simulating(cli, args, fragment):
+    t0 = time.perf_counter()
+    res = cli("run", "pick_place", *args)
+    assert res.exception is None, repr(res.exception)
+    assert res.exit_code == 2, res.stdout
+    assert fragment in res.stderr + res.stdout
+    assert "Traceback" not in res.stderr
+    assert time.perf_counter() - t0 < HANG_S  # nothing was simulated
+
+
+def test_rrd_pointing_at_a_directory_is_refused_before_the_episode_runs(cli, tmp_path):
+    res = cli("run", "pick_place", "--rrd", str(tmp_path))
+    assert res.exit_code == 2
+    assert "is a directory" in res.stderr and "run.rrd" in res.stderr
+    assert "succeeded" not in res.stdout  # refused before, not after, the episode
+
+
+def test_set_machine_chooses_the_machine():
+    loaded = load_scenario("pick_place", ["machine=surgical"])
+    assert loaded.scenario.machine == "surgical"
+    assert loaded.machine.name != load_scenario("pick_place").machine.name
+
+
+def test_batch_seed_base_below_zero_is_one_error(cli, tmp_path):
+    res = cli("batch", "pick_place", "-n", "2", "--seed-base", "-5", "--out", str(tmp_path / "b"))
+    assert res.exit_code == 2
+    assert "--seed-base" in res.stderr + res.stdout
+    assert not (tmp_path / "b").exists()
+
+
+def test_a_nested_machine_that_finishes_at_once_retries_in_a_loop(cli, tmp_path):
+    entry = final_start_retry().write(tmp_path)
+    res = cli("run", str(entry))
+    assert res.exception is None, repr(res.exception)
+    assert res.exit_code == 0, res.stderr
+    assert "more transitions: --json lists them all" in res.stdout  # 10,001 rows summarized
+    assert len(res.stdout.splitlines()) < 80
+
+
+# --- wall-clock limits ------------------------------------------------------------------------
+
+
+def test_max_wall_s_stops_the_episode_brings_the_arm_to_rest_and_says_why(pick_place):
+    with pytest.raises(WallTimeExceeded) as info:
+        run_episode(pick_place, 0, max_wall_s=0.05)
+    result = info.value.result
+    assert "wall-clock limit of 0.05 s" in str(info.value)
+    assert result.metrics["error"] == str(info.value)
+    assert result.sim_time < 4.0  # stopped early; pick_place takes ~4.6 s simulated
+    assert result.metrics["rest_speed_rad_s"] < 0.05  # the arm was brought to rest
+
+
+def test_run_max_wall_s_exits_1_with_the_reason(cli):
+    res = cli("run", "pick_place", "--max-wall-s", "0.05", "--json")
+    assert res.exit_code == 1
+    assert "wall-clock limit" in res.stderr
+    line = res.json
+    assert line["outcome"] == "error" and line["error"]["type"] == "WallTimeExceeded"
+
+
+def test_batch_records_an_episode_past_its_wall_limit_as_error(cli, tmp_path):
+    out = tmp_path / "b"
+    res = cli(
+        "batch", "pick_place", "-n", "1", "--workers", "1", "--max-wall-s", "0.05",
+        "--out", str(out), "--json", "--record", "none",
+    )  # fmt: skip
+    assert res.exception is None, repr(res.exception)
+    lines = (out / "results.jsonl").read_text().splitlines()
+    assert len(lines) == 1
+    assert '"outcome": "error"' in lines[0] and "WallTimeExceeded" in lines[0]
+    assert "wall-clock limit of 0.05 s" in lines[0]
+
+
+# --- one batch per directory ------------------------------------------------------------------
+
+
+def test_a_second_batch_on_the_same_directory_exits_2_naming_the_holder(cli, tmp_path):
+    out = tmp_path / "b"
+    holder = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        out.mkdir()
+        (out / LOCK).write_text(
+            f'{{"pid": {holder.pid}, "host": "{socket.gethostname()}", "since": 0}}\n'
+        )
+        res = cli("batch", "pick_place", "-n", "1", "--out", str(out))
+        assert res.exit_code == 2
+        assert f"pid {holder.pid}" in res.stderr and "in use by another batch" in res.stderr
+        assert not (out / "results.jsonl").exists()
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+def test_a_lock_left_by_a_dead_batch_is_taken_over_and_released(tmp_path):
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    (tmp_path / LOCK).write_text(
+        f'{{"pid": {dead.pid}, "host": "{socket.gethostname()}", "since": 0}}\n'
+    )
+    with BatchLock(tmp_path):
+        assert f'"pid": {os.getpid()}' in (tmp_path / LOCK).read_text()
+        with pytest.raises(BatchError, match="in use by another batch"):
+            BatchLock(tmp_path).acquire()  # held by a live process (this one)
+    assert not (tmp_path / LOCK).exists()
+
+
+def test_nan_in_a_blackboard_default_or_override_is_refused_before_simulating(cli, tmp_path):
+    (tmp_path / "m.yaml").write_text(
+        "name: m\ninitial: A\nblackboard:\n  x: [0.1, .nan]\nstates:\n"
+        "  A: {skill: hold, with: {duration_s: 0.1}, transitions: {held: B}}\n"
+        "  B: {final: succeeded}\n"
+    )
+    res = cli("validate", str(tmp_path / "m.yaml"))
+    assert res.exit_code == 2
+    assert f"{tmp_path / 'm.yaml'}:4:3: blackboard.x:" in res.stderr and "NaN" in res.stderr
+    res = cli("run", "pick_place", "--set", "place_at=[.nan,0,0]")
+    assert res.exit_code == 2
+    assert "blackboard.place_at" in res.stderr and "nothing was simulated" in res.stderr
