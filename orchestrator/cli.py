@@ -103,7 +103,8 @@ def _print_result(result) -> None:
     )
     table = Table("t [s]", "from", "to", "trigger", box=None, pad_edge=False)
     for tr in result.transitions:
-        table.add_row(f"{tr['t']:.2f}", tr["from"], tr["to"], tr["trigger"])
+        trigger = tr["trigger"] + (f": {tr['detail']}" if tr.get("detail") else "")
+        table.add_row(f"{tr['t']:.2f}", tr["from"], tr["to"], trigger)
     out.print(table)
     if result.reason:
         r = result.reason
