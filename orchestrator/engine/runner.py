@@ -172,7 +172,12 @@ def run_episode(
 
     outcome = executor.outcome or "failed"
     final_state = executor.final_state
-    success = evaluate(ctx, scn.success) if not diverged else dict.fromkeys(scn.success, False)
+    judged = (
+        evaluate(ctx, scn.success)
+        if not diverged
+        else dict.fromkeys(scn.success, (False, "physics diverged"))
+    )
+    success = {name: ok for name, (ok, _) in judged.items()}
     if outcome == "succeeded" and not all(success.values()):
         outcome = "failed"
     metrics: dict[str, Any] = {
@@ -209,6 +214,7 @@ def run_episode(
         metrics=metrics,
         success=success,
         retries=executor.retries,
+        success_detail={name: text for name, (_, text) in judged.items()},
     )
     for obs in observers:
         obs.on_end(ctx, executor, result)

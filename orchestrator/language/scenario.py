@@ -267,22 +267,29 @@ class Physics(_Strict):
 class SuccessCheck(_Strict):
     """A named success criterion, evaluated once at the end of the run.
 
-    `object_at`: the object rests within `xy_tol_m` of the marker centre and is upright within
-    `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and its
-    fingers are at least `min_distance_m` from it.
+    `object_at`: the object rests on the table within `xy_tol_m` of the target and is upright
+    within `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and
+    its fingers are at least `min_distance_m` from it. A failed check says by how much in the
+    result's `success_detail`.
     """
 
     kind: Literal["object_at", "gripper_clear"]
-    object: str
-    target: str | None = None
-    xy_tol_m: PositiveFloat = 0.01
-    upright_tol_deg: PositiveFloat = 10.0
-    min_distance_m: float = Field(default=0.01, ge=0.0)
+    object: str = Field(description="The scene object judged.")
+    target: str | Vec3 | None = Field(
+        default=None,
+        description="`object_at`: a marker or object name, `[x, y, z]` [m], or `$key` to "
+        "follow the blackboard (where the flow was told to place, e.g. `$place_at`).",
+    )
+    xy_tol_m: PositiveFloat = Field(default=0.01, description="Horizontal tolerance [m].")
+    upright_tol_deg: PositiveFloat = Field(default=10.0, description="Largest tilt [deg].")
+    min_distance_m: float = Field(
+        default=0.01, ge=0.0, description="`gripper_clear`: finger clearance [m]."
+    )
 
     @model_validator(mode="after")
     def _target(self) -> SuccessCheck:
         if self.kind == "object_at" and self.target is None:
-            raise ValueError("`object_at` needs a `target` (a marker name)")
+            raise ValueError("`object_at` needs a `target` (a marker name, [x, y, z] or $key)")
         return self
 
 
@@ -339,6 +346,11 @@ class Scenario(_Strict):
     tool: ToolSpec | None = Field(default=None, description="A tool on the flange (a probe).")
     scene: SceneSpec = Field(default_factory=SceneSpec)
     machine: str = Field(description="Machine file (relative to this file) or bundled name.")
+    skills: list[str] = Field(
+        default_factory=list,
+        description="Your own skills: folders of skill modules or `.py` files, relative to "
+        "this file. Every Skill subclass they define is available by its `name`.",
+    )
     blackboard: dict[str, Any] = Field(default_factory=dict, description="Overrides defaults.")
     guards: list[GuardRef] | dict[str, dict[str, Any] | None] = Field(
         default_factory=list, description="Guards active for the whole run."
