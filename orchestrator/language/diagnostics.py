@@ -40,7 +40,8 @@ class Diagnostic:
     valid: tuple[str, ...] = field(default=())
 
     def __str__(self) -> str:
-        text = f"{self.file}:{self.line}:{self.col}: {self.path}: {self.message}"
+        where = f"{self.file}:{self.line}:{self.col}" if self.line else self.file
+        text = f"{where}: {self.path}: {self.message}"
         if self.valid:
             text += f" (valid: {', '.join(self.valid)})"
         return text

@@ -297,3 +297,53 @@ def write_reference_docs(docs_dir: Path = DOCS_DIR) -> list[Path]:
 if __name__ == "__main__":
     for p in write_reference_docs():
         print(f"wrote {p}")
+
+
+def scenario_summary(loaded: Any) -> str:
+    """`orchestrator show scenario NAME`: what a scenario sets up and what it can be told.
+
+    Args:
+        loaded: A `LoadedScenario`.
+    """
+    from .validation import blackboard_types
+
+    scn = loaded.scenario
+    machine = loaded.machine
+    lines = [f"# scenario `{scn.name}` ({loaded.path})", ""]
+    if scn.description:
+        lines += [" ".join(scn.description.split()), ""]
+    lines.append(f"Machine: `{machine.name}` (`orchestrator show machine {scn.machine}`).")
+    lines.append(
+        f"Robot: `{scn.robot.name}`" + (f" with tool `{scn.tool.name}`." if scn.tool else ".")
+    )
+    scene = [f"object `{o.name}` ({o.mass:g} kg)" for o in scn.scene.objects]
+    scene += [f"marker `{m.name}` at {m.xy}" for m in scn.scene.markers]
+    if scn.scene.phantom is not None:
+        scene.append(f"phantom `{scn.scene.phantom.name}`")
+    lines.append("Scene: " + (", ".join(scene) or "the table only") + ".")
+    guards = (
+        scn.guards
+        if isinstance(scn.guards, dict)
+        else {
+            (g if isinstance(g, str) else next(iter(g))): None
+            for g in scn.guards  # type: ignore[arg-type]
+        }
+    )
+    lines.append("Guards: " + (", ".join(f"`{g}`" for g in guards) or "none") + ".")
+    lines += ["", "## Blackboard (`--set KEY=VALUE`)", ""]
+    lines += ["| key | type | default | scenario sets |", "|---|---|---|---|"]
+    types = blackboard_types(machine)
+    defaults: dict[str, Any] = {}
+    for node in machine.nodes():
+        defaults.update(node.blackboard)
+    for key in sorted(types):
+        default = _value(defaults[key]) if key in defaults else ""
+        mine = _value(scn.blackboard[key]) if key in scn.blackboard else ""
+        lines.append(f"| `{key}` | {types[key]} | {default} | {mine} |")
+    lines += ["", "## Success checks", ""]
+    for name, check in scn.success.items():
+        extra = f" at {check.target}" if check.target is not None else ""
+        lines.append(f"* `{name}`: {check.kind} `{check.object}`{extra}")
+    if not scn.success:
+        lines.append("None: the machine's final outcome decides.")
+    return "\n".join(lines) + "\n"

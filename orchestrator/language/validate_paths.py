@@ -10,10 +10,11 @@ from .diagnostics import Diagnostic
 from .load import load_machine, load_scenario
 from .yamlio import load_yaml
 
-__all__ = ["validate_paths"]
+__all__ = ["file_kind", "validate_paths"]
 
 
-def _kind(ref: str) -> tuple[str, str] | None:
+def file_kind(ref: str) -> tuple[str, str] | None:
+    """(`machine` or `scenario`, the file or bundled name) of a reference; None if not found."""
     path = Path(ref)
     if path.is_file():
         try:
@@ -36,16 +37,28 @@ def _kind(ref: str) -> tuple[str, str] | None:
     return None
 
 
+def _expand(refs: list[str]) -> list[str]:
+    """A folder stands for every YAML file below it (sorted)."""
+    out = []
+    for ref in refs:
+        path = Path(ref)
+        if path.is_dir():
+            found = sorted(p for p in path.rglob("*") if p.suffix in (".yaml", ".yml"))
+            out += [str(p) for p in found] or [ref]
+        else:
+            out.append(ref)
+    return out
+
+
 def validate_paths(refs: list[str]) -> tuple[list[Diagnostic], list[tuple[str, str]]]:
     """Every problem in `refs`, and the (kind, name) of each file that passed."""
     problems: list[Diagnostic] = []
     ok: list[tuple[str, str]] = []
-    for ref in refs:
-        kind = _kind(ref)
+    for ref in _expand(refs):
+        kind = file_kind(ref)
         if kind is None:
-            problems.append(
-                Diagnostic(ref, 0, 0, "<file>", "no such file, bundled scenario or machine")
-            )
+            what = "a folder without YAML files" if Path(ref).is_dir() else "no such file"
+            problems.append(Diagnostic(ref, 0, 0, "<file>", f"{what}, bundled scenario or machine"))
             continue
         try:
             if kind[0] == "machine":
