@@ -115,7 +115,13 @@ def _type_text(prop: dict, defs: dict) -> str:
         return f"{item}{size}"
     if kind == "object":
         return "mapping"
-    names = {"number": "float", "integer": "int", "string": "str", "boolean": "bool"}
+    names = {
+        "number": "float",
+        "integer": "int",
+        "string": "str",
+        "boolean": "bool",
+        "null": "null",
+    }
     return names.get(kind, "any") if kind else "any"
 
 
