@@ -38,6 +38,18 @@ _UNIT = re.compile(r"\s*\[([^\]]+)\]\.?$")
 """A unit at the end of a description: `Position tolerance [m].`"""
 
 
+_SUFFIX_UNITS = (
+    ("_deg", "deg"),
+    ("_rad", "rad"),
+    ("_m", "m"),
+    ("_s", "s"),
+    ("_n", "N"),
+    ("_hz", "Hz"),
+    ("_kg", "kg"),
+)
+"""The unit a parameter's name ends in, when its description does not say one."""
+
+
 @dataclass(frozen=True)
 class ParamRow:
     """One parameter of a model, as the reference shows it."""
@@ -64,6 +76,8 @@ def param_rows(model: type[BaseModel]) -> list[ParamRow]:
         match = _UNIT.search(text)
         if match is not None:
             unit, text = match.group(1), text[: match.start()].strip()
+        else:
+            unit = next((u for suffix, u in _SUFFIX_UNITS if name.endswith(suffix)), "")
         if field.is_required():
             default = "required"
         elif field.default_factory is not None:
@@ -114,6 +128,9 @@ def _type_text(prop: dict, defs: dict) -> str:
         size = f"[{n_min}]" if n_min is not None and n_min == n_max else "[]"
         return f"{item}{size}"
     if kind == "object":
+        values = prop.get("additionalProperties")
+        if isinstance(values, dict) and "$ref" in values:
+            return f"{{NAME: {_type_text(values, defs)}}}"
         return "mapping"
     names = {
         "number": "float",
@@ -255,14 +272,14 @@ def scenario_reference() -> str:
                 sub = f"{path}.{r.name}" if path else r.name
                 if "[]" in r.kind:
                     sub += "[]"
-                elif "mapping" in r.kind:
+                elif "NAME" in r.kind:
                     sub += ".NAME"
                 queue.append((sub, r.model))
     return "\n".join(line for line in lines).replace("\n\n\n", "\n\n").rstrip() + "\n"
 
 
 _EXAMPLE = """
-# yaml-language-server: $schema=https://example.invalid/generate-with-orchestrator-schema
+# yaml-language-server: $schema=scenario.schema.json  (orchestrator schema scenario > ...)
 name: my_pick_place
 description: Pick the cube and put it where --set place_at=[x, y, z] says.
 machine: my_flow.yaml           # relative to this file, or a bundled machine name

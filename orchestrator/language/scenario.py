@@ -36,21 +36,25 @@ class _Strict(BaseModel):
 class RobotRef(_Strict):
     """Which robot, and where its base stands."""
 
-    name: str = "panda"
-    base_pos: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0], description="[m]")
+    name: str = Field(
+        default="panda", description="A registered robot (`orchestrator list robots`)."
+    )
+    base_pos: Vec3 = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0], description="Base position in the world [m]."
+    )
 
 
 class Table(_Strict):
     """A table: a box whose top surface is at `height`."""
 
     center_xy: Annotated[list[float], Field(min_length=2, max_length=2)] = Field(
-        default_factory=lambda: [0.55, 0.0]
+        default_factory=lambda: [0.55, 0.0], description="Centre of the top surface [m]."
     )
     size_xy: Annotated[list[float], Field(min_length=2, max_length=2)] = Field(
         default_factory=lambda: [0.7, 0.9], description="Top surface size [m]."
     )
     height: PositiveFloat = Field(default=0.2, description="Height of the top surface [m].")
-    friction: PositiveFloat = 1.0
+    friction: PositiveFloat = Field(default=1.0, description="Sliding friction coefficient.")
 
 
 class Randomize(_Strict):
@@ -72,18 +76,20 @@ class Randomize(_Strict):
 class ObjectSpec(_Strict):
     """A free rigid object resting on the table."""
 
-    name: str
-    shape: Literal["box"] = "box"
+    name: str = Field(description="Its name in skills (`search`, `grasp`) and success checks.")
+    shape: Literal["box"] = Field(default="box", description="Only boxes for now.")
     size: Vec3 = Field(description="Full edge lengths [m].")
     mass: PositiveFloat = Field(default=0.1, description="[kg]")
     xy: Annotated[list[float], Field(min_length=2, max_length=2)] = Field(
         description="Nominal position on the table [m]."
     )
-    yaw_deg: float = 0.0
-    randomize: Randomize = Field(default_factory=Randomize)
-    friction: PositiveFloat = 1.0
+    yaw_deg: float = Field(default=0.0, description="Nominal rotation about z [deg].")
+    randomize: Randomize = Field(
+        default_factory=Randomize, description="Per-seed offsets added to `xy` and `yaw_deg`."
+    )
+    friction: PositiveFloat = Field(default=1.0, description="Sliding friction coefficient.")
     rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
-        default_factory=lambda: [0.85, 0.2, 0.2, 1.0]
+        default_factory=lambda: [0.85, 0.2, 0.2, 1.0], description="Colour, 0..1 each."
     )
 
     @model_validator(mode="after")
@@ -96,13 +102,15 @@ class ObjectSpec(_Strict):
 class Marker(_Strict):
     """A visual-only target on the table (a place pad): no collision."""
 
-    name: str
-    xy: Annotated[list[float], Field(min_length=2, max_length=2)]
+    name: str = Field(description="Its name as a target (`move`'s `target: pad`).")
+    xy: Annotated[list[float], Field(min_length=2, max_length=2)] = Field(
+        description="Centre on the table top [m]."
+    )
     size_xy: Annotated[list[float], Field(min_length=2, max_length=2)] = Field(
-        default_factory=lambda: [0.08, 0.08]
+        default_factory=lambda: [0.08, 0.08], description="[m]"
     )
     rgba: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
-        default_factory=lambda: [0.2, 0.7, 0.3, 1.0]
+        default_factory=lambda: [0.2, 0.7, 0.3, 1.0], description="Colour, 0..1 each."
     )
 
 
@@ -194,6 +202,9 @@ class Obstacle(_SceneBox):
 
 
 class SceneSpec(_Strict):
+    """What stands on the table; every name is unique across objects, markers, zones,
+    obstacles and the phantom."""
+
     table: Table = Field(default_factory=Table)
     objects: list[ObjectSpec] = Field(default_factory=list)
     markers: list[Marker] = Field(default_factory=list)
@@ -253,10 +264,12 @@ class SafeStop(_Strict):
 
 
 class Physics(_Strict):
+    """Simulation rates and the run's time limit."""
+
     timestep_s: PositiveFloat = Field(default=0.002, le=0.01, description="Physics step [s].")
     control_hz: PositiveFloat = Field(default=100.0, le=1000.0, description="Control rate [Hz].")
     time_limit_s: PositiveFloat = Field(
-        default=30.0, description="Simulated time after which the run ends `failed`."
+        default=30.0, description="Simulated time after which the run ends `failed` [s]."
     )
     safe_stop: SafeStop = Field(
         default_factory=SafeStop,
@@ -340,24 +353,32 @@ class ToolSpec(_Strict):
 class Scenario(_Strict):
     """One runnable episode family: everything but the seed."""
 
-    name: str
-    description: str | None = None
-    robot: RobotRef = Field(default_factory=RobotRef)
+    name: str = Field(description="Printed in results and recordings.")
+    description: str | None = Field(default=None, description="Free text.")
+    robot: RobotRef = Field(default_factory=RobotRef, description="The robot and its base.")
     tool: ToolSpec | None = Field(default=None, description="A tool on the flange (a probe).")
-    scene: SceneSpec = Field(default_factory=SceneSpec)
+    scene: SceneSpec = Field(default_factory=SceneSpec, description="Table, objects, markers.")
     machine: str = Field(description="Machine file (relative to this file) or bundled name.")
     skills: list[str] = Field(
         default_factory=list,
         description="Your own skills: folders of skill modules or `.py` files, relative to "
         "this file. Every Skill subclass they define is available by its `name`.",
     )
-    blackboard: dict[str, Any] = Field(default_factory=dict, description="Overrides defaults.")
-    guards: list[GuardRef] | dict[str, dict[str, Any] | None] = Field(
-        default_factory=list, description="Guards active for the whole run."
+    blackboard: dict[str, Any] = Field(
+        default_factory=dict,
+        description="Values for the machine's blackboard keys (overrides their defaults).",
     )
-    success: dict[str, SuccessCheck] = Field(default_factory=dict)
-    physics: Physics = Field(default_factory=Physics)
-    perception: Perception = Field(default_factory=Perception)
+    guards: list[GuardRef] | dict[str, dict[str, Any] | None] = Field(
+        default_factory=list,
+        description="Guards active for the whole run: `{name: {params}}` or a list of names "
+        "(docs/skills.md#guards).",
+    )
+    success: dict[str, SuccessCheck] = Field(
+        default_factory=dict,
+        description="Named checks judged at the end; any failing one makes the run `failed`.",
+    )
+    physics: Physics = Field(default_factory=Physics, description="Rates and time limit.")
+    perception: Perception = Field(default_factory=Perception, description="Noise of `search`.")
     faults: list[Fault] = Field(
         default_factory=list, description="Faults injected into the run (see docs/safety.md)."
     )
