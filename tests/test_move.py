@@ -114,3 +114,10 @@ def test_a_state_timeout_says_what_the_move_was_waiting_for(one_move, tmp_path):
 def test_an_unreachable_move_says_why(one_move):
     result = run_episode(one_move("goal=[1.5, 0.0, 0.4]"), 0)
     assert "is beyond the arm's reach" in result.transitions[-1]["detail"]
+
+
+def test_the_time_limit_says_what_the_running_move_was_waiting_for(one_move):
+    result = run_episode(one_move("physics.time_limit_s=0.3"), 0)
+    assert result.outcome == "failed" and result.metrics["time_limit_reached"]
+    assert result.metrics["time_limit_detail"].startswith("MOVE: TCP "), result.metrics
+    assert "still on its line (0.30 of" in result.metrics["time_limit_detail"]

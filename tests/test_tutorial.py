@@ -91,3 +91,12 @@ def test_the_placed_check_follows_place_at_and_says_by_how_much(tmp_path):
     detail = result["success_detail"]["placed"]
     mm = float(re.search(r"cube is ([0-9.]+) mm from \[0.5, 0.2\] \(xy_tol_m 10 mm\)", detail)[1])
     assert 140.0 < mm < 170.0, detail  # |(0.35, 0.25) - (0.5, 0.2)| = 158 mm
+
+
+def test_the_readme_set_example_moves_the_cube_and_the_check_follows(cli):
+    example = "place_at=[0.4,0.28,0.2]"
+    assert f"`--set {example}`" in PAGES[1].read_text()
+    res = cli("run", "pick_place", "--json", "--set", example)
+    assert res.exit_code == 0, res.stdout
+    detail = res.json["success_detail"]["cube_on_target"]
+    assert "mm from [0.4, 0.28]" in detail, detail

@@ -384,6 +384,8 @@ class Executor:
         """The bound `check` of each active guard, in priority order (the physics step's)."""
         self._detail: str | None = None
         """Why the state that is ending ended: goes to the next recorded transition."""
+        self.halt_detail: str | None = None
+        """What the running skill was still waiting for when the time limit ended the run."""
         self._on_abort: str | None = None
         """The `on_abort` state to enter once the arm is at rest (None: the built-in stop)."""
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
@@ -502,6 +504,8 @@ class Executor:
             return
         leaf = self.leaf
         if self.region is not None:
+            self.explain(self.region, "time limit reached", leaf)
+            self.halt_detail, self._detail = self._detail, None
             self.region.stop()
         self._finish("aborted" if self.violation is not None else "failed", leaf)
 

@@ -199,6 +199,8 @@ def run_episode(
     metrics["rest_speed_rad_s"] = round(float(np.max(np.abs(data.qvel[world.arm_dof]))), 5)
     if timed_out:
         metrics["time_limit_reached"] = True
+        if executor.halt_detail:
+            metrics["time_limit_detail"] = f"{final_state}: {executor.halt_detail}"
     if diverged:
         metrics["error"] = diverged
     wall = time.perf_counter() - wall0
