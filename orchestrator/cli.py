@@ -27,8 +27,12 @@ app = typer.Typer(
 # Whatever a user file holds can reach these consoles (state names, messages, paths): no
 # emoji codes (`:100:` in `file:100:7` would print as an emoji), no highlighting, and every
 # user string passes `markup=False` or `escape()`.
-err = Console(stderr=True, highlight=False, emoji=False)
-out = Console(highlight=False, emoji=False)
+_WIDE = 1000
+"""Console width when the output is not a terminal: a pipe or a file gets unwrapped lines."""
+err = Console(
+    stderr=True, highlight=False, emoji=False, width=None if sys.stderr.isatty() else _WIDE
+)
+out = Console(highlight=False, emoji=False, width=None if sys.stdout.isatty() else _WIDE)
 
 EXIT_INVALID = 2
 MAX_SEED = 2**63 - 1
@@ -84,11 +88,59 @@ def _check_writable(path: Path, option: str) -> None:
         path.unlink(missing_ok=True)
 
 
-def _fail_config(exc: ConfigError) -> None:
+SkillPaths = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--skills",
+        help="A folder (or .py file) of your own skill modules, no package needed. Repeatable.",
+    ),
+]
+
+
+def _version(value: bool) -> None:
+    if value:
+        from importlib.metadata import version
+
+        out.print(f"orchestrator {version('embodied-orchestrator')}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool,
+        typer.Option("--version", callback=_version, is_eager=True, help="Print the version."),
+    ] = False,
+) -> None:
+    """Run declarative YAML robot task flows on MuJoCo physics."""
+
+
+_warned = False
+
+
+def _use_skills(paths: list[Path] | None) -> None:
+    """Register `--skills` folders, discover plugins and say which plugins were skipped."""
+    global _warned  # noqa: PLW0603 - print plugin warnings once per process
+    from .skills import PLUGIN_WARNINGS, SkillLoadError, register_skill_path, skill_names
+
+    skill_names()
+    if not _warned:
+        for warning in PLUGIN_WARNINGS:
+            err.print(f"warning: {warning}", markup=False, soft_wrap=True)
+        _warned = True
+    for path in paths or []:
+        try:
+            register_skill_path(path)
+        except SkillLoadError as exc:
+            err.print(f"error: {exc}", markup=False, soft_wrap=True)
+            raise typer.Exit(EXIT_INVALID) from None
+
+
+def _fail_config(exc: ConfigError, what: str = "nothing was simulated") -> None:
     for diag in exc.diagnostics:
         err.print(str(diag), markup=False, soft_wrap=True)
     n = len(exc.diagnostics)
-    what = "the run was stopped" if exc.during_run else "nothing was simulated"
+    what = "the run was stopped" if exc.during_run else what
     err.print(f"{n} error{'s' if n != 1 else ''}; {what}.", style="red")
     raise typer.Exit(EXIT_INVALID)
 
@@ -96,7 +148,11 @@ def _fail_config(exc: ConfigError) -> None:
 @app.command()
 def run(
     scenario: Annotated[
-        str, typer.Argument(help="Scenario file or bundled name (e.g. pick_place).")
+        str,
+        typer.Argument(
+            help="Scenario file or bundled name (e.g. pick_place), or a machine file: it runs "
+            "in the default scene (a Panda, a table, a cube `cube`, a pad `pad`)."
+        ),
     ],
     seed: SeedOption = 0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the RunResult as JSON.")] = False,
@@ -132,15 +188,25 @@ def run(
         ),
     ] = None,
     allow_path: AllowPathOption = None,
+    skills: SkillPaths = None,
 ) -> None:
     """Run one episode. Exit 0 succeeded, 1 failed (or stopped by --max-wall-s), 2 invalid
     input, 3 aborted by a guard."""
     from .engine.runner import WallTimeExceeded, run_episode
     from .language.load import load_scenario
+    from .language.validate_paths import file_kind
 
     _check_wall(max_wall_s)
     if rrd is not None:
         _check_writable(rrd, "--rrd")
+    _use_skills(skills)
+    if file_kind(scenario) == ("machine", scenario):
+        err.print(
+            f"{scenario} is a machine: running it in the default scene (Panda, table, cube "
+            "`cube`, pad `pad`; docs/scenario-reference.md to write a scenario)",
+            markup=False,
+            soft_wrap=True,
+        )
     try:
         loaded = load_scenario(scenario, set_ or [], fault or [], _allowed(allow_path))
         observers = []
@@ -167,6 +233,8 @@ def run(
         sys.stdout.write(json.dumps(result.to_json_dict()) + "\n")
     else:
         _print_result(result)
+    if rrd is not None:
+        err.print(f"recording saved to {rrd} (open it with: rerun {rrd})", markup=False)
     raise typer.Exit(result.exit_code)
 
 
@@ -191,7 +259,8 @@ def _print_result(result) -> None:
         if tr is None:
             table.add_row("...", f"({cut} more transitions: --json lists them all)", "", "")
             continue
-        table.add_row(f"{tr['t']:.2f}", escape(tr["from"]), escape(tr["to"]), escape(tr["trigger"]))
+        trigger = tr["trigger"] + (f": {tr['detail']}" if tr.get("detail") else "")
+        table.add_row(f"{tr['t']:.2f}", escape(tr["from"]), escape(tr["to"]), escape(trigger))
     out.print(table)
     if result.reason:
         r = result.reason
@@ -202,6 +271,10 @@ def _print_result(result) -> None:
     if result.success:
         marks = ", ".join(f"{k} {'ok' if v else 'FAILED'}" for k, v in result.success.items())
         out.print(f"success: {marks}", markup=False)
+        for name, ok in result.success.items():
+            if not ok:
+                detail = result.success_detail.get(name, "")
+                out.print(f"[yellow]{escape(name)} failed[/]: {escape(detail)}", soft_wrap=True)
     metrics = ", ".join(f"{k} {v}" for k, v in result.metrics.items())
     out.print(f"metrics: {metrics}", markup=False, soft_wrap=True)
     if result.retries:
@@ -257,13 +330,16 @@ def faults(
 @app.command()
 def validate(
     paths: Annotated[
-        list[str], typer.Argument(help="Machine or scenario files (or bundled names).")
+        list[str],
+        typer.Argument(help="Machine or scenario files, folders of them, or bundled names."),
     ],
     allow_path: AllowPathOption = None,
+    skills: SkillPaths = None,
 ) -> None:
     """Check machines and scenarios without simulating: all errors at once, exit 2 if any."""
     from .language.validate_paths import validate_paths
 
+    _use_skills(skills)
     try:
         problems, checked = validate_paths(paths, _allowed(allow_path))
     except ConfigError as exc:  # e.g. a bad $ORCHESTRATOR_LIMITS
@@ -276,23 +352,38 @@ def validate(
 
 @app.command()
 def graph(
-    machine: Annotated[str, typer.Argument(help="Machine file or bundled name.")],
+    machine: Annotated[
+        str, typer.Argument(help="Machine file or bundled name, or a scenario (its machine).")
+    ],
     fmt: Annotated[
         str, typer.Option("--format", help="mermaid (no system package needed) or dot (Graphviz).")
     ] = "mermaid",
     allow_path: AllowPathOption = None,
+    skills: SkillPaths = None,
 ) -> None:
     """Draw a machine: states, outcome-labelled transitions, nested clusters, the abort path."""
     from .language.graph import to_dot, to_mermaid
-    from .language.load import load_machine
+    from .language.load import load_machine, load_scenario
+    from .language.validate_paths import file_kind
 
     if fmt not in ("mermaid", "dot"):
         err.print(f"--format: unknown format {fmt[:80]!r} (valid: mermaid, dot)", markup=False)
         raise typer.Exit(EXIT_INVALID)
+    _use_skills(skills)
     try:
-        node = load_machine(machine, allow_paths=_allowed(allow_path))
+        kind = file_kind(machine) if Path(machine).is_file() else None
+        if kind is not None and kind[0] == "scenario":
+            loaded = load_scenario(machine, allow_paths=_allowed(allow_path))
+            err.print(
+                f"{machine} is a scenario: drawing its machine {loaded.scenario.machine!r}",
+                markup=False,
+                soft_wrap=True,
+            )
+            node = loaded.machine
+        else:
+            node = load_machine(machine, allow_paths=_allowed(allow_path))
     except ConfigError as exc:
-        _fail_config(exc)
+        _fail_config(exc, "nothing was drawn")
         return
     sys.stdout.write(to_mermaid(node) if fmt == "mermaid" else to_dot(node))
 
@@ -300,36 +391,119 @@ def graph(
 @app.command()
 def schema(
     kind: Annotated[str, typer.Argument(help="machine or scenario")],
+    skills: SkillPaths = None,
 ) -> None:
-    """Print the JSON Schema (draft 7) of machine or scenario files, for yaml-language-server."""
+    """Print the JSON Schema (draft 7) of machine or scenario files, for yaml-language-server.
+
+    It knows every installed plugin skill and `--skills` folder: save it
+    (`orchestrator schema machine --skills my_skills > machine.schema.json`) and point the
+    editor at it with `# yaml-language-server: $schema=machine.schema.json`."""
     from .language.schema_gen import schema_text
 
     if kind not in ("machine", "scenario"):
         err.print(f"unknown schema {kind[:80]!r} (valid: machine, scenario)", markup=False)
         raise typer.Exit(EXIT_INVALID)
+    _use_skills(skills)
     sys.stdout.write(schema_text(kind))
 
 
+LISTS = ("scenarios", "machines", "skills", "guards", "robots")
+
+
 @app.command(name="list")
-def list_() -> None:
-    """Bundled scenarios and machines, available skills, guards and robots."""
+def list_(
+    what: Annotated[
+        str | None, typer.Argument(help="scenarios, machines, skills, guards or robots (all).")
+    ] = None,
+    skills: SkillPaths = None,
+) -> None:
+    """Bundled scenarios and machines, available skills (with plugins), guards and robots."""
     from .guards import GUARDS
     from .language.bundled import bundled_names
     from .robots import ROBOTS
-    from .skills import SKILLS, skill_names
+    from .skills import SKILLS
+    from .skills.plugins import skill_origin
 
-    skill_names()
-    out.print("[bold]scenarios[/]: " + ", ".join(bundled_names("scenarios")))
-    out.print("[bold]machines[/]:  " + ", ".join(bundled_names("machines")))
-    table = Table("skill", "outcomes", "description", box=None, pad_edge=False)
-    for name in sorted(SKILLS):
-        cls = SKILLS[name]
-        text = " ".join((cls.__doc__ or "").split())
-        doc = text.split(". ")[0].rstrip(".") + "." if text else ""
-        table.add_row(name, ", ".join(cls.outcomes), doc)
-    out.print(table)
-    out.print("[bold]guards[/]:    " + ", ".join(sorted(GUARDS)))
-    out.print("[bold]robots[/]:    " + ", ".join(sorted(ROBOTS)))
+    if what is not None and what not in LISTS:
+        err.print(f"unknown list {what!r} (valid: {', '.join(LISTS)})", markup=False)
+        raise typer.Exit(EXIT_INVALID)
+    _use_skills(skills)
+    show = LISTS if what is None else (what,)
+    if "scenarios" in show:
+        out.print("[bold]scenarios[/]: " + ", ".join(bundled_names("scenarios")))
+    if "machines" in show:
+        out.print("[bold]machines[/]:  " + ", ".join(bundled_names("machines")))
+    if "skills" in show:
+        table = Table("skill", "outcomes", "description", box=None, pad_edge=False)
+        for name in sorted(SKILLS):
+            cls = SKILLS[name]
+            origin = skill_origin(cls)
+            doc = _first_sentence(cls) + ("" if origin == "bundled" else f" ({origin})")
+            table.add_row(name, ", ".join(cls.outcomes), doc)
+        out.print(table)
+        out.print("`orchestrator show skill NAME`: parameters with types, units and defaults.")
+    if "guards" in show:
+        out.print("[bold]guards[/]:    " + ", ".join(sorted(GUARDS)))
+    if "robots" in show:
+        out.print("[bold]robots[/]:    " + ", ".join(sorted(ROBOTS)))
+
+
+def _first_sentence(cls: type) -> str:
+    text = " ".join((cls.__doc__ or "").split())
+    return text.split(". ")[0].rstrip(".") + "." if text else ""
+
+
+SHOWS = ("skill", "guard", "scenario", "machine")
+
+
+@app.command()
+def show(
+    kind: Annotated[str, typer.Argument(help="skill, guard, scenario or machine")],
+    name: Annotated[str, typer.Argument(help="Its name (a scenario or machine: or a file).")],
+    skills: SkillPaths = None,
+) -> None:
+    """Describe one skill or guard (parameters: type, unit, default, range; outcomes;
+    blackboard writes), one scenario (scene, blackboard keys to --set, success checks) or
+    one machine (its graph in Mermaid)."""
+    from .guards import GUARDS
+    from .language import reference
+    from .skills import SKILLS
+
+    if kind not in SHOWS:
+        err.print(f"unknown kind {kind!r} (valid: {', '.join(SHOWS)})", markup=False)
+        raise typer.Exit(EXIT_INVALID)
+    _use_skills(skills)
+    if kind in ("skill", "guard"):
+        table = SKILLS if kind == "skill" else GUARDS
+        if name not in table:
+            err.print(f"unknown {kind} {name!r} (valid: {', '.join(sorted(table))})", markup=False)
+            raise typer.Exit(EXIT_INVALID)
+        page = (
+            reference.skill_markdown(SKILLS[name], level=1)
+            if kind == "skill"
+            else reference.guard_markdown(GUARDS[name], level=1)
+        )
+    elif kind == "scenario":
+        from .language.load import load_scenario
+
+        try:
+            page = reference.scenario_summary(load_scenario(name))
+        except ConfigError as exc:
+            _fail_config(exc, "nothing to show")
+            return
+    else:
+        graph(name, "mermaid", None)
+        return
+    _print_markdown(page)
+
+
+def _print_markdown(page: str) -> None:
+    if out.is_terminal:
+        from rich.markdown import Markdown
+
+        out.print(Markdown(page))
+    else:
+        sys.stdout.write(page)
 
 
 @app.command()

@@ -58,6 +58,15 @@ class Skill(abc.ABC):
         """Leave a safe setpoint behind: by default hold the current joint angles."""
         ctx.controller.hold(ctx.q)
 
+    def explain(self, ctx: Context) -> str | None:
+        """Why the skill ended other than with its first outcome, or what it was still
+        waiting for when its state's `timeout:` cut it off (one sentence, with the figures).
+
+        Called just before `stop` when a skill ends with a failure outcome or is timed out;
+        the text goes into that transition's `detail` in the result. Default: nothing to say.
+        """
+        return None
+
     def written_keys(self) -> list[str]:
         """Blackboard keys this instance writes (the values of its `writes` fields)."""
         return [getattr(self.params, f) for f in self.writes]  # dict iterates its fields

@@ -1,22 +1,32 @@
 """Skills by name. Every module of this package defining a Skill subclass registers it;
-third-party packages add theirs through the `orchestrator.skills` entry-point group.
+third-party packages add theirs through the `orchestrator.skills` entry-point group, and a
+user's own folder of skill modules is added with `register_skill_path` (see `plugins`).
 """
 
 from __future__ import annotations
 
 import importlib
-import importlib.metadata
 import pkgutil
 from pathlib import Path
 
 from orchestrator.exceptions import OrchestratorError
 
 from .base import Skill
+from .plugins import SkillLoadError, entry_point_skills, load_skill_path
 
-__all__ = ["SKILLS", "UnknownSkillError", "get_skill", "skill_names"]
+__all__ = [
+    "SKILLS",
+    "UnknownSkillError",
+    "bundled_skill_names",
+    "get_skill",
+    "register_skill_path",
+    "skill_names",
+]
 
 SKILLS: dict[str, type[Skill]] = {}
-_NOT_SKILLS = {"base", "registry", "ik", "joint_limiter", "trajectory"}
+_PKG = __name__.rsplit(".", 1)[0]
+"""This package's import name (`orchestrator.skills`)."""
+_NOT_SKILLS = {"base", "registry", "plugins", "ik", "joint_limiter", "trajectory"}
 
 
 class UnknownSkillError(OrchestratorError):
@@ -26,23 +36,19 @@ class UnknownSkillError(OrchestratorError):
 def _discover() -> None:
     if SKILLS:
         return
-    pkg_name = __name__.rsplit(".", 1)[0]  # this package, without importing it from itself
     pkg_path = [str(Path(__file__).parent)]
     classes: list[type[Skill]] = []
     for info in pkgutil.iter_modules(pkg_path):
         if info.name in _NOT_SKILLS or info.name.startswith("_"):
             continue
-        module = importlib.import_module(f"{pkg_name}.{info.name}")
+        module = importlib.import_module(f"{_PKG}.{info.name}")
         for obj in vars(module).values():
             if isinstance(obj, type) and issubclass(obj, Skill) and obj is not Skill:
                 if obj.__module__ == module.__name__ and not getattr(
                     obj, "__abstractmethods__", None
                 ):
                     classes.append(obj)
-    for ep in importlib.metadata.entry_points(group="orchestrator.skills"):
-        obj = ep.load()
-        if isinstance(obj, type) and issubclass(obj, Skill):
-            classes.append(obj)
+    classes += entry_point_skills()
     for cls in classes:
         SKILLS[cls.name] = cls
 
@@ -51,6 +57,33 @@ def skill_names() -> list[str]:
     """Sorted names of every available skill."""
     _discover()
     return sorted(SKILLS)
+
+
+def bundled_skill_names() -> list[str]:
+    """Sorted names of the skills shipped with this package (no plugins, no local ones)."""
+    _discover()
+    return sorted(n for n, c in SKILLS.items() if c.__module__.startswith(_PKG + "."))
+
+
+def register_skill_path(path: str | Path) -> list[str]:
+    """Register the skills of a local folder or `.py` file; returns their names.
+
+    Raises:
+        SkillLoadError: The path cannot be loaded, or a skill's name is already taken by
+            another skill (the message names both).
+    """
+    _discover()
+    names = []
+    for cls in load_skill_path(path):
+        other = SKILLS.get(cls.name)
+        if other is not None and other is not cls:
+            raise SkillLoadError(
+                f"{path}: skill name {cls.name!r} ({cls.__module__}.{cls.__qualname__}) is "
+                f"already taken by {other.__module__}.{other.__qualname__}: rename it"
+            )
+        SKILLS[cls.name] = cls
+        names.append(cls.name)
+    return names
 
 
 def get_skill(name: str) -> type[Skill]:

@@ -132,7 +132,7 @@ def test_summary_counts_rates_abort_reasons_and_failing_seeds(tmp_path):
     assert s.episodes_per_s == 4.0
     assert s.rerun_command == (
         "orchestrator run '/x/my scenario.yaml' --seed 6 --set 'place_at=[0.5, 0.2, 0.2]' "
-        f"--rrd {tmp_path}/episodes/seed_6.rrd"
+        f"--rrd {tmp_path}/episodes/seed_6.rerun.rrd"
     )
 
 
@@ -461,7 +461,9 @@ def test_failures_are_recorded_and_successes_are_not(recording, cli, tmp_path):
     line = _lines(out / "results.jsonl")[0]
     assert line["rrd"] == "episodes/seed_0.rrd" and "rrd_error" not in line
     assert (out / "episodes" / "seed_0.rrd").stat().st_size > 0
-    assert res.json["rerun_command"].endswith(f"--rrd {out}/episodes/seed_0.rrd")
+    assert res.json["rerun_command"].endswith(
+        f"--rrd {out}/episodes/seed_0.rerun.rrd"
+    )  # never over the saved one
     out = tmp_path / "ok"
     res = cli("batch", "pick_place", "-n", "1", "--workers", "1", "--out", str(out), "--json")
     assert res.exit_code == 0, res.stderr

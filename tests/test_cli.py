@@ -135,7 +135,10 @@ def test_yaml_syntax_error_names_the_line(cli, tmp_path):
     text = GOOD_MACHINE.replace("  DONE: {final: succeeded}", "  DONE: {final: succeeded")
     res = cli("run", str(_scenario(tmp_path, text)))
     _assert_clean_error(
-        res, str(tmp_path / "m.yaml"), 10, "YAML syntax error", "flow mapping that starts at line 9"
+        res,
+        str(tmp_path / "m.yaml"),
+        9,
+        "the `{` opened at line 9, column 9 is not closed: add `}`",
     )
 
 

@@ -87,3 +87,37 @@ def test_target_blocked_by_joint_limits_ends_unreachable_not_a_hang(one_move):
     assert result.outcome == "failed"
     assert result.transitions[-1]["trigger"] == "unreachable"
     assert result.sim_time < 8.0
+
+
+def test_a_move_timeout_says_how_far_from_the_tolerance_it_was(one_move, tmp_path):
+    # 0.5 mm cannot be settled 10 ms after the line ends: the transition carries the remaining error
+    (tmp_path / "one_move.yaml").write_text(
+        MACHINE.replace("orientation: down}", "tolerance_m: 0.0005, settle_s: 0.01}")
+    )
+    result = run_episode(one_move(), 0)
+    last = result.transitions[-1]
+    assert last["trigger"] == "timeout"
+    assert "mm from the target (tolerance_m 0.5 mm)" in last["detail"], last
+    assert "deg off (tolerance_deg 0.5)" in last["detail"]
+
+
+def test_a_state_timeout_says_what_the_move_was_waiting_for(one_move, tmp_path):
+    (tmp_path / "one_move.yaml").write_text(
+        MACHINE.replace("    transitions:", "    timeout: 0.2\n    transitions:")
+    )
+    result = run_episode(one_move(), 0)
+    last = result.transitions[-1]
+    assert last["trigger"] == "timeout"
+    assert "still on its line (0.20 of" in last["detail"], last
+
+
+def test_an_unreachable_move_says_why(one_move):
+    result = run_episode(one_move("goal=[1.5, 0.0, 0.4]"), 0)
+    assert "is beyond the arm's reach" in result.transitions[-1]["detail"]
+
+
+def test_the_time_limit_says_what_the_running_move_was_waiting_for(one_move):
+    result = run_episode(one_move("physics.time_limit_s=0.3"), 0)
+    assert result.outcome == "failed" and result.metrics["time_limit_reached"]
+    assert result.metrics["time_limit_detail"].startswith("MOVE: TCP "), result.metrics
+    assert "still on its line (0.30 of" in result.metrics["time_limit_detail"]

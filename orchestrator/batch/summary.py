@@ -126,7 +126,9 @@ def summarize(
     command = None
     if failing:
         seed = failing[0]
-        rrd = rrd_dir / "episodes" / f"seed_{seed}.rrd" if rrd_dir is not None else None
+        rrd = (
+            rrd_dir / "episodes" / f"seed_{seed}.rerun.rrd" if rrd_dir is not None else None
+        )  # beside the saved recording, never over it
         command = rerun_command(scenario_ref, overrides, seed, rrd)
     return BatchSummary(
         scenario=scenario,

@@ -138,15 +138,22 @@ class _SkillActivity:
 
     def tick(self) -> Finished | None:
         if self.timeout is not None and self.ex.ctx.t - self.t0 >= self.timeout - _EPS:
-            self.ex.ctx.log("timeout", f"{self.path}: timeout after {self.timeout} s")
+            self.ex.explain(self, f"timeout after {self.timeout} s")
             self.stop()
             return "timeout", self.path
         outcome = _step_skill(self.ex, self.node, self.at, self.skill)
         if outcome is None:
             return None
-        self.ex.ctx.log("outcome", f"{self.path}: {outcome}")
+        if outcome != type(self.skill).outcomes[0]:
+            self.ex.explain(self, outcome)
+        else:
+            self.ex.ctx.log("outcome", f"{self.path}: {outcome}")
         self.stop()
         return outcome, self.path
+
+    def detail(self) -> str | None:
+        """The skill's own account of why it is ending (its `explain`)."""
+        return self.skill.explain(self.ex.ctx)
 
     def stop(self) -> None:
         self.skill.stop(self.ex.ctx)
@@ -279,7 +286,9 @@ class _Region:
             return self.final
         st = self.spec
         if st.timeout is not None and self.ex.ctx.t - self.entered_t >= st.timeout - _EPS:
-            self.ex.ctx.log("timeout", f"{self.prefix}{self.state}: timeout after {st.timeout} s")
+            self.ex.explain(
+                self.activity, f"timeout after {st.timeout} s", self.prefix + self.state
+            )
             leaf = self.leaf()
             self.stop()
             return self._outcome("timeout", leaf)
@@ -417,6 +426,10 @@ class Executor:
         self.active_guards: list[Guard] = []
         self.active_checks: tuple[Callable[[Context], Violation | None], ...] = ()
         """The bound `check` of each active guard, in priority order (the physics step's)."""
+        self._detail: str | None = None
+        """Why the state that is ending ended: goes to the next recorded transition."""
+        self.halt_detail: str | None = None
+        """What the running skill was still waiting for when the time limit ended the run."""
         self._on_abort: str | None = None
         """The `on_abort` state to enter once the arm is at rest (None: the built-in stop)."""
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
@@ -535,8 +548,27 @@ class Executor:
             return
         leaf = self.leaf
         if self.region is not None:
+            self.explain(self.region, "time limit reached", leaf)
+            self.halt_detail, self._detail = self._detail, None
             self.region.stop()
         self._finish("aborted" if self.violation is not None else "failed", leaf)
+
+    def explain(self, activity: object, what: str, path: str | None = None) -> None:
+        """Log why a state ends with a failure outcome or a timeout (`what`), with the
+        running skill's explanation; the next recorded transition carries it as `detail`."""
+        leaf = activity.leaf() if isinstance(activity, (_SkillActivity, _Region)) else None
+        inner = activity
+        while isinstance(inner, _Region) and inner.activity is not None:
+            inner = inner.activity  # a nested machine timed out: ask its running skill
+        detail = inner.detail() if isinstance(inner, _SkillActivity) else None
+        if detail is None and path is not None and leaf is not None and leaf != path:
+            detail = f"still in {leaf}"
+        self._detail = detail
+        at = path or leaf or self.leaf
+        self.ctx.log(
+            "timeout" if what.startswith("timeout") else "outcome",
+            f"{at}: {what}" + (f": {detail}" if detail else ""),
+        )
 
     def record(self, src: str, dst: str, trigger: str, retry: int | None = None) -> None:
         """Append a transition to the result (and tell the listeners)."""
@@ -548,6 +580,8 @@ class Executor:
         }
         if retry:
             rec["retry"] = retry
+        if self._detail is not None:
+            rec["detail"], self._detail = self._detail, None
         self.transitions.append(rec)
         self.ctx.log("transition", f"{src} -> {dst} ({trigger})", transition=rec)
 

@@ -29,6 +29,10 @@ class RunResult(BaseModel):
     metrics: dict[str, Any]
     success: dict[str, bool]
     retries: dict[str, int] = Field(default_factory=dict)
+    success_detail: dict[str, str] = Field(
+        default_factory=dict,
+        description="Per success check, what it measured against its limit (why it failed).",
+    )
 
     @property
     def exit_code(self) -> int:

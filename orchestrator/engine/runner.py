@@ -216,7 +216,12 @@ def run_episode(
 
     outcome = executor.outcome or "failed"
     final_state = executor.final_state
-    success = evaluate(ctx, scn.success) if not diverged else dict.fromkeys(scn.success, False)
+    judged = (
+        evaluate(ctx, scn.success)
+        if not diverged
+        else dict.fromkeys(scn.success, (False, "physics diverged"))
+    )
+    success = {name: ok for name, (ok, _) in judged.items()}
     if outcome == "succeeded" and not all(success.values()):
         outcome = "failed"
     metrics: dict[str, Any] = {
@@ -240,6 +245,8 @@ def run_episode(
     metrics["rest_speed_rad_s"] = round(float(np.max(np.abs(data.qvel[world.arm_dof]))), 5)
     if timed_out:
         metrics["time_limit_reached"] = True
+        if executor.halt_detail:
+            metrics["time_limit_detail"] = f"{final_state}: {executor.halt_detail}"
     if diverged:
         metrics["error"] = diverged
     if wall_cut:
@@ -257,6 +264,7 @@ def run_episode(
         metrics=metrics,
         success=success,
         retries=executor.retries,
+        success_detail={name: text for name, (_, text) in judged.items()},
     )
     for obs in observers:
         obs.on_end(ctx, executor, result)

@@ -1,4 +1,4 @@
-"""Success criteria, evaluated at the end of a run."""
+"""Success criteria, evaluated at the end of a run, each with what it measured."""
 
 from __future__ import annotations
 
@@ -7,14 +7,16 @@ import math
 import mujoco
 import numpy as np
 
+from ..exceptions import OrchestratorError
 from ..language.scenario import SuccessCheck
+from ..skills.targets import resolve_target
 from .context import Context
 
 __all__ = ["errors", "evaluate"]
 
 
-def evaluate(ctx: Context, checks: dict[str, SuccessCheck]) -> dict[str, bool]:
-    """Name -> passed, for every criterion of the scenario."""
+def evaluate(ctx: Context, checks: dict[str, SuccessCheck]) -> dict[str, tuple[bool, str]]:
+    """Name -> (passed, what was measured against what limit), for every criterion."""
     return {name: _check(ctx, c) for name, c in checks.items()}
 
 
@@ -25,32 +27,55 @@ def errors(ctx: Context, checks: dict[str, SuccessCheck]) -> dict[str, float]:
     for name, c in checks.items():
         if c.kind == "object_at" and c.target is not None:
             pos = ctx.object_pose(c.object).pos
-            target = ctx.world.markers[c.target]
-            err = float(np.linalg.norm(np.asarray(pos[:2]) - target[:2]))
+            try:
+                goal = resolve_target(ctx, ctx.blackboard.resolve(c.target))
+            except OrchestratorError:
+                continue  # `evaluate` reports why the target cannot be found
+            err = float(np.linalg.norm(np.asarray(pos[:2]) - np.asarray(goal.pos[:2])))
             out[f"{name}_xy_error_mm"] = round(err * 1000.0, 3)
     return out
 
 
-def _check(ctx: Context, c: SuccessCheck) -> bool:
+def _check(ctx: Context, c: SuccessCheck) -> tuple[bool, str]:
     pose = ctx.object_pose(c.object)
+    handle = ctx.world.objects[c.object]
     if c.kind == "object_at":
         assert c.target is not None
-        target = ctx.world.markers[c.target]
-        xy_err = float(np.linalg.norm(np.asarray(pose.pos[:2]) - target[:2]))
+        try:
+            # a `$key` target follows the blackboard: where the flow was told to place
+            goal = resolve_target(ctx, ctx.blackboard.resolve(c.target))
+        except OrchestratorError as exc:
+            return False, f"target {c.target!r}: {exc}"
+        xy_err = float(np.linalg.norm(np.asarray(pose.pos[:2]) - np.asarray(goal.pos[:2])))
         w, x, y, z = pose.quat
-        up = 1.0 - 2.0 * (x * x + y * y)
-        upright = up >= math.cos(math.radians(c.upright_tol_deg))
-        handle = ctx.world.objects[c.object]
-        resting = pose.pos[2] < ctx.world.table_height + handle.half_size[2] + 0.01
-        return bool(xy_err <= c.xy_tol_m and upright and resting)
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (x * x + y * y)))))
+        height = pose.pos[2] - ctx.world.table_height - handle.half_size[2]
+        where = np.round(np.asarray(goal.pos[:2]), 3).tolist()
+        problems = []
+        if xy_err > c.xy_tol_m:
+            problems.append(
+                f"{c.object} is {xy_err * 1000:.1f} mm from {where} (xy_tol_m "
+                f"{c.xy_tol_m * 1000:g} mm)"
+            )
+        if tilt > c.upright_tol_deg:
+            problems.append(f"tilted {tilt:.1f} deg (upright_tol_deg {c.upright_tol_deg:g})")
+        if height >= 0.01:
+            problems.append(f"not resting on the table ({height * 1000:.0f} mm above it)")
+        if problems:
+            return False, "; ".join(problems)
+        return True, f"{c.object} {xy_err * 1000:.1f} mm from {where}, tilted {tilt:.1f} deg"
     # gripper_clear: opened wider than the object, and no finger within min_distance of it
-    handle = ctx.world.objects[c.object]
-    open_enough = ctx.gripper_width >= 2.0 * float(max(handle.half_size)) + 2.0 * c.min_distance_m
+    need = 2.0 * float(max(handle.half_size)) + 2.0 * c.min_distance_m
     fromto = np.zeros(6)
+    nearest = math.inf
     for g in ctx.world.finger_geoms:
         dist = mujoco.mj_geomDistance(
             ctx.model, ctx.data, g, handle.geom_id, c.min_distance_m + 0.05, fromto
         )
-        if dist < c.min_distance_m:
-            return False
-    return bool(open_enough)
+        nearest = min(nearest, float(dist))
+    gap = f"fingers {nearest * 1000:.1f} mm from {c.object} (min_distance_m {c.min_distance_m:g})"
+    if nearest < c.min_distance_m:
+        return False, gap
+    if ctx.gripper_width < need:
+        return False, f"gripper open {ctx.gripper_width * 1000:.1f} mm < {need * 1000:.1f} mm"
+    return True, gap

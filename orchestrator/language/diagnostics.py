@@ -74,7 +74,8 @@ class Diagnostic:
         object.__setattr__(self, "valid", valid)
 
     def __str__(self) -> str:
-        text = f"{self.file}:{self.line}:{self.col}: {self.path}: {self.message}"
+        where = f"{self.file}:{self.line}:{self.col}" if self.line else self.file
+        text = f"{where}: {self.path}: {self.message}"
         if self.valid:
             text += f" (valid: {', '.join(self.valid)})"
         return text

@@ -11,8 +11,10 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from ..exceptions import ConfigError
+from ..skills import SkillLoadError, register_skill_path
 from .blackboard_types import all_finite, check_type
 from .bundled import bundled_names, resolve_file
+from .default_scene import is_machine_data, scenario_for_machine
 from .diagnostics import Diagnostic
 from .faults import parse_fault_spec
 from .includes import resolve_include
@@ -79,6 +81,8 @@ def load_scenario(
     doc = load_yaml(path, limits)
     problems = list(doc.problems)
     data = doc.data
+    if is_machine_data(data):
+        data = scenario_for_machine(data, path)  # a bare machine: run it in the default scene
     if not isinstance(data, dict):
         problems.append(
             doc.source.diag((), "a scenario file must be a mapping (name, machine, scene, ...)")
@@ -96,6 +100,7 @@ def load_scenario(
                 continue
             data["machine"] = ov.value
             overridden["machine"] = f"--set {ov.text}"
+    problems += _register_skills(data.get("skills"), path.parent, doc.source)
     machine: MachineNode | None = None
     machine_ref = data.get("machine")
     if isinstance(machine_ref, str):
@@ -149,7 +154,7 @@ def load_scenario(
         problems += check_scene_names(machine, scenario, doc.source)
         problems += check_faults(machine, scenario, doc.source, _arm_joints(scenario))
     if scenario is not None:
-        problems += check_scenario_refs(scenario, doc.source)
+        problems += check_scenario_refs(scenario, doc.source, keys if machine else None)
         if machine is not None:
             for key, value in scenario.blackboard.items():
                 if key not in keys:
@@ -219,6 +224,21 @@ def load_machine(
         raise ConfigError(problems)
     assert node is not None
     return node
+
+
+def _register_skills(entries: object, base: Path, source: SourceMap) -> list[Diagnostic]:
+    """Register the scenario's own skill folders/files (`skills:`) before its machine is read."""
+    if not isinstance(entries, list):
+        return []  # absent, or the model reports the wrong type
+    problems = []
+    for i, entry in enumerate(entries):
+        if not isinstance(entry, str):
+            continue
+        try:
+            register_skill_path(base / entry)
+        except SkillLoadError as exc:
+            problems.append(source.diag(("skills", i), str(exc)))
+    return problems
 
 
 def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagnostic:

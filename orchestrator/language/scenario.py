@@ -51,19 +51,25 @@ class _Strict(BaseModel):
 class RobotRef(_Strict):
     """Which robot, and where its base stands."""
 
-    name: str = "panda"
-    base_pos: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0], description="[m]")
+    name: str = Field(
+        default="panda", description="A registered robot (`orchestrator list robots`)."
+    )
+    base_pos: Vec3 = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0], description="Base position in the world [m]."
+    )
 
 
 class Table(_Strict):
     """A table: a box whose top surface is at `height`."""
 
-    center_xy: XY = Field(default_factory=lambda: [0.55, 0.0])
+    center_xy: XY = Field(
+        default_factory=lambda: [0.55, 0.0], description="Centre of the top surface [m]."
+    )
     size_xy: Size2 = Field(default_factory=lambda: [0.7, 0.9], description="Top surface size [m].")
     height: float = Field(
         default=0.2, ge=0.01, le=3.0, description="Height of the top surface [m]."
     )
-    friction: Friction = 1.0
+    friction: Friction = Field(default=1.0, description="Sliding friction coefficient.")
 
 
 class Randomize(_Strict):
@@ -85,15 +91,19 @@ class Randomize(_Strict):
 class ObjectSpec(_Strict):
     """A free rigid object resting on the table."""
 
-    name: str
-    shape: Literal["box"] = "box"
+    name: str = Field(description="Its name in skills (`search`, `grasp`) and success checks.")
+    shape: Literal["box"] = Field(default="box", description="Only boxes for now.")
     size: Size3 = Field(description="Full edge lengths [m].")
     mass: Mass = Field(default=0.1, description="[kg]")
     xy: XY = Field(description="Nominal position on the table [m].")
-    yaw_deg: Angle = 0.0
-    randomize: Randomize = Field(default_factory=Randomize)
-    friction: Friction = 1.0
-    rgba: RGBA = Field(default_factory=lambda: [0.85, 0.2, 0.2, 1.0])
+    yaw_deg: Angle = Field(default=0.0, description="Nominal rotation about z [deg].")
+    randomize: Randomize = Field(
+        default_factory=Randomize, description="Per-seed offsets added to `xy` and `yaw_deg`."
+    )
+    friction: Friction = Field(default=1.0, description="Sliding friction coefficient.")
+    rgba: RGBA = Field(
+        default_factory=lambda: [0.85, 0.2, 0.2, 1.0], description="Colour, 0..1 each."
+    )
 
     @model_validator(mode="after")
     def _positive_size(self) -> ObjectSpec:
@@ -105,10 +115,12 @@ class ObjectSpec(_Strict):
 class Marker(_Strict):
     """A visual-only target on the table (a place pad): no collision."""
 
-    name: str
-    xy: XY
-    size_xy: Size2 = Field(default_factory=lambda: [0.08, 0.08])
-    rgba: RGBA = Field(default_factory=lambda: [0.2, 0.7, 0.3, 1.0])
+    name: str = Field(description="Its name as a target (`move`'s `target: pad`).")
+    xy: XY = Field(description="Centre on the table top [m].")
+    size_xy: Size2 = Field(default_factory=lambda: [0.08, 0.08], description="[m]")
+    rgba: RGBA = Field(
+        default_factory=lambda: [0.2, 0.7, 0.3, 1.0], description="Colour, 0..1 each."
+    )
 
 
 class PhantomRandomize(_Strict):
@@ -194,6 +206,9 @@ class Obstacle(_SceneBox):
 
 
 class SceneSpec(_Strict):
+    """What stands on the table; every name is unique across objects, markers, zones,
+    obstacles and the phantom."""
+
     table: Table = Field(default_factory=Table)
     objects: list[ObjectSpec] = Field(default_factory=list)
     markers: list[Marker] = Field(default_factory=list)
@@ -288,22 +303,31 @@ class Physics(_Strict):
 class SuccessCheck(_Strict):
     """A named success criterion, evaluated once at the end of the run.
 
-    `object_at`: the object rests within `xy_tol_m` of the marker centre and is upright within
-    `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and its
-    fingers are at least `min_distance_m` from it.
+    `object_at`: the object rests on the table within `xy_tol_m` of the target and is upright
+    within `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and
+    its fingers are at least `min_distance_m` from it. A failed check says by how much in the
+    result's `success_detail`.
     """
 
     kind: Literal["object_at", "gripper_clear"]
-    object: str
-    target: str | None = None
-    xy_tol_m: float = Field(default=0.01, gt=0.0, le=10.0)
-    upright_tol_deg: float = Field(default=10.0, gt=0.0, le=180.0)
-    min_distance_m: float = Field(default=0.01, ge=0.0, le=10.0)
+    object: str = Field(description="The scene object judged.")
+    target: str | Vec3 | None = Field(
+        default=None,
+        description="`object_at`: a marker or object name, `[x, y, z]` [m], or `$key` to "
+        "follow the blackboard (where the flow was told to place, e.g. `$place_at`).",
+    )
+    xy_tol_m: float = Field(default=0.01, gt=0.0, le=10.0, description="Horizontal tolerance [m].")
+    upright_tol_deg: float = Field(
+        default=10.0, gt=0.0, le=180.0, description="Largest tilt [deg]."
+    )
+    min_distance_m: float = Field(
+        default=0.01, ge=0.0, le=10.0, description="`gripper_clear`: finger clearance [m]."
+    )
 
     @model_validator(mode="after")
     def _target(self) -> SuccessCheck:
         if self.kind == "object_at" and self.target is None:
-            raise ValueError("`object_at` needs a `target` (a marker name)")
+            raise ValueError("`object_at` needs a `target` (a marker name, [x, y, z] or $key)")
         return self
 
 
@@ -352,19 +376,32 @@ class ToolSpec(_Strict):
 class Scenario(_Strict):
     """One runnable episode family: everything but the seed."""
 
-    name: str
-    description: str | None = None
-    robot: RobotRef = Field(default_factory=RobotRef)
+    name: str = Field(description="Printed in results and recordings.")
+    description: str | None = Field(default=None, description="Free text.")
+    robot: RobotRef = Field(default_factory=RobotRef, description="The robot and its base.")
     tool: ToolSpec | None = Field(default=None, description="A tool on the flange (a probe).")
-    scene: SceneSpec = Field(default_factory=SceneSpec)
+    scene: SceneSpec = Field(default_factory=SceneSpec, description="Table, objects, markers.")
     machine: str = Field(description="Machine file (relative to this file) or bundled name.")
-    blackboard: dict[str, Any] = Field(default_factory=dict, description="Overrides defaults.")
-    guards: list[GuardRef] | dict[str, dict[str, Any] | None] = Field(
-        default_factory=list, description="Guards active for the whole run."
+    skills: list[str] = Field(
+        default_factory=list,
+        description="Your own skills: folders of skill modules or `.py` files, relative to "
+        "this file. Every Skill subclass they define is available by its `name`.",
     )
-    success: dict[str, SuccessCheck] = Field(default_factory=dict)
-    physics: Physics = Field(default_factory=Physics)
-    perception: Perception = Field(default_factory=Perception)
+    blackboard: dict[str, Any] = Field(
+        default_factory=dict,
+        description="Values for the machine's blackboard keys (overrides their defaults).",
+    )
+    guards: list[GuardRef] | dict[str, dict[str, Any] | None] = Field(
+        default_factory=list,
+        description="Guards active for the whole run: `{name: {params}}` or a list of names "
+        "(docs/skills.md#guards).",
+    )
+    success: dict[str, SuccessCheck] = Field(
+        default_factory=dict,
+        description="Named checks judged at the end; any failing one makes the run `failed`.",
+    )
+    physics: Physics = Field(default_factory=Physics, description="Rates and time limit.")
+    perception: Perception = Field(default_factory=Perception, description="Noise of `search`.")
     faults: list[Fault] = Field(
         default_factory=list, description="Faults injected into the run (see docs/safety.md)."
     )

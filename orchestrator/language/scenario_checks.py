@@ -101,8 +101,11 @@ def check_scene_names(
     return out
 
 
-def check_scenario_refs(scenario: Scenario, src: SourceMap) -> list[Diagnostic]:
-    """Success checks name existing objects and markers; the robot is a registered one."""
+def check_scenario_refs(
+    scenario: Scenario, src: SourceMap, keys: set[str] | None = None
+) -> list[Diagnostic]:
+    """Success checks name existing objects and markers (or, with `$key`, a blackboard key of
+    the machine, `keys`); the robot is a registered one."""
     out = []
     objects = [o.name for o in scenario.scene.objects]
     markers = [m.name for m in scenario.scene.markers]
@@ -113,9 +116,24 @@ def check_scenario_refs(scenario: Scenario, src: SourceMap) -> list[Diagnostic]:
                     ("success", name, "object"), f"no scene object {check.object!r}", tuple(objects)
                 )
             )
-        if check.target is not None and check.target not in markers:
+        target = check.target
+        ref = parse_ref(target)
+        if ref is not None:
+            if keys is not None and ref[0] not in keys:
+                out.append(
+                    src.diag(
+                        ("success", name, "target"),
+                        f"the machine has no blackboard key {ref[0]!r}",
+                        tuple(sorted(keys)),
+                    )
+                )
+        elif isinstance(target, str) and target not in markers + objects:
             out.append(
-                src.diag(("success", name, "target"), f"no marker {check.target!r}", tuple(markers))
+                src.diag(
+                    ("success", name, "target"),
+                    f"no marker or object {target!r}",
+                    tuple(markers + objects),
+                )
             )
     if scenario.robot.name not in ROBOTS:
         out.append(

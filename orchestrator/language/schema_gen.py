@@ -1,5 +1,8 @@
 """JSON Schemas (draft 7, for yaml-language-server) of the machine and scenario languages,
-generated from the pydantic models, with each skill's `with:` and each guard's parameters."""
+generated from the pydantic models, with each skill's `with:` and each guard's parameters.
+
+The shipped files (orchestrator/schemas/) know the bundled skills only; `orchestrator schema`
+also includes installed plugins and `--skills` folders, for an editor pointed at its output."""
 
 from __future__ import annotations
 
@@ -11,7 +14,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from ..guards import GUARDS
-from ..skills import SKILLS, skill_names
+from ..skills import SKILLS, bundled_skill_names, skill_names
 from .machine import MachineSpec
 from .scenario import Scenario
 
@@ -61,9 +64,9 @@ def _guard_schema(defs: dict[str, Any]) -> dict:
     return {"anyOf": [{"type": "string", "enum": sorted(GUARDS)}, one]}
 
 
-def _skill_conditions(defs: dict[str, Any]) -> list[dict]:
+def _skill_conditions(defs: dict[str, Any], names: list[str]) -> list[dict]:
     conditions = []
-    for name in skill_names():
+    for name in names:
         prefix = f"skill_{name}_"
         params = _allow_refs(_model_schema(SKILLS[name].Params, defs, prefix=prefix))
         for sub in [d for d in defs if d.startswith(prefix)]:  # nested models, e.g. via points
@@ -77,13 +80,14 @@ def _skill_conditions(defs: dict[str, Any]) -> list[dict]:
     return conditions
 
 
-def machine_schema() -> dict:
-    """JSON Schema of a machine file."""
+def machine_schema(bundled_only: bool = False) -> dict:
+    """JSON Schema of a machine file (with every available skill, or the bundled ones only)."""
+    names = bundled_skill_names() if bundled_only else skill_names()
     defs: dict[str, Any] = {}
     schema = _model_schema(MachineSpec, defs)
     guard = _guard_schema(defs)
-    conditions = _skill_conditions(defs)
-    skills = {"type": "string", "enum": skill_names(), "description": "Skill to run."}
+    conditions = _skill_conditions(defs, names)
+    skills = {"type": "string", "enum": names, "description": "Skill to run."}
     for name in ("StateSpec", "BranchSpec"):
         spec = defs[name]
         spec["properties"]["skill"] = {"anyOf": [skills, {"type": "null"}]}
@@ -114,9 +118,10 @@ def _finish(schema: dict, defs: dict, title: str) -> dict:
     return out
 
 
-def schema_text(kind: str) -> str:
-    """The schema of `machine` or `scenario` as formatted JSON."""
-    schema = machine_schema() if kind == "machine" else scenario_schema()
+def schema_text(kind: str, bundled_only: bool = False) -> str:
+    """The schema of `machine` or `scenario` as formatted JSON (`bundled_only`: as shipped,
+    without installed plugins or local skills)."""
+    schema = machine_schema(bundled_only) if kind == "machine" else scenario_schema()
     return json.dumps(schema, indent=2, sort_keys=False) + "\n"
 
 
@@ -125,7 +130,7 @@ def write_schemas() -> list[Path]:
     paths = []
     for kind in ("machine", "scenario"):
         path = SCHEMA_DIR / f"{kind}.schema.json"
-        path.write_text(schema_text(kind))
+        path.write_text(schema_text(kind, bundled_only=True))
         paths.append(path)
     return paths
 

@@ -13,7 +13,7 @@ from .limits import current_limits
 from .load import load_machine, load_scenario
 from .yamlio import load_yaml
 
-__all__ = ["validate_paths"]
+__all__ = ["file_kind", "validate_paths"]
 
 
 _TOP_KEY = re.compile(r"^([A-Za-z_][A-Za-z0-9_-]*)[ \t]*:", re.MULTILINE)
@@ -51,7 +51,8 @@ def _top_keys(path: Path) -> set[str] | None:
     return {k for k, v in data.items() if k != "machine" or isinstance(v, str)}
 
 
-def _kind(ref: str) -> tuple[str, str] | None:
+def file_kind(ref: str) -> tuple[str, str] | None:
+    """(`machine` or `scenario`, the file or bundled name) of a reference; None if not found."""
     path = Path(ref)
     if is_file(path):
         return _kind_of(_top_keys(path), path), str(path)
@@ -62,23 +63,44 @@ def _kind(ref: str) -> tuple[str, str] | None:
     return None
 
 
+_MAX_FILES = 10_000
+"""Most YAML files a folder given to `validate` may stand for."""
+
+
+def _expand(refs: list[str]) -> list[str]:
+    """A folder stands for every YAML file below it (sorted, at most `_MAX_FILES`)."""
+    out = []
+    for ref in refs:
+        path = Path(ref)
+        if path.is_dir():
+            found = []
+            for p in path.rglob("*"):
+                if p.suffix in (".yaml", ".yml"):
+                    found.append(p)
+                    if len(found) >= _MAX_FILES:
+                        break
+            out += [str(p) for p in sorted(found)] or [ref]
+        else:
+            out.append(ref)
+    return out
+
+
 def validate_paths(
     refs: list[str], allow_paths: Sequence[Path | str] = ()
 ) -> tuple[list[Diagnostic], list[tuple[str, str]]]:
     """Every problem in `refs`, and the (kind, name) of each file that passed.
 
     Args:
-        refs: Files or bundled names.
+        refs: Files, folders (every YAML file below) or bundled names.
         allow_paths: Directories includes may name besides each file's own tree.
     """
     problems: list[Diagnostic] = []
     ok: list[tuple[str, str]] = []
-    for ref in refs:
-        kind = _kind(ref)
+    for ref in _expand(refs):
+        kind = file_kind(ref)
         if kind is None:
-            problems.append(
-                Diagnostic(ref, 0, 0, "<file>", "no such file, bundled scenario or machine")
-            )
+            what = "a folder without YAML files" if Path(ref).is_dir() else "no such file"
+            problems.append(Diagnostic(ref, 0, 0, "<file>", f"{what}, bundled scenario or machine"))
             continue
         try:
             if kind[0] == "machine":

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Iterable
 from typing import Any
 
@@ -232,7 +233,13 @@ def _check_state(
                 out.append(src.diag((*sat, "retry_on"), f"no outcome {outcome!r}", tuple(outcomes)))
     for outcome, target in st.transitions.items():
         if target not in node.states:
-            out.append(src.diag((*sat, "transitions", outcome), f"unknown state {target!r}", names))
+            out.append(
+                src.diag(
+                    (*sat, "transitions", outcome),
+                    f"unknown state {target!r}{_did_you_mean(target, names)}",
+                    names,
+                )
+            )
     out += validate_guards(st.guards, src, (*sat, "guards"))
     return out
 
@@ -256,8 +263,11 @@ def _check_graph(node: MachineNode) -> list[Diagnostic]:
                 "`on_abort` only takes effect in the top-level machine: move it there",
             )
         )
+    # a transition to a misspelled state is reported once, as an unknown state: the states
+    # it leaves unreached or stranded are consequences, not more mistakes to report
+    dangling = any(t not in states for st in states.values() for t in st.transitions.values())
     for name in states:
-        if name not in reachable and node.initial in states:
+        if name not in reachable and node.initial in states and not dangling:
             out.append(
                 src.diag(
                     (*at, "states", name),
@@ -285,13 +295,18 @@ def _check_graph(node: MachineNode) -> list[Diagnostic]:
                 "the machine has no final state (add e.g. `DONE: {final: succeeded}`)",
             )
         )
-    else:
+    elif not dangling:
         for name in states:
             if name in reachable and name not in can_finish:
                 out.append(
                     src.diag((*at, "states", name), f"state {name!r} has no path to a final state")
                 )
     return out
+
+
+def _did_you_mean(name: str, names: Iterable[str]) -> str:
+    close = difflib.get_close_matches(name, list(names), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def _refs(value: Any, path: tuple) -> Iterable[tuple[tuple, str, list]]:

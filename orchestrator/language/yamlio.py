@@ -20,6 +20,7 @@ import yaml
 from ..exceptions import ConfigError
 from .diagnostics import Diagnostic, clip, format_path
 from .limits import InputLimits, current_limits
+from .yaml_errors import explain_yaml_error
 
 __all__ = ["SourceMap", "YamlDocument", "load_yaml", "parse_yaml"]
 
@@ -460,19 +461,8 @@ def parse_yaml(text: str, file: str, limits: InputLimits | None = None) -> YamlD
     except _Fatal as exc:
         raise ConfigError([exc.diag]) from None
     except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
-        problem = exc.problem or "syntax error"
-        context = ""
-        if exc.context:
-            context = f" ({exc.context}"
-            cm = exc.context_mark
-            if cm is not None and exc.problem_mark is not None and cm.line != exc.problem_mark.line:
-                context += f" that starts at line {cm.line + 1}, column {cm.column + 1}"
-            context += ")"
-        raise ConfigError(
-            [Diagnostic(file, line, col, "<yaml>", f"YAML syntax error: {problem}{context}")]
-        ) from None
+        line, col, message = explain_yaml_error(exc, text)
+        raise ConfigError([Diagnostic(file, line, col, "<yaml>", message)]) from None
     except yaml.YAMLError as exc:  # pragma: no cover - the reader's errors are caught above
         raise ConfigError([Diagnostic(file, 1, 1, "<yaml>", f"YAML error: {exc}")]) from None
     finally:

@@ -1,0 +1,137 @@
+"""Skills from outside this package: installed plugins and a user's own folder of modules.
+
+Two ways in, neither needs a change to the project:
+
+* An installed package declares entry points in the `orchestrator.skills` group, each naming
+  a `Skill` subclass (`wait = my_pkg.wait:Wait`). An entry point that fails to import, or
+  that names something other than a Skill class, is skipped with a one-line warning
+  (`PLUGIN_WARNINGS`) instead of breaking every command.
+* A folder (or one `.py` file) of skill modules: a scenario's `skills: [my_skills]` or the
+  CLI's `--skills PATH`. Every `Skill` subclass a module defines is registered by its `name`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.metadata
+import importlib.util
+import sys
+import traceback
+from pathlib import Path
+
+from orchestrator.exceptions import OrchestratorError
+
+from .base import Skill
+
+__all__ = [
+    "PLUGIN_WARNINGS",
+    "SkillLoadError",
+    "entry_point_skills",
+    "load_skill_path",
+    "skill_origin",
+]
+
+GROUP = "orchestrator.skills"
+"""The entry-point group plugin packages declare their skills in."""
+PLUGIN_WARNINGS: list[str] = []
+"""One line per plugin entry point that was skipped, and why (the CLI prints them)."""
+_LOADED: dict[Path, list[type[Skill]]] = {}
+"""Skill files already imported (a file is imported once per process) -> their skills."""
+
+
+class SkillLoadError(OrchestratorError):
+    """A local skill file or folder cannot be loaded (missing, fails to import, no skill)."""
+
+
+def entry_point_skills() -> list[type[Skill]]:
+    """The Skill classes of every installed `orchestrator.skills` entry point."""
+    classes: list[type[Skill]] = []
+    for ep in importlib.metadata.entry_points(group=GROUP):
+        where = f"plugin skill {ep.name!r} ({ep.value}"
+        dist = getattr(ep, "dist", None)
+        where += f", from {dist.name})" if dist is not None else ")"
+        try:
+            obj = ep.load()
+        except Exception as exc:  # any error in a third-party import: report, go on
+            PLUGIN_WARNINGS.append(
+                f"{where} failed to import and is skipped: {type(exc).__name__}: {exc}"
+            )
+            continue
+        if isinstance(obj, type) and issubclass(obj, Skill):
+            classes.append(obj)
+        else:
+            kind = "a module" if type(obj).__name__ == "module" else type(obj).__name__
+            PLUGIN_WARNINGS.append(
+                f"{where} names {kind}, not a Skill class, and is skipped: write "
+                f"'{ep.value.split(':')[0]}:ClassName'"
+            )
+    return classes
+
+
+def load_skill_path(path: str | Path) -> list[type[Skill]]:
+    """Import every skill module of a folder (or one `.py` file) and return its skills.
+
+    Modules whose name starts with `_` are skipped. A module may import anything it needs
+    (`from orchestrator.skills import Skill, SkillParams`); it is imported once per process.
+
+    Raises:
+        SkillLoadError: The path does not exist, a module fails to import (the message has
+            the file, line and error), or the path defines no skill at all.
+    """
+    root = Path(path).expanduser().resolve()
+    if not root.exists():
+        raise SkillLoadError(f"{path}: no such skill file or folder")
+    if root.is_dir():
+        files = sorted(p for p in root.glob("*.py") if not p.name.startswith("_"))
+    elif root.suffix == ".py":
+        files = [root]
+    else:
+        raise SkillLoadError(f"{path}: not a folder nor a .py file")
+    classes: list[type[Skill]] = []
+    for file in files:
+        if file not in _LOADED:
+            _LOADED[file] = _import_skills(file)
+        classes += _LOADED[file]
+    if not classes:
+        raise SkillLoadError(
+            f"{path}: defines no skill (a subclass of orchestrator.skills.Skill with a `name`)"
+        )
+    return classes
+
+
+def _import_skills(file: Path) -> list[type[Skill]]:
+    digest = hashlib.sha1(str(file).encode()).hexdigest()[:8]
+    mod_name = f"orchestrator_local_skills.{file.stem}_{digest}"
+    spec = importlib.util.spec_from_file_location(mod_name, file)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[mod_name] = module
+    try:
+        spec.loader.exec_module(module)
+    except Exception as exc:
+        del sys.modules[mod_name]
+        frames = [f for f in traceback.extract_tb(exc.__traceback__) if f.filename == str(file)]
+        line = f":{frames[-1].lineno}" if frames else ""
+        if isinstance(exc, SyntaxError) and exc.lineno:
+            line = f":{exc.lineno}"
+        raise SkillLoadError(
+            f"{file}{line}: the skill module fails to import: {type(exc).__name__}: {exc}"
+        ) from None
+    return [
+        obj
+        for obj in vars(module).values()
+        if isinstance(obj, type)
+        and issubclass(obj, Skill)
+        and obj.__module__ == mod_name
+        and not getattr(obj, "__abstractmethods__", None)
+    ]
+
+
+def skill_origin(cls: type[Skill]) -> str:
+    """Where a skill comes from: `bundled`, a plugin's module, or a local file."""
+    module = cls.__module__
+    if module.startswith("orchestrator.skills."):
+        return "bundled"
+    if module.startswith("orchestrator_local_skills."):
+        return str(sys.modules[module].__file__)
+    return f"plugin {module}"
