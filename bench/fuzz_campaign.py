@@ -45,7 +45,7 @@ def _bad_invocations(scratch: Path) -> list[list[str]]:
         runs.append(["--seed", seed])
     for wall in ["0", "-1", "nan", "inf", "abc"]:
         runs.append(["--max-wall-s", wall])
-    for rrd in [str(scratch / "dir.rrd"), "/nonexistent/x.rrd", "/proc/version"]:
+    for rrd in [str(scratch / "dir.rrd"), "/proc/issue10/x.rrd", "/proc/version"]:
         runs.append(["--rrd", rrd])
     for allow in ["/nonexistent", "/etc/passwd"]:
         runs.append(["--allow-path", allow])

@@ -76,8 +76,10 @@ def _check_writable(path: Path, option: str) -> None:
     if path.is_dir():
         _fail(f"{option} {path}: is a directory; give a file name, e.g. {path / 'run.rrd'}")
     parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        _fail(f"{option} {path}: the directory {parent} does not exist")
+    try:
+        parent.mkdir(parents=True, exist_ok=True)  # as the recorder would, but before the run
+    except OSError as exc:
+        _fail(f"{option} {path}: cannot create the directory {parent} ({exc.strerror})")
     existed = path.exists()
     try:
         with path.open("ab"):

@@ -241,7 +241,11 @@ def test_unknown_scene_names_are_caught_before_simulating(cli):
     assert "nothing was simulated" in res.stderr
 
 
-def test_a_bad_value_met_while_running_stops_the_run_with_its_location(cli):
+def test_a_bad_value_met_while_running_stops_the_run_with_its_location(cli, monkeypatch):
+    res = cli("run", "pick_place", "--set", "place_at=[0.5, 0.2, .inf]")
+    assert res.exit_code == 2 and "nothing was simulated" in res.stderr  # refused up front
+    # a value only met while running (as if a skill had written it) stops the run there
+    monkeypatch.setattr("orchestrator.language.load.all_finite", lambda value: True)
     res = cli("run", "pick_place", "--set", "place_at=[0.5, 0.2, .inf]")
     assert res.exit_code == 2 and res.exception is None
     assert "pick_place.yaml:" in res.stderr and "states.TRANSPORT: at t=" in res.stderr

@@ -166,7 +166,7 @@ def test_many_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory
         (["--set", "physics.timestep_s=!!python/object/apply:os.system [ls]"], "unknown YAML tag"),
         (["--set", "guards=&a [*a]"], "recursive alias"),
         (["--allow-path", "/nonexistent-issue10"], "does not exist"),
-        (["--rrd", "/nonexistent-issue10/x.rrd"], "does not exist"),
+        (["--rrd", "/proc/issue10/x.rrd"], "cannot create the directory"),
         (["--set", "physics.control_hz=1e-6"], "physics.control_hz"),
         (["--set", "physics.timestep_s=1e-300"], "physics.timestep_s"),
         (["--set", "physics.time_limit_s=1e300"], "physics.time_limit_s"),
@@ -292,3 +292,26 @@ def test_nan_in_a_blackboard_default_or_override_is_refused_before_simulating(cl
     res = cli("run", "pick_place", "--set", "place_at=[.nan,0,0]")
     assert res.exit_code == 2
     assert "blackboard.place_at" in res.stderr and "nothing was simulated" in res.stderr
+
+
+def stuck_run(task) -> dict:
+    """A worker's episode function: seed 1 never comes back (as if stuck in one MuJoCo step)."""
+    if task.seed == 1:
+        time.sleep(3600)
+    return {"scenario": "fake", "seed": task.seed, "outcome": "succeeded", "metrics": {}}
+
+
+def test_a_worker_stuck_past_the_wall_limit_is_killed_and_the_batch_goes_on(tmp_path, monkeypatch):
+    from orchestrator.batch import BatchConfig, run_batch
+    from orchestrator.batch.backends import local
+
+    monkeypatch.setattr(local, "_HARD_GRACE_S", 8.0)  # kept by the parent; covers imports
+    config = BatchConfig("pick_place", 3, tmp_path / "b", record="none", max_wall_s=0.2)
+    t0 = time.perf_counter()
+    summary = run_batch(config, backend=local.LocalBackend(2, run_fn=stuck_run))
+    assert time.perf_counter() - t0 < 60  # not the hour the episode would have taken
+    lines = (tmp_path / "b" / "results.jsonl").read_text().splitlines()
+    assert len(lines) == 3
+    stuck = next(ln for ln in lines if '"seed": 1' in ln)
+    assert "WallTimeExceeded" in stuck and "its worker was killed" in stuck
+    assert (summary.succeeded, summary.errors) == (2, 1)
