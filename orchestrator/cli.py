@@ -60,6 +60,14 @@ def run(
             "(e.g. estop@1.5, slip:object=cube@TRANSPORT). Repeatable; see docs/safety.md.",
         ),
     ] = None,
+    event: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--event",
+            help="Send an event at a simulated time: T:NAME (e.g. 1.5:estop, 1.0:pause, "
+            "2.0:resume, or one of the machine's `events:`). Repeatable; see docs/live.md.",
+        ),
+    ] = None,
     connect: Annotated[
         str | None,
         typer.Option(
@@ -73,7 +81,7 @@ def run(
     from .language.load import load_scenario
 
     try:
-        loaded = load_scenario(scenario, set_ or [], fault or [])
+        loaded = load_scenario(scenario, set_ or [], fault or [], event or [])
         observers = []
         if rrd is not None or spawn or connect is not None:
             from .recording import RerunRecorder

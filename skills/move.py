@@ -98,7 +98,7 @@ class Move(Skill):
             p.max_angular_speed,
             p.max_angular_accel,
         )
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
         self.ik_stalled_ticks = 0
         self.last_tcp = ctx.tcp_pos.copy()
         ctx.ik_target = Pose(pos=pos1.tolist(), quat=_rot_to_quat(rot1).tolist())
@@ -108,7 +108,7 @@ class Move(Skill):
             ctx.log("skill", f"move: target {np.round(self.pos1, 3).tolist()} is out of reach")
             return "unreachable"
         p = self.params
-        elapsed = ctx.t - self.t0
+        elapsed = ctx.clock - self.t0
         pos, rot = self.line.sample_so3(elapsed)
         q = ctx.ik.step(pos, rot)
         ctx.controller.set_joint_target(q, ctx.ik.velocity, ctx.ik.acceleration)

@@ -13,6 +13,7 @@ from ..exceptions import ConfigError
 from .blackboard_types import check_type
 from .bundled import bundled_names, resolve_file
 from .diagnostics import Diagnostic
+from .events import check_events, parse_event_spec
 from .faults import parse_fault_spec
 from .loading import MachineNode, load_machine_file
 from .overrides import apply_override, parse_override
@@ -40,7 +41,10 @@ class LoadedScenario:
 
 
 def load_scenario(
-    ref: str, overrides: list[str] | None = None, faults: list[str] | None = None
+    ref: str,
+    overrides: list[str] | None = None,
+    faults: list[str] | None = None,
+    events: list[str] | None = None,
 ) -> LoadedScenario:
     """Load and validate a scenario by path or bundled name.
 
@@ -48,6 +52,7 @@ def load_scenario(
         ref: A scenario file or a bundled name.
         overrides: `--set KEY=VALUE` texts.
         faults: `--fault SPEC` texts, added to the scenario's `faults:`.
+        events: `--event T:NAME` texts, added to the scenario's `events:`.
 
     Raises:
         ConfigError: With every problem found in the scenario, its machine and the overrides.
@@ -103,6 +108,15 @@ def load_scenario(
         if isinstance(listed, list):
             overridden[f"faults[{len(listed)}]"] = f"--fault {text}"
             listed.append(raw)
+    for text in events or []:
+        raw = parse_event_spec(text)
+        if isinstance(raw, Diagnostic):
+            problems.append(raw)
+            continue
+        listed = data.setdefault("events", [])
+        if isinstance(listed, list):
+            overridden[f"events[{len(listed)}]"] = f"--event {text}"
+            listed.append(raw)
     for text in overrides or []:
         ov = parse_override(text)
         if isinstance(ov, Diagnostic):
@@ -133,6 +147,7 @@ def load_scenario(
     if scenario is not None and machine is not None and not problems:
         problems += check_scene_names(machine, scenario, doc.source)
         problems += check_faults(machine, scenario, doc.source, _arm_joints(scenario))
+        problems += check_events(machine, scenario.events, doc.source)
     if scenario is not None:
         problems += check_scenario_refs(scenario, doc.source)
         if machine is not None:
