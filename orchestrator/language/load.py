@@ -45,6 +45,7 @@ def load_scenario(
     overrides: list[str] | None = None,
     faults: list[str] | None = None,
     events: list[str] | None = None,
+    machine: str | None = None,
 ) -> LoadedScenario:
     """Load and validate a scenario by path or bundled name.
 
@@ -53,6 +54,10 @@ def load_scenario(
         overrides: `--set KEY=VALUE` texts.
         faults: `--fault SPEC` texts, added to the scenario's `faults:`.
         events: `--event T:NAME` texts, added to the scenario's `events:`.
+        machine: Run this machine (a path or a bundled name) in the scenario's world instead
+            of its own (a live session's task); the scenario's `blackboard:` keeps only the
+            keys this machine declares, and its `success:` criteria (written for its own
+            machine) are dropped: the machine's outcome judges the task.
 
     Raises:
         ConfigError: With every problem found in the scenario, its machine and the overrides.
@@ -80,10 +85,11 @@ def load_scenario(
         )
         raise ConfigError(problems)
     data = copy.deepcopy(data)
-    machine: MachineNode | None = None
-    machine_ref = data.get("machine")
+    node: MachineNode | None = None
+    machine_ref = machine if machine is not None else data.get("machine")
     if isinstance(machine_ref, str):
-        mpath = resolve_file(machine_ref, "machines", path.parent)
+        base = None if machine is not None else path.parent
+        mpath = resolve_file(machine_ref, "machines", base)
         if mpath is None:
             problems.append(
                 doc.source.diag(
@@ -93,10 +99,15 @@ def load_scenario(
                 )
             )
         else:
-            machine, sub = load_machine_file(mpath)
+            node, sub = load_machine_file(mpath)
             problems += sub
-    types = blackboard_types(machine) if machine else {}
+    types = blackboard_types(node) if node else {}
     keys = set(types)
+    if machine is not None and machine != data.get("machine"):
+        data["machine"] = machine
+        data.pop("success", None)  # the scenario's criteria judge its own machine
+        if isinstance(data.get("blackboard"), dict):
+            data["blackboard"] = {k: v for k, v in data["blackboard"].items() if k in keys}
     overridden: dict[str, str] = {}
     """Path of a value set on the command line -> the option that set it (`--set k=v`)."""
     for text in faults or []:
@@ -144,13 +155,13 @@ def load_scenario(
             if not p.path.startswith("guards.") and not p.path.startswith("guards[")
         ]
         problems += validate_guards(raw_guards, doc.source, ("guards",))
-    if scenario is not None and machine is not None and not problems:
-        problems += check_scene_names(machine, scenario, doc.source)
-        problems += check_faults(machine, scenario, doc.source, _arm_joints(scenario))
-        problems += check_events(machine, scenario.events, doc.source)
+    if scenario is not None and node is not None and not problems:
+        problems += check_scene_names(node, scenario, doc.source)
+        problems += check_faults(node, scenario, doc.source, _arm_joints(scenario))
+        problems += check_events(node, scenario.events, doc.source)
     if scenario is not None:
         problems += check_scenario_refs(scenario, doc.source)
-        if machine is not None:
+        if node is not None:
             for key, value in scenario.blackboard.items():
                 if key not in keys:
                     problems.append(
@@ -168,12 +179,12 @@ def load_scenario(
                             "machine declares for this key",
                         )
                     )
-    if machine is not None:
-        problems += validate_machine(machine)
+    if node is not None:
+        problems += validate_machine(node)
     if problems:
         raise ConfigError([_attribute(d, overridden, doc.source.file) for d in problems])
-    assert scenario is not None and machine is not None
-    return LoadedScenario(scenario, machine, path, doc.source)
+    assert scenario is not None and node is not None
+    return LoadedScenario(scenario, node, path, doc.source)
 
 
 def load_machine(ref: str, base_dir: Path | None = None) -> MachineNode:
