@@ -65,7 +65,6 @@ def serve(
         query.drop()
 
     def on_query(query: Any) -> None:
-        session.heartbeat()
         text = query.payload.to_string() if query.payload is not None else ""
         try:
             cmd = Command.model_validate_json(text)

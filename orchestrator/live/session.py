@@ -8,10 +8,12 @@ at the start of every control tick, highest priority first (`estop` > `stop`, `s
 `pause`, `resume`, `reset` > `run`); tasks run one after another, first in first out.
 
 Simulated time is paced to the wall clock: `speed` 1 is real time, 2 twice as fast, 0 as
-fast as the machine can (while a task runs; an idle robot is kept at real time: there is
-nothing to hurry and the CPU is left to others). A watchdog, when set, expects a client's
-heartbeat at least every `watchdog_s` seconds of wall time once the first one has arrived;
-when none comes, the robot stops under control and the session goes to ERROR until `reset`.
+fast as the machine can (while a task runs; an idle or paused robot is kept at real time:
+there is nothing to hurry and the CPU is left to others). A paused task's time limit stands
+still with its clock. A watchdog, when set, expects a client's
+heartbeat at least every `watchdog_s` seconds of wall time while a task runs (counted from
+the task's start at the latest: whoever starts a task must stay to supervise it); when none
+comes, the robot stops under control and the session goes to ERROR until `reset`.
 """
 
 from __future__ import annotations
@@ -129,7 +131,7 @@ class Session:
 
     # -- commands (any thread) ----------------------------------------------------------
     def heartbeat(self, client: str = "") -> None:
-        """A client is alive (arms the watchdog at the first one)."""
+        """A client is alive (a message on `clients/heartbeat`; commands do not count)."""
         self.heartbeat_wall = time.perf_counter()
 
     def submit(self, cmd: Command) -> Reply:
@@ -292,17 +294,20 @@ class Session:
                                 "reason": f"not started: the robot is {self.state}"})  # fmt: skip
 
     def _watchdog(self) -> None:
-        if self.watchdog_s is None or self.heartbeat_wall is None or self.error:
+        """While a task runs, a client must prove it is alive every `watchdog_s` (counted
+        from the task's start at the latest): an idle robot needs no supervisor."""
+        task = self.task
+        if self.watchdog_s is None or self.error or task is None or task.executor is None:
             return
-        silent = time.perf_counter() - self.heartbeat_wall
+        if task.executor.done:
+            return
+        last = max(self.heartbeat_wall or 0.0, task.wall0)
+        silent = time.perf_counter() - last
         if silent < self.watchdog_s:
             return
-        self.heartbeat_wall = None  # disarmed until the next heartbeat
         self.error = f"watchdog: no client heartbeat for {silent:.3f} s (limit {self.watchdog_s} s)"
         self.tasks.clear()
-        task = self.task
-        if task is not None and task.executor is not None and not task.executor.done:
-            task.executor.abort(Violation("watchdog", self.error, silent, self.watchdog_s))
+        task.executor.abort(Violation("watchdog", self.error, round(silent, 4), self.watchdog_s))
         self.publish("events", {"event": "watchdog", "message": self.error})
 
     def _tick(self) -> None:
@@ -353,7 +358,8 @@ class Session:
             self.publish("heartbeat", {"t": round(wall - self._wall0, 4), "tick": self.ticks})
 
     def _pace(self) -> None:
-        speed = self.speed if self.task is not None else (self.speed or 1.0)
+        busy = self.task is not None and not (self.task.executor and self.task.executor.paused)
+        speed = self.speed if busy else (self.speed or 1.0)
         wall0, sim0, anchored_speed = self._anchor
         now, sim = time.perf_counter(), self.ctx.t
         if speed != anchored_speed:

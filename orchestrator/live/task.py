@@ -53,6 +53,7 @@ class Task:
     # -- lifecycle ------------------------------------------------------------------------
     def start(self) -> None:
         ctx, scn = self.ctx, self.loaded.scenario
+        ctx.world.release_brakes()  # engaged by the last task's stop, if any: motors take over
         ctx.blackboard = initial_blackboard(self.loaded.machine, scn.blackboard)
         ctx.metrics = {}
         ctx.clock_offset = 0.0
@@ -67,7 +68,7 @@ class Task:
             lambda: SafetyStop(ctx, safe_stop),
             safe_stop.hold_s,
         )
-        self.t0, self.wall0 = ctx.t, time.perf_counter()
+        self.t0, self.wall0 = ctx.t, time.perf_counter()  # clock_offset is 0: clock == t
         self.executor.start()
 
     @property
@@ -101,7 +102,7 @@ class Task:
         if not ex.done:
             ex.tick()
             limit = self.loaded.scenario.physics.time_limit_s
-            if not ex.done and ctx.t - self.t0 >= limit:
+            if not ex.done and ctx.clock - self.t0 >= limit:  # a pause is not counted
                 self.stopped_by = f"time limit ({limit} s)"
                 ex.halt()
         if not ex.done:
