@@ -467,9 +467,10 @@ def ask(
     """Ask a planner (an OpenAI-compatible endpoint) for a command; it goes through the
     same guardrails as any other. Set ORCHESTRATOR_PLANNER_URL (and _MODEL, _KEY)."""
     from .live.client import Client, LiveError
-    from .live.planner import PlannerError, ask_planner
+    from .live.planner import PlannerError, ask_planner, planner_url
 
     try:
+        planner_url()  # before connecting: say at once that there is none
         with Client(session, connect, name="orchestrator ask") as client:
             proposal, reply, result = ask_planner(client, instruction, wait=wait)
     except (PlannerError, LiveError) as exc:

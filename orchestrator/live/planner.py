@@ -27,7 +27,15 @@ from ..exceptions import OrchestratorError
 from .client import Client
 from .protocol import Reply
 
-__all__ = ["TASK_MACHINES", "PlannerCommand", "PlannerError", "ask_planner", "system_prompt"]
+__all__ = [
+    "TASK_MACHINES",
+    "PlannerCommand",
+    "PlannerError",
+    "ask_planner",
+    "parse_reply",
+    "planner_url",
+    "system_prompt",
+]
 
 TASK_MACHINES = ("pick_place", "reach", "home")
 """The bundled machines a planner may propose."""
@@ -98,15 +106,25 @@ def parse_reply(text: str) -> PlannerCommand:
         raise PlannerError(f"the planner's command is invalid: {problems}") from None
 
 
-def _chat(instruction: str, scene: dict[str, Any]) -> str:
-    import httpx
+def planner_url() -> str:
+    """The configured API base.
 
+    Raises:
+        PlannerError: `ORCHESTRATOR_PLANNER_URL` is not set.
+    """
     url = os.environ.get("ORCHESTRATOR_PLANNER_URL", "").strip()
     if not url:
         raise PlannerError(
             "no planner configured: set ORCHESTRATOR_PLANNER_URL to an OpenAI-compatible API "
             "base (e.g. http://127.0.0.1:8080/v1), and ORCHESTRATOR_PLANNER_MODEL / _KEY"
         )
+    return url
+
+
+def _chat(instruction: str, scene: dict[str, Any]) -> str:
+    import httpx
+
+    url = planner_url()
     headers = {}
     if os.environ.get("ORCHESTRATOR_PLANNER_KEY"):
         headers["Authorization"] = f"Bearer {os.environ['ORCHESTRATOR_PLANNER_KEY']}"
