@@ -25,8 +25,8 @@ class _Planner(BaseHTTPRequestHandler):
     def do_POST(self) -> None:
         body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
         _Planner.requests.append(body)
-        out = json.dumps({"choices": [{"message": {"role": "assistant",
-                                                   "content": _Planner.reply}}]}).encode()  # fmt: skip
+        message = {"role": "assistant", "content": _Planner.reply}
+        out = json.dumps({"choices": [{"message": message}]}).encode()
         self.send_response(200)
         self.send_header("Content-Type", "application/json")
         self.send_header("Content-Length", str(len(out)))
