@@ -123,6 +123,7 @@ def test_estop_stops_a_running_task_until_reset(served):
     result = status["last_result"]
     assert result["outcome"] == "aborted" and result["reason"]["guard"] == "estop"
     assert result["metrics"]["stop_time_s"] <= 0.15
+    assert status["last_estop"]["ticks"] <= 1  # within one control tick of its arrival
     refused = served.send("run", "home")
     assert refused.exit_code == 2 and "reset" in refused.stderr
     assert served.send("reset").exit_code == 0

@@ -104,7 +104,9 @@ class Session:
         )
         mujoco.mj_forward(world.model, world.data)
         self.publish: Publish = publish or (lambda leaf, msg: None)
-        self.inbox: queue.SimpleQueue[tuple[int, int, Command, Any, int]] = queue.SimpleQueue()
+        self.inbox: queue.SimpleQueue[tuple[int, int, Command, Any, int, float]] = (
+            queue.SimpleQueue()
+        )
         self._order = itertools.count()
         self._ids = itertools.count(1)
         self.tasks: deque[Task] = deque()
@@ -116,8 +118,9 @@ class Session:
         self.heartbeat_wall: float | None = None
         self.shutting_down = False
         self.ticks = 0
-        self.estop_latency_ticks: list[int] = []
-        """Control ticks from an e-stop's arrival to its effect, one entry per e-stop."""
+        self.last_estop: dict[str, Any] | None = None
+        """The last e-stop's latency: control ticks started and wall time [ms] from its
+        arrival (the command answered) to its effect (the abort, the stop begun)."""
         self._lock = threading.Lock()
         self._wall0 = time.perf_counter()
         self._anchor = (self._wall0, 0.0, -1.0)
@@ -152,7 +155,8 @@ class Session:
             if why is not None:
                 return Reply(accepted=False, reason=why)
         task_id = payload.id if isinstance(payload, Task) else None
-        self.inbox.put((PRIORITY[op], next(self._order), cmd, payload, self.ticks))
+        arrived = (self.ticks, time.perf_counter())
+        self.inbox.put((PRIORITY[op], next(self._order), cmd, payload, *arrived))
         return Reply(accepted=True, task=task_id)
 
     def _refuse(self, op: str) -> str | None:
@@ -228,6 +232,7 @@ class Session:
             "watchdog_s": self.watchdog_s,
             "tcp": np.round(self.ctx.tcp_pos, 5).tolist(),
             "scene": self.scene,
+            "last_estop": self.last_estop,
         }
 
     # -- the loop (one thread) ----------------------------------------------------------
@@ -255,10 +260,10 @@ class Session:
                 items.append(self.inbox.get_nowait())
             except queue.Empty:
                 break
-        for _, _, cmd, payload, arrived in sorted(items, key=lambda i: (i[0], i[1])):
-            self._apply(cmd, payload, arrived)
+        for _, _, cmd, payload, tick, wall in sorted(items, key=lambda i: (i[0], i[1])):
+            self._apply(cmd, payload, tick, wall)
 
-    def _apply(self, cmd: Command, payload: Any, arrived: int) -> None:
+    def _apply(self, cmd: Command, payload: Any, arrived: int, wall: float) -> None:
         op, source = cmd.op, f"command from {cmd.client or 'a client'}"
         task = self.task
         running = task is not None and task.executor is not None and not task.executor.done
@@ -270,8 +275,12 @@ class Session:
             elif self.idle_stop is None or not self.idle_stop.active:
                 self.idle_stop = SafetyStop(self.ctx, self.loaded.scenario.physics.safe_stop)
                 self.idle_stop.start("estop")
-            self.estop_latency_ticks.append(self.ticks - arrived)
-            self.publish("events", {"event": "estop", "tick": self.ticks, "source": source})
+            self.last_estop = {
+                "ticks": self.ticks - arrived,
+                "ms": round((time.perf_counter() - wall) * 1000.0, 3),
+                "t": round(self.ctx.t, 4),
+            }
+            self.publish("events", {"event": "estop", **self.last_estop, "source": source})
         elif op in ("stop", "shutdown"):
             self.tasks.clear()
             if running:
