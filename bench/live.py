@@ -81,6 +81,7 @@ def session_figures(n_commands: int, n_estops: int) -> dict:
             for i in range(n_estops):
                 target = f"target=[{0.4 + 0.1 * (i % 3)}, {0.25 * (-1) ** i}, 0.5]"
                 reply, _ = c.run("reach", [target])
+                assert reply.accepted, reply.reason
                 while c.status()["state"] != "MOVING":
                     time.sleep(0.005)
                 time.sleep(rng.uniform(0.05, 0.4))

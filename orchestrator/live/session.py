@@ -117,6 +117,7 @@ class Session:
         self.idle_stop: SafetyStop | None = None
         self.heartbeat_wall: float | None = None
         self.shutting_down = False
+        self._reset_pending = False
         self.ticks = 0
         self.last_estop: dict[str, Any] | None = None
         """The last e-stop's latency: control ticks started and wall time [ms] from its
@@ -155,6 +156,10 @@ class Session:
             if why is not None:
                 return Reply(accepted=False, reason=why)
         task_id = payload.id if isinstance(payload, Task) else None
+        if op == "reset":  # a `run` right behind it is applied after it: accept that too
+            self._reset_pending = True
+        elif op == "estop":
+            self._reset_pending = False
         arrived = (self.ticks, time.perf_counter())
         self.inbox.put((PRIORITY[op], next(self._order), cmd, payload, *arrived))
         return Reply(accepted=True, task=task_id)
@@ -171,7 +176,7 @@ class Session:
         return None
 
     def _prepare(self, cmd: Command) -> tuple[str | None, Task | None]:
-        if self.estopped or self.error:
+        if (self.estopped or self.error) and not self._reset_pending:
             return f"the robot is {self.state}: send `reset` first", None
         machine = cmd.machine or self.loaded.scenario.machine
         try:
@@ -260,7 +265,12 @@ class Session:
                 items.append(self.inbox.get_nowait())
             except queue.Empty:
                 break
-        for _, _, cmd, payload, tick, wall in sorted(items, key=lambda i: (i[0], i[1])):
+        # an estop outranks a reset sent before it in the same tick: that reset is void
+        estops = [order for _, order, cmd, *_ in items if cmd.op == "estop"]
+        last_estop = max(estops, default=-1)
+        for _, order, cmd, payload, tick, wall in sorted(items, key=lambda i: (i[0], i[1])):
+            if cmd.op == "reset" and order < last_estop:
+                continue
             self._apply(cmd, payload, tick, wall)
 
     def _apply(self, cmd: Command, payload: Any, arrived: int, wall: float) -> None:
@@ -290,7 +300,7 @@ class Session:
             if running:
                 task.executor.event(PAUSE if op == "pause" else RESUME, source)  # type: ignore[union-attr]
         elif op == "reset":
-            self.estopped, self.error = False, None
+            self.estopped, self.error, self._reset_pending = False, None, False
             self.publish("events", {"event": "reset"})
         elif op == "run" and isinstance(payload, Task):
             if self.estopped or self.error:

@@ -1,0 +1,52 @@
+"""The session's command handling, stepped by hand (no transport, no thread)."""
+
+from __future__ import annotations
+
+import pytest
+
+from orchestrator.live.protocol import Command
+from orchestrator.live.session import Session
+
+
+@pytest.fixture
+def session() -> Session:
+    return Session("pick_place", "s", seed=3, speed=0.0)
+
+
+def _cmd(op: str, **kw) -> Command:
+    return Command(op=op, **kw)  # type: ignore[arg-type]
+
+
+def test_a_run_sent_right_after_a_reset_is_accepted(session):
+    assert session.submit(_cmd("estop")).accepted
+    session._drain()
+    assert session.state == "ESTOPPED"
+    assert not session.submit(_cmd("run", machine="home")).accepted  # no reset yet
+    assert session.submit(_cmd("reset")).accepted
+    reply = session.submit(_cmd("run", machine="home"))  # before the reset took effect
+    assert reply.accepted and reply.task is not None
+    session._drain()
+    assert session.state == "IDLE" and [t.id for t in session.tasks] == [reply.task]
+
+
+def test_an_estop_voids_a_reset_sent_before_it_in_the_same_tick(session):
+    session.submit(_cmd("estop"))
+    session._drain()
+    session.submit(_cmd("reset"))
+    session.submit(_cmd("estop"))
+    session._drain()
+    assert session.state == "ESTOPPED"
+
+
+def test_commands_in_one_tick_apply_by_priority_and_the_estop_latency_is_recorded(session):
+    session.submit(_cmd("run", machine="reach", set=["target=[0.5, 0.1, 0.4]"]))
+    session._drain()
+    session.task = session.tasks.popleft()
+    session.task.start()
+    session._tick()
+    session.submit(_cmd("pause"))
+    session.submit(_cmd("estop"))  # sent after the pause, applied first
+    session._drain()
+    assert session.state == "ESTOPPED" and session.last_estop["ticks"] <= 1
+    events = [e["event"] for e in session.task.executor.events]
+    assert events[0] == "estop"  # the pause came after it and changed nothing
