@@ -21,10 +21,12 @@ from pydantic import ValidationError
 from .protocol import Command, Reply, config_for, key
 from .session import Session
 
-__all__ = ["POLL_S", "serve"]
+__all__ = ["POLL_S", "SWITCH_INTERVAL_S", "serve"]
 
 POLL_S = 0.0005
 """Period the command channel is polled at when empty [s]."""
+SWITCH_INTERVAL_S = 0.0002
+"""The interpreter's thread switch interval while serving (default 5 ms) [s]."""
 
 
 def serve(
@@ -43,8 +45,13 @@ def serve(
         ready: Called once the keys are declared (the CLI prints its ready line).
         stop: Set it to end the session from another thread (as SIGINT does).
     """
+    import sys
+
     import zenoh
 
+    # the loop holds the GIL through a whole control tick; a command's thread should not
+    # wait the default 5 ms for it
+    sys.setswitchinterval(SWITCH_INTERVAL_S)
     z = zenoh.open(config_for(listen, connect))
     name = session.name
     pubs = {
