@@ -358,6 +358,13 @@ def serve(
         typer.Option("--listen", help="Zenoh endpoint to listen on (default tcp/127.0.0.1:7447)."),
     ] = None,
     connect: Endpoints = None,
+    spawn: Annotated[
+        bool, typer.Option(help="Stream every task live to a spawned Rerun viewer.")
+    ] = False,
+    rrd: Annotated[
+        Path | None,
+        typer.Option(help="Save a Rerun recording of every task into this folder."),
+    ] = None,
 ) -> None:
     """Keep a world running and take commands over Zenoh (see docs/live.md)."""
     from .live.protocol import DEFAULT_ENDPOINT
@@ -366,8 +373,22 @@ def serve(
 
     if not session or "/" in session or "*" in session:
         _live_error(ValueError(f"--session {session!r}: a name without '/' or '*' (e.g. cell1)"))
+    recorder = None
+    if spawn or rrd is not None:
+        from .recording import RerunRecorder
+
+        def recorder(task):
+            path = (
+                None
+                if rrd is None
+                else rrd / f"task-{task.id:04d}-{Path(task.machine_ref).stem}.rrd"
+            )
+            return RerunRecorder(path=path, spawn=spawn)
+
     try:
-        live = Session(scenario, session, seed=seed, speed=speed, watchdog_s=watchdog)
+        live = Session(
+            scenario, session, seed=seed, speed=speed, watchdog_s=watchdog, recorder=recorder
+        )
     except ConfigError as exc:
         _fail_config(exc)
         return

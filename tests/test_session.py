@@ -50,3 +50,32 @@ def test_commands_in_one_tick_apply_by_priority_and_the_estop_latency_is_recorde
     assert session.state == "ESTOPPED" and session.last_estop["ticks"] <= 1
     events = [e["event"] for e in session.task.executor.events]
     assert events[0] == "estop"  # the pause came after it and changed nothing
+
+
+def test_every_task_can_be_recorded(tmp_path):
+    import threading
+    import time
+
+    from orchestrator.recording import RerunRecorder
+
+    paths = []
+
+    def recorder(task):
+        paths.append(tmp_path / f"task-{task.id}.rrd")
+        return RerunRecorder(path=paths[-1])
+
+    session = Session("pick_place", "r", seed=3, speed=0.0, recorder=recorder)
+    stop = threading.Event()
+    thread = threading.Thread(target=session.run, args=(stop,))
+    thread.start()
+    try:
+        reply = session.submit(_cmd("run", machine="reach", set=["target=[0.5, 0.1, 0.4]"]))
+        deadline = time.monotonic() + 120
+        while (session.last_result or {}).get("task") != reply.task:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+    finally:
+        stop.set()
+        thread.join(30)
+    assert session.last_result["outcome"] == "succeeded"
+    assert len(paths) == 1 and paths[0].stat().st_size > 10_000

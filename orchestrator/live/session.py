@@ -31,6 +31,7 @@ import numpy as np
 
 from ..engine.blackboard import Blackboard
 from ..engine.context import Context
+from ..engine.runner import Observer
 from ..engine.safety_stop import SafetyStop
 from ..exceptions import ConfigError
 from ..guards.base import Violation
@@ -65,6 +66,7 @@ class Session:
         speed: Simulated seconds per wall second while a task runs (0: as fast as possible).
         watchdog_s: Longest wall time between two client heartbeats (None: no watchdog) [s].
         publish: Called with (leaf key, message) for status, heartbeat and events.
+        recorder: Makes the observer that records a task (a Rerun recording per task).
 
     Raises:
         ConfigError: The scenario does not load.
@@ -78,7 +80,10 @@ class Session:
         speed: float = 1.0,
         watchdog_s: float | None = None,
         publish: Publish | None = None,
+        recorder: Callable[[Task], Observer] | None = None,
     ) -> None:
+        self.recorder = recorder
+        self._observer: Observer | None = None
         self.scenario_ref, self.name, self.speed, self.watchdog_s = (
             scenario,
             name,
@@ -251,6 +256,10 @@ class Session:
             if self.task is None and self.tasks and not (self.estopped or self.error):
                 self.task = self.tasks.popleft()
                 self.task.start()
+                if self.recorder is not None:
+                    assert self.task.executor is not None
+                    self._observer = self.recorder(self.task)
+                    self._observer.on_start(self.ctx, self.task.executor)
                 self.publish("events", {"event": "task_start", "task": self.task.id,
                                         "machine": self.task.machine_ref})  # fmt: skip
             self._tick()
@@ -331,9 +340,17 @@ class Session:
 
     def _tick(self) -> None:
         ctx, task = self.ctx, self.task
-        if task is not None and task.tick():
+        finished = task is not None and task.tick()
+        obs = self._observer
+        if obs is not None and task is not None and task.executor is not None:
+            obs.on_tick(ctx, task.executor)
+        if finished:
+            assert task is not None and task.executor is not None
             result = task.result
             assert result is not None
+            if obs is not None:
+                obs.on_end(ctx, task.executor, result)
+                self._observer = None
             self.last_result = {
                 "task": task.id,
                 "machine": task.machine_ref,
