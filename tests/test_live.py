@@ -193,3 +193,24 @@ def test_send_to_no_session_says_so():
         capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert "no session 'nobody' answered" in proc.stdout, proc.stderr
+
+
+def test_watch_shows_the_state_and_says_when_heartbeats_are_lost(served):
+    def watch(name: str, endpoint: str) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            [sys.executable, "-m", "orchestrator.cli", "watch", name, "--for", "1.5",
+             "--connect", endpoint],
+            capture_output=True, text=True, timeout=120, check=False,
+        )  # fmt: skip
+
+    live = watch(served.name, served.endpoint)
+    assert live.returncode == 0 and "IDLE" in live.stdout and "LOST" not in live.stdout
+    gone = watch("nobody", f"tcp/127.0.0.1:{_free_port()}")
+    assert gone.returncode == 1 and "LOST" in gone.stdout
+
+
+def test_send_status_prints_the_status_json(served):
+    res = served.send("status", "--json")
+    assert res.exit_code == 0
+    status = json.loads(res.stdout)["status"]
+    assert status["session"] == "t" and status["scene"] == {"objects": ["cube"], "markers": ["pad"]}
