@@ -82,6 +82,7 @@ def run(
 
     try:
         loaded = load_scenario(scenario, set_ or [], fault or [], event or [])
+        _guard_goals(loaded, set_ or [], seed)
         observers = []
         if rrd is not None or spawn or connect is not None:
             from .recording import RerunRecorder
@@ -99,6 +100,26 @@ def run(
     else:
         _print_result(result)
     raise typer.Exit(result.exit_code)
+
+
+def _guard_goals(loaded, sets: list[str], seed: int) -> None:
+    """Positions set with `--set` go through the live sessions' guardrail before anything
+    runs (workspace, no-go zones, reachability from the home configuration)."""
+    from .language.overrides import parse_override
+    from .live.guardrail import GoalRejected, check_goals, goals_of
+
+    keys = [ov.path[0] for ov in map(parse_override, sets) if hasattr(ov, "path")]
+    if not goals_of(loaded, keys):
+        return
+    from .world.world import World
+
+    world = World.build(loaded.scenario, seed)
+    try:
+        check_goals(loaded, keys, world, world.home)
+    except GoalRejected as exc:
+        err.print(f"<--set>: goal rejected: {exc}", markup=False, soft_wrap=True)
+        err.print("1 error; nothing was simulated.", style="red")
+        raise typer.Exit(EXIT_INVALID) from None
 
 
 def _print_result(result) -> None:

@@ -79,3 +79,14 @@ def test_every_task_can_be_recorded(tmp_path):
         thread.join(30)
     assert session.last_result["outcome"] == "succeeded"
     assert len(paths) == 1 and paths[0].stat().st_size > 10_000
+
+
+def test_run_guards_a_goal_set_on_the_command_line(cli):
+    res = cli("run", "pick_place", "--set", "place_at=[1.2, 0.2, 0.3]")
+    assert res.exit_code == 2 and "goal rejected: place_at" in res.stderr
+    assert "outside the workspace" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_serve_a_broken_scenario_exits_2_before_opening_anything(cli):
+    res = cli("serve", "no_such_scenario", "--session", "x")
+    assert res.exit_code == 2 and "no such scenario" in res.stderr

@@ -29,6 +29,7 @@ REACH_TOL_M = 0.002
 """A goal is reachable if the IK gets the TCP this close to it [m]."""
 _IK_DT = 0.02
 _IK_ITERATIONS = 250
+_STALL_ITERATIONS = 20
 
 
 class GoalRejected(Exception):
@@ -129,10 +130,15 @@ def _check_reach(where: str, p: np.ndarray, world: World, q_arm: np.ndarray) -> 
     ik = IKSolver(robot, robot_only_model(robot), _IK_DT, world.scenario.robot.base_pos)
     ik.reset(np.asarray(q_arm, float))
     rot = rot_down(0.0)
+    history: list[float] = []
     for _ in range(_IK_ITERATIONS):
         ik.step(p, rot)
-        if float(np.linalg.norm(ik.error[:3])) <= REACH_TOL_M:
+        miss = float(np.linalg.norm(ik.error[:3]))
+        if miss <= REACH_TOL_M:
             return
+        history.append(miss)
+        if len(history) > _STALL_ITERATIONS and history[-_STALL_ITERATIONS - 1] - miss < 1e-5:
+            break  # no progress: stuck at a joint limit or the edge of the reach
     miss = float(np.linalg.norm(ik.error[:3]))
     raise GoalRejected(
         f"{where}: unreachable (the IK gets the TCP no closer than {miss * 1000:.1f} mm, "
