@@ -90,3 +90,31 @@ def test_run_guards_a_goal_set_on_the_command_line(cli):
 def test_serve_a_broken_scenario_exits_2_before_opening_anything(cli):
     res = cli("serve", "no_such_scenario", "--session", "x")
     assert res.exit_code == 2 and "no such scenario" in res.stderr
+
+
+def test_stop_is_the_machines_own_stop_event_when_it_declares_one(session, tmp_path):
+    machine = tmp_path / "cell.yaml"
+    machine.write_text(
+        "name: cell\ninitial: WORK\nevents: {stop: GO_HOME}\nstates:\n"
+        "  WORK:\n    skill: move\n    with: {target: [0.45, -0.25, 0.55]}\n"
+        "    transitions: {reached: DONE, unreachable: FAILED, timeout: FAILED}\n"
+        "  GO_HOME:\n    skill: move_joints\n    with: {to: home}\n"
+        "    transitions: {reached: STOPPED, timeout: FAILED}\n"
+        "  DONE: {final: succeeded}\n  STOPPED: {final: failed}\n  FAILED: {final: failed}\n"
+    )
+    reply = session.submit(_cmd("run", machine=str(machine)))
+    assert reply.accepted, reply.reason
+    session._drain()
+    session.task = session.tasks.popleft()
+    session.task.start()
+    for _ in range(30):
+        session._tick()
+    assert session.submit(_cmd("stop")).accepted
+    session._drain()
+    for _ in range(1000):
+        if session.last_result is not None:
+            break
+        session._tick()
+    result = session.last_result
+    assert result["final_state"] == "STOPPED" and result["metrics"]["stopped_by"] == "stop command"
+    assert [t["trigger"] for t in result["transitions"]][-2:] == ["stop", "reached"]

@@ -83,13 +83,17 @@ class Task:
         return stop if stop is not None and stop.active else None
 
     def stop(self, reason: str) -> None:
-        """End the task where it is (the `stop` command): it ends `failed`, the arm is
-        brought to rest gently."""
+        """The `stop` command: a machine that declares a `stop` event gets it (its own way of
+        stopping, e.g. `events: {stop: GO_HOME}`); any other ends where it is (`failed`, the
+        arm brought to rest gently)."""
         ex = self.executor
         if ex is None or ex.done:
             return
         self.stopped_by = reason
-        ex.halt()
+        if "stop" in ex.root.events:
+            ex.event("stop", reason)
+        else:
+            ex.halt()
 
     def tick(self) -> bool:
         """One control tick of the machine and of the end of the task.
