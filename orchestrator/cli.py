@@ -466,14 +466,12 @@ def send(
         err.print(f"rejected: {reply.reason}", markup=False, soft_wrap=True)
         raise typer.Exit(EXIT_INVALID)
     if result is not None:
-        from .engine.result import EXIT_CODES
-
         if as_json:
             sys.stdout.write(json.dumps(result) + "\n")
         else:
             out.print(f"task {result['task']} {result['machine']}: {result['outcome']} "
                       f"in {result['final_state']} after {result['sim_time']:.2f} s")  # fmt: skip
-        raise typer.Exit(EXIT_CODES[result["outcome"]])
+        raise typer.Exit(result["exit_code"])
     if wait:  # the session ended or refused to start the task
         _live_error(RuntimeError(f"task {reply.task} did not run"))
     if as_json:
@@ -527,11 +525,9 @@ def ask(
         err.print(f"rejected: {reply.reason}", markup=False, soft_wrap=True)
         raise typer.Exit(EXIT_INVALID)
     if result is not None:
-        from .engine.result import EXIT_CODES
-
         if not as_json:
             out.print(f"task {result['task']}: {result['outcome']}")
-        raise typer.Exit(EXIT_CODES[result["outcome"]])
+        raise typer.Exit(result["exit_code"])
     if not as_json:
         out.print(f"accepted: task {reply.task}")
 

@@ -3,16 +3,15 @@
 `Session` (the loop), `serve` (its Zenoh keys), `Client` (the Python client a program or a
 planner uses), `check_goals` (the guardrail every outside goal goes through) and
 `ask_planner` (an instruction in words -> a guarded command).
+
+Names are imported on first use: a client (`orchestrator send`) needs only Zenoh and the
+protocol, not the physics and IK a session loads.
 """
 
 from __future__ import annotations
 
-from .client import Client, LiveError
-from .guardrail import GoalRejected, check_goals
-from .planner import PlannerCommand, PlannerError, ask_planner
-from .protocol import COMMANDS, STATES, Command, Reply
-from .server import serve
-from .session import Session
+import importlib
+from typing import Any
 
 __all__ = [
     "COMMANDS",
@@ -29,3 +28,16 @@ __all__ = [
     "check_goals",
     "serve",
 ]
+
+_WHERE = {
+    "COMMANDS": "protocol", "STATES": "protocol", "Command": "protocol", "Reply": "protocol",
+    "Client": "client", "LiveError": "client", "GoalRejected": "guardrail",
+    "check_goals": "guardrail", "PlannerCommand": "planner", "PlannerError": "planner",
+    "ask_planner": "planner", "serve": "server", "Session": "session",
+}  # fmt: skip
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)

@@ -355,6 +355,7 @@ class Session:
                 "task": task.id,
                 "machine": task.machine_ref,
                 **result.to_json_dict(),
+                "exit_code": result.exit_code,
             }
             self.publish(
                 "events", {"event": "task_end", "task": task.id, "result": self.last_result}
