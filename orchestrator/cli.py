@@ -174,6 +174,14 @@ def run(
             "(e.g. estop@1.5, slip:object=cube@TRANSPORT). Repeatable; see docs/safety.md.",
         ),
     ] = None,
+    event: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--event",
+            help="Send an event at a simulated time: T:NAME (e.g. 1.5:estop, 1.0:pause, "
+            "2.0:resume, or one of the machine's `events:`). Repeatable; see docs/live.md.",
+        ),
+    ] = None,
     connect: Annotated[
         str | None,
         typer.Option(
@@ -210,7 +218,10 @@ def run(
             soft_wrap=True,
         )
     try:
-        loaded = load_scenario(scenario, set_ or [], fault or [], _allowed(allow_path))
+        loaded = load_scenario(
+            scenario, set_ or [], fault or [], _allowed(allow_path), events=event or []
+        )
+        _guard_goals(loaded, set_ or [], seed)
         observers = []
         if rrd is not None or spawn or connect is not None:
             from .recording import RerunRecorder
@@ -242,6 +253,26 @@ def run(
 
 _TABLE_ENDS = 20
 """Transitions printed at each end of a long run's table."""
+
+
+def _guard_goals(loaded, sets: list[str], seed: int) -> None:
+    """Positions set with `--set` go through the live sessions' guardrail before anything
+    runs (workspace, no-go zones, reachability from the home configuration)."""
+    from .language.overrides import parse_override
+    from .live.guardrail import GoalRejected, check_goals, goals_of
+
+    keys = [ov.path[0] for ov in map(parse_override, sets) if hasattr(ov, "path")]
+    if not goals_of(loaded, keys):
+        return
+    from .world.world import World
+
+    world = World.build(loaded.scenario, seed)
+    try:
+        check_goals(loaded, keys, world, world.home)
+    except GoalRejected as exc:
+        err.print(f"<--set>: goal rejected: {exc}", markup=False, soft_wrap=True)
+        err.print("1 error; nothing was simulated.", style="red")
+        raise typer.Exit(EXIT_INVALID) from None
 
 
 def _print_result(result) -> None:
@@ -604,6 +635,189 @@ def batch(
     else:
         print_summary(summary, out)
     raise typer.Exit(1 if summary.errors else 0)
+
+
+# -- live sessions ------------------------------------------------------------------------------
+
+Endpoints = Annotated[
+    list[str] | None,
+    typer.Option("--connect", help="Zenoh endpoint of the session (default tcp/127.0.0.1:7447)."),
+]
+
+
+def _live_error(exc: Exception) -> None:
+    err.print(f"error: {exc}", markup=False, soft_wrap=True)
+    raise typer.Exit(EXIT_INVALID)
+
+
+@app.command()
+def serve(
+    scenario: Annotated[str, typer.Argument(help="Scenario file or bundled name: the world.")],
+    session: Annotated[str, typer.Option("--session", help="The session's name.")],
+    seed: Annotated[int, typer.Option(help="The world's seed.")] = 0,
+    speed: Annotated[
+        float, typer.Option(min=0.0, help="Simulated s per wall s while a task runs (0: max).")
+    ] = 1.0,
+    watchdog: Annotated[
+        float | None,
+        typer.Option(min=0.01, help="Stop and go to ERROR when no client heartbeat for S s."),
+    ] = None,
+    listen: Annotated[
+        list[str] | None,
+        typer.Option("--listen", help="Zenoh endpoint to listen on (default tcp/127.0.0.1:7447)."),
+    ] = None,
+    connect: Endpoints = None,
+    spawn: Annotated[
+        bool, typer.Option(help="Stream every task live to a spawned Rerun viewer.")
+    ] = False,
+    rrd: Annotated[
+        Path | None,
+        typer.Option(help="Save a Rerun recording of every task into this folder."),
+    ] = None,
+) -> None:
+    """Keep a world running and take commands over Zenoh (see docs/live.md)."""
+    from .live.protocol import DEFAULT_ENDPOINT
+    from .live.server import serve as serve_session
+    from .live.session import Session
+
+    if not session or "/" in session or "*" in session:
+        _live_error(ValueError(f"--session {session!r}: a name without '/' or '*' (e.g. cell1)"))
+    recorder = None
+    if spawn or rrd is not None:
+        from .recording import RerunRecorder
+
+        def recorder(task):
+            path = (
+                None
+                if rrd is None
+                else rrd / f"task-{task.id:04d}-{Path(task.machine_ref).stem}.rrd"
+            )
+            return RerunRecorder(path=path, spawn=spawn)
+
+    try:
+        live = Session(
+            scenario, session, seed=seed, speed=speed, watchdog_s=watchdog, recorder=recorder
+        )
+    except ConfigError as exc:
+        _fail_config(exc)
+        return
+    endpoints = list(listen or [DEFAULT_ENDPOINT])
+
+    def ready() -> None:
+        err.print(f"session {session!r} ready on {', '.join(endpoints)}", markup=False)
+
+    try:
+        serve_session(live, endpoints, connect, ready)
+    except Exception as exc:  # Zenoh cannot open its endpoints: say which, no traceback
+        if "zenoh" not in type(exc).__module__.lower() and not isinstance(exc, OSError):
+            raise
+        _live_error(RuntimeError(f"cannot open Zenoh on {', '.join(endpoints)}: {exc}"))
+
+
+@app.command()
+def send(
+    session: Annotated[str, typer.Argument(help="The session's name.")],
+    command: Annotated[
+        str,
+        typer.Argument(help="run, stop, estop, reset, pause, resume, status or shutdown."),
+    ],
+    machine: Annotated[
+        str | None, typer.Argument(help="For run: machine file or bundled name.")
+    ] = None,
+    set_: Annotated[
+        list[str] | None, typer.Option("--set", help="For run: a blackboard value KEY=VALUE.")
+    ] = None,
+    wait: Annotated[bool, typer.Option(help="For run: wait for the task's end.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+    connect: Endpoints = None,
+) -> None:
+    """Send a command. Exit 2 if rejected; with --wait, the task's exit code (0/1/3)."""
+    from .live.client import Client, LiveError
+    from .live.protocol import COMMANDS
+
+    if command not in COMMANDS:
+        _live_error(ValueError(f"unknown command {command!r} (valid: {', '.join(COMMANDS)})"))
+    if command != "run" and (machine or set_ or wait):
+        _live_error(ValueError(f"{command}: takes no MACHINE, --set or --wait (only run does)"))
+    try:
+        with Client(session, connect, name="orchestrator send") as client:
+            if command == "run":
+                reply, result = client.run(machine, set_ or [], wait=wait)
+            else:
+                reply, result = client.command(command), None
+    except LiveError as exc:
+        _live_error(exc)
+        return
+    if not reply.accepted:
+        if as_json:
+            sys.stdout.write(reply.model_dump_json() + "\n")
+        err.print(f"rejected: {reply.reason}", markup=False, soft_wrap=True)
+        raise typer.Exit(EXIT_INVALID)
+    if result is not None:
+        if as_json:
+            sys.stdout.write(json.dumps(result) + "\n")
+        else:
+            out.print(f"task {result['task']} {result['machine']}: {result['outcome']} "
+                      f"in {result['final_state']} after {result['sim_time']:.2f} s")  # fmt: skip
+        raise typer.Exit(result["exit_code"])
+    if wait:  # the session ended or refused to start the task
+        _live_error(RuntimeError(f"task {reply.task} did not run"))
+    if as_json:
+        sys.stdout.write(reply.model_dump_json() + "\n")
+    elif reply.status is not None:
+        out.print_json(json.dumps(reply.status))
+    else:
+        out.print(f"accepted{f': task {reply.task}' if reply.task else ''}")
+
+
+@app.command()
+def watch(
+    session: Annotated[str, typer.Argument(help="The session's name.")],
+    connect: Endpoints = None,
+    duration: Annotated[
+        float | None, typer.Option("--for", help="Stop after S seconds (default: Ctrl-C).")
+    ] = None,
+) -> None:
+    """A live table of a session's status; warns when its heartbeats stop."""
+    from .live.watch import watch as watch_session
+
+    raise typer.Exit(watch_session(session, connect, duration, out))
+
+
+@app.command()
+def ask(
+    session: Annotated[str, typer.Argument(help="The session's name.")],
+    instruction: Annotated[str, typer.Argument(help='What to do, e.g. "put the cube on pad".')],
+    wait: Annotated[bool, typer.Option(help="Wait for the task's end.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+    connect: Endpoints = None,
+) -> None:
+    """Ask a planner (an OpenAI-compatible endpoint) for a command; it goes through the
+    same guardrails as any other. Set ORCHESTRATOR_PLANNER_URL (and _MODEL, _KEY)."""
+    from .live.client import Client, LiveError
+    from .live.planner import PlannerError, ask_planner, planner_url
+
+    try:
+        planner_url()  # before connecting: say at once that there is none
+        with Client(session, connect, name="orchestrator ask") as client:
+            proposal, reply, result = ask_planner(client, instruction, wait=wait)
+    except (PlannerError, LiveError) as exc:
+        _live_error(exc)
+        return
+    if as_json:
+        sys.stdout.write(json.dumps({"proposal": proposal, "reply": reply.model_dump(),
+                                     "result": result}) + "\n")  # fmt: skip
+    else:
+        out.print(f"planner proposes: {json.dumps(proposal)}")
+    if not reply.accepted:
+        err.print(f"rejected: {reply.reason}", markup=False, soft_wrap=True)
+        raise typer.Exit(EXIT_INVALID)
+    if result is not None:
+        if not as_json:
+            out.print(f"task {result['task']}: {result['outcome']}")
+        raise typer.Exit(result["exit_code"])
+    if not as_json:
+        out.print(f"accepted: task {reply.task}")
 
 
 def main() -> None:

@@ -38,13 +38,13 @@ class CheckTool(Skill):
     params: CheckToolParams
 
     def start(self, ctx: Context) -> None:
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
         self.samples: list[np.ndarray] = []
         ctx.controller.hold(ctx.q.copy())
 
     def step(self, ctx: Context) -> str | None:
         self.samples.append(ctx.wrist_force().copy())
-        if ctx.t - self.t0 < self.params.window_s - 1e-9:
+        if ctx.clock - self.t0 < self.params.window_s - 1e-9:
             return None
         tool = getattr(ctx.robot, "tool", None)
         expected = self.params.tool

@@ -168,7 +168,7 @@ class Contact(Skill):
         self.alpha = 1.0 - math.exp(-2.0 * math.pi * p.filter_hz * ctx.dt_control)
         self.q_null = ctx.q.copy()
         self.f_filt = self._normal(ctx.wrist_force())
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
         self.phase = "tare" if p.tare_s > 0.0 else "approach"
         self.tare: list[np.ndarray] = []
         self.t_force: float | None = None
@@ -205,7 +205,7 @@ class Contact(Skill):
     # -- phases -------------------------------------------------------------------------
     def _tare(self, ctx: Context, force: np.ndarray) -> str | None:
         self.tare.append(force.copy())
-        if ctx.t - self.t0 < self.params.tare_s - 1e-9:
+        if ctx.clock - self.t0 < self.params.tare_s - 1e-9:
             return None
         offset = np.mean(self.tare, axis=0)
         ctx.zero_wrist_force(offset)
@@ -221,24 +221,24 @@ class Contact(Skill):
             if self.planned is None and p.hold_s <= 0.0:
                 return "contacted"
             self.phase = "force"
-            self.t_force = ctx.t
+            self.t_force = ctx.clock
             ctx.planned_path = self.planned
             return None
         if self.s >= p.max_travel_m:
             ctx.log("skill", f"contact: no contact within {p.max_travel_m * 1000:.0f} mm")
             return "no_contact"
-        self.s = min(self.s + p.approach_speed * ctx.dt_control, p.max_travel_m)
+        self.s = min(self.s + p.approach_speed * ctx.dt_control * ctx.clock_rate, p.max_travel_m)
         self._command(ctx)
         return None
 
     def _hold_and_trace(self, ctx: Context, force: np.ndarray, f_n: float) -> str | None:
         p = self.params
         assert self.t_force is not None
-        self.s += self.k_i * (p.target_force_n - self.f_filt) * ctx.dt_control
+        self.s += self.k_i * (p.target_force_n - self.f_filt) * ctx.dt_control * ctx.clock_rate
         if self.s >= p.max_travel_m:
             ctx.log("skill", "contact: lost contact (travel limit reached)")
             return "no_contact"
-        held = ctx.t - self.t_force
+        held = ctx.clock - self.t_force
         if held < p.hold_s - 1e-9:
             self._command(ctx)
             return None
@@ -246,8 +246,8 @@ class Contact(Skill):
             return "done"
         if self.profile is None:
             self.profile = Profile(self.planned.length, p.speed, p.accel)
-            self.t_trace = ctx.t
-        elapsed = ctx.t - self.t_trace
+            self.t_trace = ctx.clock
+        elapsed = ctx.clock - self.t_trace
         fraction, _ = self.profile.progress(elapsed)
         self.lateral = self.planned.point_at(fraction * self.planned.length)
         self._command(ctx)

@@ -48,14 +48,14 @@ class Grasp(Skill):
 
     def start(self, ctx: Context) -> None:
         self.handle = ctx.object_handle(self.params.object)
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
         self.still_ticks = 0
         ctx.controller.hold(ctx.controller.q_d.copy())
         ctx.set_gripper(0.0)
 
     def step(self, ctx: Context) -> str | None:
         p = self.params
-        elapsed = ctx.t - self.t0
+        elapsed = ctx.clock - self.t0
         finger_speed = float(np.max(np.abs(ctx.data.qvel[ctx.world.robot_dof[ctx.robot.n_arm :]])))
         self.still_ticks = self.still_ticks + 1 if finger_speed < _STILL_MPS else 0
         closed = self.still_ticks >= 3 and ctx.gripper_commanded  # stopped, and squeezing

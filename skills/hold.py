@@ -34,8 +34,8 @@ class Hold(Skill):
     params: HoldParams
 
     def start(self, ctx: Context) -> None:
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
         ctx.controller.hold(ctx.q.copy())
 
     def step(self, ctx: Context) -> str | None:
-        return "held" if ctx.t - self.t0 >= self.params.duration_s - 1e-9 else None
+        return "held" if ctx.clock - self.t0 >= self.params.duration_s - 1e-9 else None

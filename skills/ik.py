@@ -98,6 +98,14 @@ class IKSolver:
         self.limiter.reset(q_arm, self.velocity, self.acceleration)
         self._error = None
 
+    def restart_from(self, q_arm: np.ndarray) -> None:
+        """Restart the limited command at rest from `q_arm` [rad] (where a pause held the
+        arm). The IK's own reference keeps its place on the path: the command catches up with
+        it within the robot's limits, so a resumed motion continues on the path it was on."""
+        self.limiter.reset(q_arm)
+        self.velocity[:] = 0.0
+        self.acceleration[:] = 0.0
+
     def tcp_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """World TCP position [m] and rotation at the IK's joint angles."""
         T = self.config.get_transform_frame_to_world(self.robot.tcp_site, "site")

@@ -169,7 +169,7 @@ class Move(Skill):
                 p.max_angular_speed,
                 p.max_angular_accel,
             )
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
         if self.reachable and isinstance(self.line, BlendedPath):
             fit_path_to_joints(ctx.ik, self.line, ctx.q)
         self.stretch = feasible_time_scale(ctx.ik, self.line, ctx.q) if self.reachable else 1.0
@@ -185,7 +185,7 @@ class Move(Skill):
             ctx.log("skill", f"move: target {np.round(self.pos1, 3).tolist()} is out of reach")
             return "unreachable"
         p = self.params
-        elapsed = ctx.t - self.t0
+        elapsed = ctx.clock - self.t0
         pos, rot = self.line.sample_so3(elapsed / self.stretch)
         if elapsed >= self.duration:
             pos, rot = self._corrected(ctx, pos, rot)
@@ -261,7 +261,7 @@ class Move(Skill):
             f"{p.tolerance_m * 1000:g} mm), {math.degrees(ang_err):.2f} deg off (tolerance_deg "
             f"{p.tolerance_deg:g})"
         )
-        elapsed = ctx.t - self.t0
+        elapsed = ctx.clock - self.t0
         if elapsed < self.duration:
             return text + f"; still on its path ({elapsed:.2f} of {self.duration:.2f} s)"
         if ik_pos > 0.5 * p.tolerance_m:

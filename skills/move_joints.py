@@ -49,10 +49,10 @@ class MoveJoints(Skill):
         dist = float(np.max(np.abs(self.delta)))
         self.profile = Profile(dist, p.max_speed, p.max_accel)
         self.goal = goal
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
 
     def step(self, ctx: Context) -> str | None:
-        elapsed = ctx.t - self.t0
+        elapsed = ctx.clock - self.t0
         s, sd = self.profile.progress(elapsed)
         ctx.controller.set_joint_target(self.q0 + s * self.delta, sd * self.delta)
         if elapsed < self.profile.duration:

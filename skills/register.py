@@ -60,11 +60,11 @@ class Register(Skill):
     params: RegisterParams
 
     def start(self, ctx: Context) -> None:
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
 
     def step(self, ctx: Context) -> str | None:
         p = self.params
-        if ctx.t - self.t0 < p.duration_s - 1e-9:
+        if ctx.clock - self.t0 < p.duration_s - 1e-9:
             return None
         phantom = ctx.world.phantom
         if phantom is None or phantom.name != p.object:

@@ -34,14 +34,14 @@ class Release(Skill):
         self.opening = min(
             self.params.opening_m or ctx.robot.gripper_open_m, ctx.robot.gripper_open_m
         )
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
         ctx.controller.hold(ctx.controller.q_d.copy())
         ctx.set_gripper(self.opening)
 
     def step(self, ctx: Context) -> str | None:
         if ctx.gripper_width >= 2 * self.opening - 0.002:
             return "released"
-        if ctx.t - self.t0 > self.params.timeout_s:
+        if ctx.clock - self.t0 > self.params.timeout_s:
             return "timeout"
         return None
 

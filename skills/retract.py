@@ -57,11 +57,11 @@ class Retract(Skill):
         self.end = self.pos0 + p.distance_m * back
         self.profile = Profile(p.distance_m, p.speed, p.accel)
         self.q_null = ctx.q.copy()
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
 
     def step(self, ctx: Context) -> str | None:
         p = self.params
-        elapsed = ctx.t - self.t0
+        elapsed = ctx.clock - self.t0
         s, _ = self.profile.progress(elapsed)
         pos = self.pos0 + s * (self.end - self.pos0)
         impedance.command(ctx, pos, self.rot, self.gains, self.q_null)

@@ -40,10 +40,10 @@ class Search(Skill):
     params: SearchParams
 
     def start(self, ctx: Context) -> None:
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
 
     def step(self, ctx: Context) -> str | None:
-        if ctx.t - self.t0 < self.params.duration_s:
+        if ctx.clock - self.t0 < self.params.duration_s:
             return None
         name = self.params.object
         if name not in ctx.world.objects:

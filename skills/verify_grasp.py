@@ -46,7 +46,7 @@ class VerifyGrasp(Skill):
 
     def start(self, ctx: Context) -> None:
         self.handle = ctx.object_handle(self.params.object)
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
         ctx.controller.hold(ctx.controller.q_d.copy())
 
     def step(self, ctx: Context) -> str | None:
@@ -63,4 +63,4 @@ class VerifyGrasp(Skill):
                 f"{offset * 1000:.1f} mm, lifted {lifted})",
             )
             return "dropped"
-        return "held" if ctx.t - self.t0 >= p.duration_s else None
+        return "held" if ctx.clock - self.t0 >= p.duration_s else None

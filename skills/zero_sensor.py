@@ -44,7 +44,7 @@ class ZeroSensor(Skill):
     params: ZeroSensorParams
 
     def start(self, ctx: Context) -> None:
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
         self.samples: list[np.ndarray] = []
         self.residual = 0.0
         self.zeroed_at: float | None = None
@@ -57,15 +57,15 @@ class ZeroSensor(Skill):
         force = ctx.wrist_force()
         if self.zeroed_at is None:
             self.samples.append(force.copy())
-            if ctx.t - self.t0 < p.window_s - 1e-9:
+            if ctx.clock - self.t0 < p.window_s - 1e-9:
                 return None
             offset = np.mean(self.samples, axis=0)
             ctx.zero_wrist_force(offset)
             ctx.metrics["ft_offset_n"] = round(float(np.linalg.norm(offset)), 4)
-            self.zeroed_at = ctx.t
+            self.zeroed_at = ctx.clock
             return None
         self.residual = max(self.residual, float(np.linalg.norm(force)))
-        if ctx.t - self.zeroed_at < p.verify_s - 1e-9:
+        if ctx.clock - self.zeroed_at < p.verify_s - 1e-9:
             return None
         ctx.metrics["ft_zero_residual_n"] = round(self.residual, 4)
         if self.max_speed > p.max_joint_speed:

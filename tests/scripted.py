@@ -67,6 +67,7 @@ class Flag(Guard):
 class _Controller:
     def __init__(self) -> None:
         self.held: list[Any] = []
+        self.q_d = np.zeros(7)
 
     def hold(self, q) -> None:
         self.held.append(np.asarray(q).copy())
@@ -101,13 +102,21 @@ class FakeContext:
 
     def __init__(self, blackboard: dict | None = None, dt: float = 0.01) -> None:
         self.t = 0.0
+        self.clock_offset = 0.0
+        self.clock_rate = 1.0
         self.dt_control = dt
         self.blackboard = Blackboard(blackboard or {})
         self.events: list[Event] = []
         self.listeners: list = []
         self.controller = _Controller()
         self.q = np.zeros(7)
+        self.qd = np.zeros(7)
+        self.tcp_pos = np.zeros(3)
         self.metrics: dict = {}
+
+    @property
+    def clock(self) -> float:
+        return self.t - self.clock_offset
 
     def log(self, kind: str, message: str, level: str = "INFO", **data: Any) -> None:
         self.events.append(Event(self.t, kind, message, level, data or None))

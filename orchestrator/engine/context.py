@@ -67,6 +67,11 @@ class Context:
         self.dt_control = dt_control
         self.dt_physics = float(world.model.opt.timestep)
         self.tick = 0
+        self.clock_offset = 0.0
+        """Simulated time pauses have taken off the skills' clock [s] (the executor's)."""
+        self.clock_rate = 1.0
+        """Speed of the skills' clock this tick (1 running, 0 held by a pause): a skill that
+        advances per tick rather than on `clock` scales its increment by it."""
         self.gripper_target = world.robot.gripper_open_m
         self.events: list[Event] = []
         self.listeners: list[Callable[[Event], None]] = []
@@ -102,6 +107,15 @@ class Context:
     def t(self) -> float:
         """Simulated time [s]."""
         return float(self.data.time)
+
+    @property
+    def clock(self) -> float:
+        """The skills' clock [s]: simulated time minus the time pauses held the machine.
+
+        Skills and state timeouts measure durations on it, so a `pause` freezes them and a
+        `resume` continues where they were. Equal to `t` in a run without pauses.
+        """
+        return float(self.data.time) - self.clock_offset
 
     # -- proprioception -----------------------------------------------------------------
     @property
@@ -200,12 +214,13 @@ class Context:
         """The gripper's setpoint has reached `gripper_target` (closing: it squeezes)."""
         return float(self.data.ctrl[self.world.gripper_act]) == self.gripper_target
 
-    def advance_gripper(self) -> None:
-        """Move the gripper's setpoint one control tick towards `gripper_target`."""
+    def advance_gripper(self, rate: float = 1.0) -> None:
+        """Move the gripper's setpoint one control tick towards `gripper_target`, at `rate`
+        times the gripper's speed (a pause slows it to 0)."""
         ctrl = self.data.ctrl
         act = self.world.gripper_act
         now = float(ctrl[act])
-        step = self.robot.gripper_speed_mps * self.dt_control
+        step = self.robot.gripper_speed_mps * self.dt_control * rate
         goal = self.gripper_target
         finger = 0.5 * self.gripper_width
         if goal > now:  # opening: from where the fingers are, not from a squeezing setpoint

@@ -6,6 +6,10 @@ of its states. The active state of a region runs one *activity*: a skill, a nest
 state, and an e-stop outranks them all: the executor stops every activity and the arm goes
 through the controlled stop (the built-in SAFE_STOP state); once it is at rest, the machine's
 `on_abort` state runs, or SAFE_STOP holds the pose and the run ends `aborted`.
+
+Events reach the executor through `event()` (a scenario's `events:`, `run --event`, an injected
+`estop` fault, a live session): `estop` aborts at once; `pause`, `resume` and the machine's own
+events (`events: {stop: GO_HOME}`) take effect at the start of the next control tick.
 """
 
 from __future__ import annotations
@@ -22,11 +26,21 @@ from ..guards import get_guard
 from ..guards.base import Guard, Violation
 from ..language.diagnostics import Diagnostic
 from ..language.loading import MachineNode
-from ..language.machine import ABORT, ESTOP, SAFE_STOP, BranchSpec, StateSpec, guard_entries
+from ..language.machine import (
+    ABORT,
+    ESTOP,
+    PAUSE,
+    RESUME,
+    SAFE_STOP,
+    BranchSpec,
+    StateSpec,
+    guard_entries,
+)
 from ..language.validation import branch_outcomes, state_outcomes
 from ..skills import Skill, get_skill
 from .blackboard import BlackboardError
 from .context import Context
+from .pause import PauseControl
 
 __all__ = ["Executor"]
 
@@ -131,13 +145,13 @@ class _SkillActivity:
         self.ex, self.node, self.at, self.path = ex, node, at, path
         self.skill = _make_skill(ex, node, at, spec)
         self.timeout = timeout
-        self.t0 = ex.ctx.t
+        self.t0 = ex.ctx.clock
 
     def start(self) -> None:
         _start_skill(self.ex, self.node, self.at, self.skill)
 
     def tick(self) -> Finished | None:
-        if self.timeout is not None and self.ex.ctx.t - self.t0 >= self.timeout - _EPS:
+        if self.timeout is not None and self.ex.ctx.clock - self.t0 >= self.timeout - _EPS:
             self.ex.explain(self, f"timeout after {self.timeout} s")
             self.stop()
             return "timeout", self.path
@@ -244,6 +258,8 @@ class _Region:
             edges.append(["retry", name, name])
         if node.top and node.on_abort is not None:
             edges.append([ABORT, "*", node.on_abort])
+        if node.top:
+            edges += [[event, "*", target] for event, target in node.events.items()]
         self.fsm = transitions.Machine(
             model=self.model,
             states=list(node.states),
@@ -252,7 +268,7 @@ class _Region:
             auto_transitions=False,
         )
         self.activity: _Activity | None = None
-        self.entered_t = ex.ctx.t
+        self.entered_t = ex.ctx.clock
         self.retries: dict[str, int] = {}
         self.final: Finished | None = None
 
@@ -285,7 +301,7 @@ class _Region:
         if self.final is not None:
             return self.final
         st = self.spec
-        if st.timeout is not None and self.ex.ctx.t - self.entered_t >= st.timeout - _EPS:
+        if st.timeout is not None and self.ex.ctx.clock - self.entered_t >= st.timeout - _EPS:
             self.ex.explain(
                 self.activity, f"timeout after {st.timeout} s", self.prefix + self.state
             )
@@ -306,6 +322,13 @@ class _Region:
         self.model.trigger(ABORT)
         assert self.state == state
         self._enter(src, "stopped")
+
+    def preempt(self, event: str, src: str) -> Finished | None:
+        """Stop what runs and enter the state the machine maps `event` to."""
+        self.stop()
+        self.final = None
+        self.model.trigger(event)
+        return self._enter(src, event)
 
     def _outcome(self, outcome: str, src: str) -> Finished | None:
         trigger, retry = self._next(outcome)
@@ -356,7 +379,7 @@ class _Region:
     ) -> Finished | _Instant | None:
         ex, name, st = self.ex, self.state, self.spec
         path = self.prefix + name
-        self.entered_t = ex.ctx.t
+        self.entered_t = ex.ctx.clock
         at = (*self.node.at, "states", name)
         if st.states is None and st.machine is None and src is not None:
             ex.record(src, path, trigger or "", retry)
@@ -432,6 +455,11 @@ class Executor:
         """What the running skill was still waiting for when the time limit ended the run."""
         self._on_abort: str | None = None
         """The `on_abort` state to enter once the arm is at rest (None: the built-in stop)."""
+        self.pause = PauseControl(ctx)
+        """The skills' clock rate: `pause` slows it to a hold, `resume` back to full speed."""
+        self._pending: list[tuple[str, str]] = []
+        self.events: list[dict[str, Any]] = []
+        """Every event delivered: `{t, event, source}`, plus `ignored` (why) if it had no effect."""
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
         for node in root.nodes():
             self._build_guards(node)
@@ -479,6 +507,16 @@ class Executor:
             return self.final_state or ""
         return self.region.leaf()
 
+    @property
+    def paused(self) -> bool:
+        """A `pause` is in effect: the skills slow to a stop and hold until `resume`."""
+        return self.pause.paused and not self.done
+
+    @property
+    def rate(self) -> float:
+        """Speed of the skills' clock (1 running, 0 held by a pause; see engine/pause.py)."""
+        return self.pause.rate
+
     def start(self) -> None:
         self.region = _Region(self, self.root, "")
         finished = self.region.start(None, None)
@@ -489,6 +527,12 @@ class Executor:
         the controlled stop of an abort nothing runs but the stop."""
         if self.done:
             return
+        if self._pending:
+            pending, self._pending = self._pending, []
+            for name, source in pending:
+                self._apply(name, source)
+            if self.done:
+                return
         if self.stop is not None and self.final_state == SAFE_STOP:
             if not (self.stop.at_rest or self.stop.timed_out()):
                 return
@@ -505,7 +549,54 @@ class Executor:
                 self._finish("aborted", SAFE_STOP)
             return
         assert self.region is not None
+        if not self.pause.tick():  # held by a pause: no skill steps, no timeout runs
+            return
         self._check_end(self.region.tick())
+
+    def event(self, name: str, source: str = "") -> bool:
+        """Deliver the event `name`: `estop` aborts at once; `pause`, `resume` and the
+        machine's own events take effect at the start of the next control tick.
+
+        Args:
+            name: A built-in event or one of the top-level machine's `events:`.
+            source: Who sent it (for the log and the result's `metrics.events`).
+
+        Returns:
+            False if the machine does not know the event (nothing happens).
+        """
+        if name == ESTOP:
+            self.events.append({"t": round(self.ctx.t, 6), "event": name, "source": source})
+            self.estop(source)
+            return True
+        if name not in (PAUSE, RESUME) and name not in self.root.events:
+            return False
+        self._pending.append((name, source))
+        return True
+
+    def _apply(self, name: str, source: str) -> None:
+        ctx = self.ctx
+        rec: dict[str, Any] = {"t": round(ctx.t, 6), "event": name, "source": source}
+        self.events.append(rec)
+        ignored = None
+        if self.violation is not None:
+            ignored = "the safety response to an abort runs"
+        elif name == PAUSE:
+            if self.pause.paused:
+                ignored = "already paused"
+            else:
+                self.pause.pause()
+        elif name == RESUME:
+            if not self.pause.paused:
+                ignored = "not paused"
+            else:
+                self.pause.resume()
+        else:
+            assert self.region is not None
+            ctx.log("event", f"{name}: preempting {self.leaf} -> {self.root.events[name]}")
+            self._check_end(self.region.preempt(name, self.leaf))
+        if ignored is not None:
+            rec["ignored"] = ignored
+        ctx.log("event", f"event {name} ({source})" + (f" ignored: {ignored}" if ignored else ""))
 
     def abort(self, violation: Violation) -> None:
         """A guard fired: stop every activity, brake the arm to rest (SAFE_STOP), then go to
@@ -533,6 +624,7 @@ class Executor:
         self.final_state = SAFE_STOP
         self.safe_stop_until = None
         self._on_abort = self.root.on_abort if violation.guard != ESTOP else None
+        self.pause.cancel()  # the safety response is never paused
         self.stop = self.new_stop()
         self.stop.start(f"{violation.guard}: {violation.message}")
         self.changed()

@@ -1,5 +1,7 @@
-"""The fault injector: starts a scenario's faults at their time or on entering their state.
+"""The fault injector: starts a scenario's faults at their time or on entering their state,
+and delivers its scheduled events (`events:`, `run --event`) at their time.
 
+The e-stop is one mechanism whether it is a fault or an event: both call `Executor.event`.
 The runner calls `fire_due` from the physics step only when simulated time has reached
 `next_t` (one float comparison per step), so a run without faults pays nothing.
 """
@@ -14,10 +16,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..language import faults as F
+from ..language.machine import ESTOP
 from ..world.actuators import ActuatorFault
 from ..world.sensors import WristForceFault
 
 if TYPE_CHECKING:
+    from ..language.events import ScheduledEvent
     from ..language.faults import Fault
     from .context import Context, Event
     from .executor import Executor
@@ -31,10 +35,17 @@ class FaultInjector:
     Args:
         faults: The scenario's `faults:` (command-line faults included).
         ctx: The episode context (sensors, actuators, perception, the world's effects).
-        executor: For the e-stop.
+        executor: Receives the events and the e-stop.
+        events: The scenario's `events:` (command-line events included).
     """
 
-    def __init__(self, faults: list[Fault], ctx: Context, executor: Executor) -> None:
+    def __init__(
+        self,
+        faults: list[Fault],
+        ctx: Context,
+        executor: Executor,
+        events: list[ScheduledEvent] | None = None,
+    ) -> None:
         self.ctx, self.executor = ctx, executor
         self._queue: list[tuple[float, int, Callable[[], None]]] = []
         self._seq = 0
@@ -49,6 +60,8 @@ class FaultInjector:
                 self._on_enter.setdefault(fault.on_enter, []).append((i, fault))
         if self._on_enter:
             ctx.listeners.append(self._on_event)
+        for ev in events or []:
+            self._schedule(ev.at, self._sender(ev.event, f"scheduled at t={ev.at:g} s"))
 
     @property
     def next_t(self) -> float:
@@ -73,6 +86,12 @@ class FaultInjector:
             for i, fault in self._on_enter.pop(".".join(path[:depth]), []):
                 self._schedule(event.t + fault.delay_s, self._starter(i, fault))
 
+    def _sender(self, name: str, source: str) -> Callable[[], None]:
+        def send() -> None:
+            self.executor.event(name, source)
+
+        return send
+
     def _starter(self, index: int, fault: Fault) -> Callable[[], None]:
         return lambda: self._start(index, fault)
 
@@ -82,7 +101,7 @@ class FaultInjector:
         ctx.log("fault", f"fault {fault.kind} injected ({fault.when})", level="WARN")
         effects = ctx.world.effects
         if isinstance(fault, F.EStop):
-            self.executor.estop(f"injected at t={t:.3f} s")
+            self.executor.event(ESTOP, f"injected at t={t:.3f} s")
         elif isinstance(fault, (F.FtDropout, F.FtNan)):
             ctx.ft_fault = WristForceFault(fault.kind, t, (0.0, 0.0, 0.0), math.inf)
         elif isinstance(fault, F.FtBias):

@@ -125,7 +125,7 @@ def run_episode(
         lambda: SafetyStop(ctx, safe_stop),
         safe_stop.hold_s,
     )
-    injector = FaultInjector(list(scn.faults), ctx, executor)
+    injector = FaultInjector(list(scn.faults), ctx, executor, list(scn.events))
 
     act_idx = as_index(world.arm_act)
     # The physics step runs 500 times per simulated second: MjData's arrays are bound once
@@ -173,7 +173,7 @@ def run_episode(
             stop = None
         # states change in tick() or abort(), never between: bind the checks once per tick
         checks = executor.active_checks
-        ctx.advance_gripper()
+        ctx.advance_gripper(executor.rate)
         for _ in range(n_sub):
             tau = compute(*read_encoders())
             if ctx.actuator_fault is not None:
@@ -242,6 +242,11 @@ def run_episode(
         metrics["stop_distance_mm"] = round(abort_stop.distance_m * 1000.0, 3)
     if injector.injected:
         metrics["faults"] = injector.injected
+    if executor.events:
+        metrics["events"] = executor.events
+        metrics["paused_s"] = round(ctx.clock_offset, 6)
+    if executor.pause.pauses:
+        metrics["pauses"] = executor.pause.pauses
     metrics["rest_speed_rad_s"] = round(float(np.max(np.abs(data.qvel[world.arm_dof]))), 5)
     if timed_out:
         metrics["time_limit_reached"] = True

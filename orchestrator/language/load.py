@@ -16,6 +16,7 @@ from .blackboard_types import all_finite, check_type
 from .bundled import bundled_names, resolve_file
 from .default_scene import is_machine_data, scenario_for_machine
 from .diagnostics import Diagnostic
+from .events import check_events, parse_event_spec
 from .faults import parse_fault_spec
 from .includes import resolve_include
 from .limits import current_limits
@@ -49,6 +50,8 @@ def load_scenario(
     overrides: list[str] | None = None,
     faults: list[str] | None = None,
     allow_paths: Sequence[Path | str] = (),
+    events: list[str] | None = None,
+    machine: str | None = None,
 ) -> LoadedScenario:
     """Load and validate a scenario by path or bundled name.
 
@@ -58,6 +61,11 @@ def load_scenario(
         faults: `--fault SPEC` texts, added to the scenario's `faults:`.
         allow_paths: Directories outside the scenario's own tree that `machine:` may name
             (`--allow-path`).
+        events: `--event T:NAME` texts, added to the scenario's `events:`.
+        machine: Run this machine (a path or a bundled name) in the scenario's world instead
+            of its own (a live session's task); the scenario's `blackboard:` keeps only the
+            keys this machine declares, and its `success:` criteria (written for its own
+            machine) are dropped: the machine's outcome judges the task.
 
     Raises:
         ConfigError: With every problem found in the scenario, its machine and the overrides.
@@ -101,18 +109,32 @@ def load_scenario(
             data["machine"] = ov.value
             overridden["machine"] = f"--set {ov.text}"
     problems += _register_skills(data.get("skills"), path.parent, doc.source)
-    machine: MachineNode | None = None
-    machine_ref = data.get("machine")
+    node: MachineNode | None = None
+    machine_ref = machine if machine is not None else data.get("machine")
     if isinstance(machine_ref, str):
         found = resolve_include(machine_ref, path, allow, limits, what="machine")
         if found.path is None:
             diag = doc.source.diag(("machine",), found.error or "", found.valid)
             problems.append(_attribute(diag, overridden, doc.source.file))
         else:
-            machine, sub = load_machine_file(found.path, allow, limits)
+            node, sub = load_machine_file(found.path, allow, limits)
             problems += sub
-    types = blackboard_types(machine) if machine else {}
+    types = blackboard_types(node) if node else {}
     keys = set(types)
+    if machine is not None and machine != data.get("machine"):
+        data["machine"] = machine
+        data.pop("success", None)  # the scenario's criteria judge its own machine
+        if isinstance(data.get("blackboard"), dict):
+            data["blackboard"] = {k: v for k, v in data["blackboard"].items() if k in keys}
+    for text in events or []:
+        raw = parse_event_spec(text)
+        if isinstance(raw, Diagnostic):
+            problems.append(raw)
+            continue
+        listed = data.setdefault("events", [])
+        if isinstance(listed, list):
+            overridden[f"events[{len(listed)}]"] = f"--event {text}"
+            listed.append(raw)
     for text in faults or []:
         raw = parse_fault_spec(text)
         if isinstance(raw, Diagnostic):
@@ -150,12 +172,13 @@ def load_scenario(
             if not p.path.startswith("guards.") and not p.path.startswith("guards[")
         ]
         problems += validate_guards(raw_guards, doc.source, ("guards",))
-    if scenario is not None and machine is not None and not problems:
-        problems += check_scene_names(machine, scenario, doc.source)
-        problems += check_faults(machine, scenario, doc.source, _arm_joints(scenario))
+    if scenario is not None and node is not None and not problems:
+        problems += check_scene_names(node, scenario, doc.source)
+        problems += check_faults(node, scenario, doc.source, _arm_joints(scenario))
+        problems += check_events(node, scenario.events, doc.source)
     if scenario is not None:
-        problems += check_scenario_refs(scenario, doc.source, keys if machine else None)
-        if machine is not None:
+        problems += check_scenario_refs(scenario, doc.source, keys if node else None)
+        if node is not None:
             for key, value in scenario.blackboard.items():
                 if key not in keys:
                     problems.append(
@@ -180,14 +203,14 @@ def load_scenario(
                             f"{value!r} holds NaN or infinity: give finite numbers",
                         )
                     )
-    if machine is not None:
-        problems += validate_machine(machine)
+    if node is not None:
+        problems += validate_machine(node)
     if scenario is not None and not problems:
         problems += _compiles(scenario, doc.source)
     if problems:
         raise ConfigError([_attribute(d, overridden, doc.source.file) for d in problems])
-    assert scenario is not None and machine is not None
-    return LoadedScenario(scenario, machine, path, doc.source)
+    assert scenario is not None and node is not None
+    return LoadedScenario(scenario, node, path, doc.source)
 
 
 def load_machine(

@@ -32,6 +32,7 @@ class MachineNode:
         types: Declared type of each key (`any` for the short form `key: default`).
         guards: Machine-level guards.
         on_abort: State entered after a guard fires (None: the built-in safe stop).
+        events: Event name -> state it preempts into (`events:`; top-level machines only).
         children: State name -> nested machine for `machine:` and inline `states:`.
         branches: Parallel state name -> branch name -> a nested machine, or the branch spec
             itself for a single-skill branch.
@@ -51,6 +52,7 @@ class MachineNode:
     branches: dict[str, dict[str, Branch]] = field(default_factory=dict)
     types: dict[str, str] = field(default_factory=dict)
     top: bool = True
+    events: dict[str, str] = field(default_factory=dict)
 
     def outcomes(self) -> list[str]:
         """The outcomes this machine can end with (its `final:` values, in order)."""
@@ -209,6 +211,7 @@ class _Loader:
             guards=list(spec.guards),
             on_abort=spec.on_abort,
             source=doc.source,
+            events=dict(spec.events),
         )
         problems += self.children(node, path, (*stack, real), depth)
         self.cache[real] = node

@@ -8,7 +8,10 @@ from pydantic import BaseModel, ConfigDict, Field, NonNegativeInt, PositiveFloat
 
 __all__ = [
     "ABORT",
+    "BUILTIN_EVENTS",
     "ESTOP",
+    "PAUSE",
+    "RESUME",
     "SAFE_STOP",
     "BLACKBOARD_TYPES",
     "BlackboardKey",
@@ -25,6 +28,12 @@ SAFE_STOP = "SAFE_STOP"
 """The built-in state of the controlled stop every abort goes through first."""
 ESTOP = "estop"
 """The emergency stop: a built-in event of every machine and the reason's guard name."""
+PAUSE = "pause"
+"""Built-in event: every active skill freezes, the arm holds, skill clocks and timeouts stop."""
+RESUME = "resume"
+"""Built-in event: the paused states continue where they were."""
+BUILTIN_EVENTS = (ESTOP, PAUSE, RESUME)
+"""Events every machine has; none of them can be mapped to a state."""
 
 BLACKBOARD_TYPES = ("any", "str", "int", "float", "bool", "vec3", "pose", "list", "dict")
 BlackboardType = Literal["any", "str", "int", "float", "bool", "vec3", "pose", "list", "dict"]
@@ -194,6 +203,11 @@ class MachineSpec(_Strict):
     on_abort: str | None = Field(
         default=None,
         description="State entered when a guard fires (default: the built-in safe stop).",
+    )
+    events: dict[str, str] = Field(
+        default_factory=dict,
+        description="Event name -> state entered when the event arrives, preempting whatever "
+        "state is active (top-level machine only). Built in: estop, pause, resume.",
     )
     states: dict[str, StateSpec] = Field(min_length=1)
 

@@ -6,6 +6,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validator
 
+from .events import ScheduledEvent
 from .faults import Fault
 from .machine import GuardRef
 
@@ -404,4 +405,8 @@ class Scenario(_Strict):
     perception: Perception = Field(default_factory=Perception, description="Noise of `search`.")
     faults: list[Fault] = Field(
         default_factory=list, description="Faults injected into the run (see docs/safety.md)."
+    )
+    events: list[ScheduledEvent] = Field(
+        default_factory=list,
+        description="Events sent into the run at simulated times (see docs/live.md).",
     )

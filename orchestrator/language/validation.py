@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import re
 from collections.abc import Iterable
 from typing import Any
 
@@ -13,7 +14,7 @@ from ..skills import SKILLS, get_skill, skill_names
 from .blackboard_types import all_finite, check_type, sample_value
 from .diagnostics import Diagnostic
 from .loading import MachineNode
-from .machine import BranchSpec, GuardRef, StateSpec, guard_entries
+from .machine import BUILTIN_EVENTS, BranchSpec, GuardRef, StateSpec, guard_entries
 from .pydantic_errors import diagnostics_from_validation
 from .refs import parse_ref
 from .yamlio import SourceMap
@@ -29,6 +30,7 @@ __all__ = [
 ]
 
 POSE_FIELDS = ("pos", "quat")
+_EVENT_NAME = re.compile(r"[a-z][a-z0-9_]*")
 
 
 def skill_writes(skill: str, params: dict) -> dict[str, str]:
@@ -136,6 +138,7 @@ def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Dia
     if node.on_abort is not None:
         if node.on_abort not in node.states:
             out.append(src.diag((*at, "on_abort"), f"unknown state {node.on_abort!r}", names))
+    out += _check_events(node)
     out += validate_guards(node.guards, src, (*at, "guards"))
     for key, value in node.blackboard.items():
         kat = (*at, "blackboard", key)
@@ -166,6 +169,36 @@ def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Dia
         for branch in branches.values():
             if isinstance(branch, MachineNode):
                 out += _check(branch, types, seen)
+    return out
+
+
+def _check_events(node: MachineNode) -> list[Diagnostic]:
+    """`events:` names states of this machine, never a built-in event, and only at the top
+    (an event preempts the whole machine, like `on_abort`)."""
+    src, at = node.source, (*node.at, "events")
+    out = []
+    if node.events and not node.top:
+        out.append(
+            src.diag(at, "`events` only take effect in the top-level machine: move them there")
+        )
+    for event, target in node.events.items():
+        if event in BUILTIN_EVENTS:
+            out.append(
+                src.diag(
+                    (*at, event),
+                    f"{event!r} is a built-in event and cannot be mapped to a state"
+                    f" (built in: {', '.join(BUILTIN_EVENTS)})",
+                )
+            )
+        elif not _EVENT_NAME.fullmatch(str(event)):
+            out.append(
+                src.diag(
+                    (*at, event),
+                    f"event name {event!r} must be a lowercase identifier (e.g. stop, go_home)",
+                )
+            )
+        if target not in node.states:
+            out.append(src.diag((*at, event), f"unknown state {target!r}", tuple(node.states)))
     return out
 
 
@@ -249,7 +282,7 @@ def _check_graph(node: MachineNode) -> list[Diagnostic]:
     states = node.states
     edges = {n: {t for t in st.transitions.values() if t in states} for n, st in states.items()}
     reachable: set[str] = set()
-    todo = [s for s in (node.initial, node.on_abort) if s in states]
+    todo = [s for s in (node.initial, node.on_abort, *node.events.values()) if s in states]
     while todo:
         s = todo.pop()
         if s not in reachable:

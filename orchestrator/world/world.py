@@ -77,6 +77,8 @@ class World:
         m = model
         self.arm_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot.arm_joints])
         self.arm_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot.arm_joints])
+        self._friction0 = m.dof_frictionloss[self.arm_dof].copy()
+        """Each arm joint's own friction loss, restored when its holding brake is released."""
         robot_joints = (*robot.arm_joints, *robot.finger_joints)
         self.robot_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot_joints])
         self.robot_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot_joints])
@@ -184,6 +186,11 @@ class World:
         self.model.dof_frictionloss[dof] = (
             float(self.arm_effort_limit[joint]) if torque_nm is None else torque_nm
         )
+
+    def release_brakes(self) -> None:
+        """Release every holding brake `engage_brake` engaged (a live session does before
+        its next task: the motors take over again)."""
+        self.model.dof_frictionloss[self.arm_dof] = self._friction0
 
     def reset(self) -> None:
         """Robot at home with the gripper open, objects at their seeded poses, at rest."""

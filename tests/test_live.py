@@ -1,0 +1,216 @@
+"""Live sessions end to end: `orchestrator serve` in a subprocess, driven over Zenoh on
+127.0.0.1 by `orchestrator send` and the Python client."""
+
+from __future__ import annotations
+
+import json
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+
+from orchestrator.live.client import Client
+
+from .conftest import CliResult
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+class Served:
+    """A `serve` subprocess and the means to talk to it."""
+
+    def __init__(self, name: str, *args: str) -> None:
+        self.name = name
+        self.endpoint = f"tcp/127.0.0.1:{_free_port()}"
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "orchestrator.cli", "serve", "pick_place", "--session", name,
+             "--seed", "3", "--listen", self.endpoint, *args],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        self.client = Client(name, [self.endpoint], heartbeat_s=None, name="test", find_s=60.0)
+        self.client.status()  # waits for the session to come up
+
+    def send(self, *args: str) -> CliResult:
+        proc = subprocess.run(
+            [sys.executable, "-m", "orchestrator.cli", "send", self.name, *args,
+             "--connect", self.endpoint],
+            capture_output=True, text=True, timeout=300, check=False,
+        )  # fmt: skip
+        return CliResult(proc.returncode, proc.stdout, proc.stderr)
+
+    def status(self) -> dict:
+        return self.client.status()
+
+    def wait_state(self, state: str, timeout: float = 60.0) -> dict:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            status = self.status()
+            if status["state"] == state:
+                return status
+            time.sleep(0.02)
+        raise AssertionError(f"state {self.status()['state']}, never {state}")
+
+    def close(self) -> None:
+        try:
+            self.client.shutdown()
+            self.proc.wait(timeout=30)
+        finally:
+            self.client.close()
+            if self.proc.poll() is None:
+                self.proc.kill()
+                self.proc.wait()
+
+
+@pytest.fixture(scope="module")
+def served() -> Iterator[Served]:
+    s = Served("t", "--speed", "0")
+    yield s
+    s.close()
+
+
+def test_send_runs_a_pick_and_prints_its_result(served):
+    res = served.send("run", "pick_place", "--wait", "--json")
+    assert res.exit_code == 0, res.stderr
+    result = json.loads(res.stdout)
+    assert result["outcome"] == "succeeded" and result["success"]["cube_on_target"]
+    assert served.status()["state"] == "IDLE"
+
+
+@pytest.mark.parametrize(
+    ("sets", "words"),
+    [
+        ("target=[1.4, 0.0, 0.5]", "outside the workspace"),
+        ("target=[0.5, 0.2, 0.1]", "outside the workspace"),
+        ("target=[0.5, 0.2, .nan]", "is not a vec3"),
+        ("target=[0.9, 0.55, 0.16]", "unreachable"),
+    ],
+)
+def test_a_goal_outside_the_guardrails_is_refused_and_nothing_moves(served, sets, words):
+    before = np.asarray(served.status()["tcp"])
+    res = served.send("run", "reach", "--set", sets)
+    assert res.exit_code == 2 and words in res.stderr, res.stderr
+    time.sleep(0.2)
+    status = served.status()
+    assert status["state"] == "IDLE" and status["task"] is None
+    assert np.linalg.norm(np.asarray(status["tcp"]) - before) < 2e-4  # held, not moved
+
+
+def test_an_unknown_command_or_machine_exits_2(served):
+    assert served.send("jump").exit_code == 2
+    res = served.send("run", "no_such_machine")
+    assert res.exit_code == 2 and "no_such_machine" in res.stderr
+
+
+def test_estop_stops_a_running_task_until_reset(served):
+    reply, _ = served.client.run("reach", ["target=[0.45, -0.25, 0.55]"])
+    assert reply.accepted
+    served.wait_state("MOVING")
+    assert served.client.estop().accepted  # at once: `send` would start a Python first
+    status = served.wait_state("ESTOPPED")
+    deadline = time.monotonic() + 30
+    while (status["last_result"] or {}).get("task") != reply.task:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+        status = served.status()
+    result = status["last_result"]
+    assert result["outcome"] == "aborted" and result["reason"]["guard"] == "estop"
+    assert result["metrics"]["stop_time_s"] <= 0.15
+    assert status["last_estop"]["ticks"] <= 1  # within one control tick of its arrival
+    refused = served.send("run", "home")
+    assert refused.exit_code == 2 and "reset" in refused.stderr
+    assert served.send("reset").exit_code == 0
+    served.wait_state("IDLE")
+    assert served.send("reset").exit_code == 2  # nothing left to reset
+
+
+def test_pause_holds_a_task_and_resume_lets_it_succeed(served):
+    reply, _ = served.client.run("reach", ["target=[0.55, 0.2, 0.45]"])
+    served.wait_state("MOVING")
+    assert served.client.pause().accepted
+    served.wait_state("PAUSED")
+    time.sleep(0.5)  # the hold: the ramp down has long ended
+    a = np.asarray(served.status()["tcp"])
+    time.sleep(0.5)
+    status = served.status()
+    assert status["state"] == "PAUSED" and status["task"]["id"] == reply.task
+    assert np.linalg.norm(np.asarray(status["tcp"]) - a) < 1e-3  # held within 1 mm
+    res = served.send("resume")
+    assert res.exit_code == 0
+    deadline = time.monotonic() + 60
+    while (served.status()["last_result"] or {}).get("task") != reply.task:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    result = served.status()["last_result"]
+    assert result["outcome"] == "succeeded"
+    assert [e["event"] for e in result["metrics"]["events"]] == ["pause", "resume"]
+
+
+def test_pause_without_a_task_is_refused(served):
+    res = served.send("pause")
+    assert res.exit_code == 2 and "no task is running" in res.stderr
+
+
+def test_a_silent_client_trips_the_watchdog():
+    s = Served("w", "--speed", "1", "--watchdog", "0.3")
+    try:
+        with Client("w", [s.endpoint], heartbeat_s=0.05, name="planner") as alive:
+            reply, _ = alive.run("reach", ["target=[0.45, -0.25, 0.55]"])
+            assert reply.accepted
+            s.wait_state("MOVING")
+            time.sleep(0.5)  # heartbeats flow: no trip
+            assert s.status()["state"] == "MOVING"
+            alive.stop_heartbeats()
+            status = s.wait_state("ERROR", timeout=10)
+        assert "watchdog" in status["error"]
+        deadline = time.monotonic() + 30
+        while (s.status()["last_result"] or {}).get("task") != reply.task:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        result = s.status()["last_result"]
+        assert result["outcome"] == "aborted" and result["reason"]["guard"] == "watchdog"
+        assert s.send("run", "home").exit_code == 2
+        assert s.send("reset").exit_code == 0
+        assert s.send("run", "home", "--wait").exit_code == 0
+    finally:
+        s.close()
+
+
+def test_send_to_no_session_says_so():
+    port = _free_port()
+    proc = subprocess.run(
+        [sys.executable, "-c",
+         "from orchestrator.live.client import Client, LiveError\n"
+         f"c = Client('nobody', ['tcp/127.0.0.1:{port}'], heartbeat_s=None, find_s=0.5)\n"
+         "try:\n    c.status()\nexcept LiveError as e:\n    print(e)\nc.close()"],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert "no session 'nobody' answered" in proc.stdout, proc.stderr
+
+
+def test_watch_shows_the_state_and_says_when_heartbeats_are_lost(served):
+    def watch(name: str, endpoint: str) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            [sys.executable, "-m", "orchestrator.cli", "watch", name, "--for", "1.5",
+             "--connect", endpoint],
+            capture_output=True, text=True, timeout=120, check=False,
+        )  # fmt: skip
+
+    live = watch(served.name, served.endpoint)
+    assert live.returncode == 0 and "IDLE" in live.stdout and "LOST" not in live.stdout
+    gone = watch("nobody", f"tcp/127.0.0.1:{_free_port()}")
+    assert gone.returncode == 1 and "LOST" in gone.stdout
+
+
+def test_send_status_prints_the_status_json(served):
+    res = served.send("status", "--json")
+    assert res.exit_code == 0
+    status = json.loads(res.stdout)["status"]
+    assert status["session"] == "t" and status["scene"] == {"objects": ["cube"], "markers": ["pad"]}

@@ -1,0 +1,117 @@
+"""The planner adapter against a local chat-completions server with canned replies: only a
+good proposal moves the robot; every bad one is refused before anything moves."""
+
+from __future__ import annotations
+
+import json
+import socket
+import threading
+from collections.abc import Iterator
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+import numpy as np
+import pytest
+
+from orchestrator.live.client import Client
+from orchestrator.live.planner import PlannerError, ask_planner, parse_reply
+from orchestrator.live.server import serve
+from orchestrator.live.session import Session
+
+
+class _Planner(BaseHTTPRequestHandler):
+    reply = ""
+    requests: list[dict] = []
+
+    def do_POST(self) -> None:
+        body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
+        _Planner.requests.append(body)
+        message = {"role": "assistant", "content": _Planner.reply}
+        out = json.dumps({"choices": [{"message": message}]}).encode()
+        self.send_response(200)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(out)))
+        self.end_headers()
+        self.wfile.write(out)
+
+    def log_message(self, *args) -> None:
+        pass
+
+
+def _port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture(scope="module")
+def planner() -> Iterator[str]:
+    server = ThreadingHTTPServer(("127.0.0.1", 0), _Planner)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield f"http://127.0.0.1:{server.server_address[1]}/v1"
+    server.shutdown()
+
+
+@pytest.fixture(scope="module")
+def client() -> Iterator[Client]:
+    endpoint = f"tcp/127.0.0.1:{_port()}"
+    session = Session("pick_place", "p", seed=3, speed=0.0)
+    stop = threading.Event()
+    thread = threading.Thread(target=serve, args=(session, [endpoint], None, None, stop))
+    thread.start()
+    c = Client("p", [endpoint], name="planner test", find_s=60.0)
+    yield c
+    c.close()
+    stop.set()
+    thread.join(30)
+
+
+@pytest.mark.parametrize(
+    ("reply", "words"),
+    [
+        ('{"machine": "reach", "set": {"target": [1.7, 0.0, 0.5]}}', "outside the workspace"),
+        ('{"machine": "pick_place", "set": {"object": "red_ball", "place_at": "pad"}}',
+         "red_ball"),
+        ('{"machine": "reach", "set": {"target": [0.5, 0.1, 0.4]}, "speed": "max"}',
+         "speed: Extra inputs are not permitted"),
+        ("Sure! I will move the arm to the red cube now.", "did not answer with JSON"),
+        ('{"machine": "self_destruct"}', "valid: pick_place, reach, home"),
+    ],
+)  # fmt: skip
+def test_a_bad_proposal_never_moves_the_robot(planner, client, monkeypatch, reply, words):
+    monkeypatch.setenv("ORCHESTRATOR_PLANNER_URL", planner)
+    _Planner.reply = reply
+    before = client.status()
+    try:
+        _, answer, _ = ask_planner(client, "put the red cube on the pad")
+        assert not answer.accepted and words in answer.reason, answer.reason
+    except PlannerError as exc:
+        assert words in str(exc)
+    after = client.status()
+    assert after["state"] == "IDLE" and after["last_result"] == before["last_result"]
+    assert np.linalg.norm(np.subtract(after["tcp"], before["tcp"])) < 2e-4
+
+
+def test_a_good_proposal_runs_through_the_guardrails(planner, client, monkeypatch):
+    monkeypatch.setenv("ORCHESTRATOR_PLANNER_URL", planner)
+    _Planner.reply = (
+        '```json\n{"machine": "pick_place", "set": {"object": "cube", "place_at": "pad"}}\n```'
+    )
+    _Planner.requests.clear()
+    proposal, answer, result = ask_planner(client, "put the red cube on the pad", wait=True)
+    assert answer.accepted and proposal["machine"] == "pick_place"
+    assert result is not None and result["outcome"] == "succeeded"
+    prompt = _Planner.requests[0]["messages"][0]["content"]
+    assert "Scene objects: cube." in prompt and "Markers: pad." in prompt
+    assert '"additionalProperties": false' in prompt  # the schema it must answer with
+
+
+def test_parse_reply_refuses_a_list():
+    with pytest.raises(PlannerError, match="invalid"):
+        parse_reply("[1, 2, 3]")
+
+
+def test_ask_without_a_planner_says_so(cli, monkeypatch):
+    monkeypatch.delenv("ORCHESTRATOR_PLANNER_URL", raising=False)
+    res = cli("ask", "nobody", "put the cube on the pad")
+    assert res.exit_code == 2 and "no planner configured" in res.stderr
