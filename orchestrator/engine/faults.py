@@ -70,7 +70,7 @@ class FaultInjector:
 
     def fire_due(self, t: float) -> None:
         """Apply everything scheduled up to `t` [s]."""
-        while self._queue and self._queue[0][0] <= t + 1e-12:
+        while self._queue and self._queue[0][0] <= t + 1e-9:
             _, _, action = heapq.heappop(self._queue)
             action()
 
