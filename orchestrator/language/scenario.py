@@ -8,11 +8,14 @@ from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validato
 
 from .faults import Fault
 from .machine import GuardRef
+from .perception import CameraSpec, Perception
 
 __all__ = [
+    "CameraSpec",
     "Marker",
     "ObjectSpec",
     "Obstacle",
+    "Perception",
     "Phantom",
     "Physics",
     "RobotRef",
@@ -286,13 +289,6 @@ class SuccessCheck(_Strict):
         return self
 
 
-class Perception(_Strict):
-    """Noise of the simulated perception used by `search`."""
-
-    position_noise_m: float = Field(default=0.0, ge=0.0, description="Std. dev. [m].")
-    yaw_noise_deg: float = Field(default=0.0, ge=0.0, description="Std. dev. [deg].")
-
-
 class ToolSpec(_Strict):
     """A probe mounted on the flange: a shaft along the flange z axis ending in a ball tip.
 
@@ -346,6 +342,9 @@ class Scenario(_Strict):
     success: dict[str, SuccessCheck] = Field(default_factory=dict)
     physics: Physics = Field(default_factory=Physics)
     perception: Perception = Field(default_factory=Perception)
+    cameras: list[CameraSpec] = Field(
+        default_factory=list, description="Cameras (see docs/perception.md)."
+    )
     faults: list[Fault] = Field(
         default_factory=list, description="Faults injected into the run (see docs/safety.md)."
     )
