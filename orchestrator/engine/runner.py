@@ -212,4 +212,5 @@ def run_episode(
     )
     for obs in observers:
         obs.on_end(ctx, executor, result)
+    ctx.close()
     return result

@@ -9,6 +9,7 @@ process, so a batch worker probes once.
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
 import warnings
@@ -59,7 +60,6 @@ class BackendStatus:
         return f"raycast (no OpenGL via {self.platform}{why})"
 
 
-_status: BackendStatus | None = None
 _PROBE_XML = "<mujoco><worldbody><geom size='0.1'/></worldbody></mujoco>"
 
 
@@ -99,12 +99,10 @@ def _probe() -> BackendStatus:
     return BackendStatus(True, platform, "")
 
 
+@functools.cache
 def backend_status() -> BackendStatus:
     """Whether OpenGL works here (probed once per process)."""
-    global _status
-    if _status is None:
-        _status = _probe()
-    return _status
+    return _probe()
 
 
 def open_renderer(model: mujoco.MjModel, preference: Preference = "auto") -> Renderer:

@@ -148,7 +148,7 @@ class RaycastCamera:
             for part in parts[1:]:
                 same &= face[part] == f0
                 nothing &= cg[part] == -1
-            mean_inv = sum(inv[part] for part in parts) / len(parts)
+            mean_inv = np.add.reduce([inv[part] for part in parts]) / len(parts)
             tg, td, tn = geom[rows, cols], dist[rows, cols], normal[rows, cols]
             tg[same] = cg[parts[0]][same]
             td[same] = 1.0 / mean_inv[same]

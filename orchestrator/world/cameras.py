@@ -67,9 +67,23 @@ def add_cameras(spec: mujoco.MjSpec, scenario: Scenario, robot: Robot) -> None:
         else:
             quat = np.array([1.0, 0.0, 0.0, 0.0])
         parent.add_camera(name=cam.name, pos=list(cam.pos), quat=quat.tolist(), fovy=cam.fovy_deg)
+    _vision_lighting(spec)
     glob = spec.visual.global_
     glob.offwidth = max(int(glob.offwidth), *(c.width for c in scenario.cameras))
     glob.offheight = max(int(glob.offheight), *(c.height for c in scenario.cameras))
+
+
+def _vision_lighting(spec: mujoco.MjSpec) -> None:
+    """Light a scene with cameras for colour vision: the sun becomes a directional light (the
+    same brightness everywhere on the table, as the ray-cast camera assumes) and nothing is
+    specular (a highlight washes a face out to white, and only OpenGL would draw it)."""
+    sun = spec.light(_LIGHT)
+    sun.type = mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
+    sun.specular = [0.0, 0.0, 0.0]
+    head = spec.visual.headlight
+    head.ambient = [0.2, 0.2, 0.2]
+    head.diffuse = [0.15, 0.15, 0.15]
+    head.specular = [0.0, 0.0, 0.0]
 
 
 def randomize_appearance(

@@ -1,0 +1,194 @@
+"""Perception: cameras, the two renderers, colour detection and the `detect` skill."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+
+import mujoco
+import numpy as np
+import pytest
+
+from orchestrator.engine.runner import run_episode
+from orchestrator.language.load import load_scenario
+from orchestrator.perception.backends import backend_status
+from orchestrator.perception.detections import detect_objects
+from orchestrator.perception.rig import CameraRig
+from orchestrator.perception.truth import TrueObject, fully_in_view, match_detections
+from orchestrator.world.world import World
+
+from .conftest import REPO
+
+CAMERA = "overhead"
+
+
+@pytest.fixture(scope="module")
+def vision():
+    return load_scenario("pick_place_vision")
+
+
+def _world(loaded, seed: int, backend: str):
+    scn = loaded.scenario.model_copy(
+        update={"perception": loaded.scenario.perception.model_copy(update={"backend": backend})}
+    )
+    world = World.build(scn, seed)
+    mujoco.mj_forward(world.model, world.data)
+    return world, CameraRig(world.model, scn, seed)
+
+
+def _truths(world) -> list[TrueObject]:
+    from orchestrator.perception.colours import classify_rgb
+
+    classes = world.scenario.perception.class_boxes()
+    out = []
+    for spec in world.scenario.scene.objects:
+        h = world.objects[spec.name]
+        pos = world.data.xpos[h.body_id]
+        quat = world.data.xquat[h.body_id]
+        yaw = math.atan2(
+            2 * (quat[0] * quat[3] + quat[1] * quat[2]), 1 - 2 * (quat[2] ** 2 + quat[3] ** 2)
+        )
+        top = pos + [0.0, 0.0, spec.size[2] / 2]
+        out.append(TrueObject(spec.name, classify_rgb(spec.rgba, classes), top, yaw, spec.size))
+    return out
+
+
+def _detect(world, rig):
+    frame = rig.capture(world.data, CAMERA)
+    boxes = world.scenario.perception.class_boxes()
+    noise = world.scenario.perception.randomize.depth_noise_m
+    return frame, detect_objects(frame, boxes, 30, None, noise)
+
+
+@pytest.mark.parametrize("seed", [0, 7])
+def test_detections_match_the_truth_in_class_position_and_yaw(vision, seed):
+    world, rig = _world(vision, seed, "raycast")
+    frame, found = _detect(world, rig)
+    truths = _truths(world)
+    assert all(fully_in_view(t, frame) for t in truths)
+    matches = match_detections(found, truths)
+    assert sorted(m.truth.name for m in matches if m.truth) == sorted(t.name for t in truths)
+    for m in matches:
+        assert m.correct, (m.detection.cls, m.truth)
+        assert m.detection.confidence >= 0.5
+        assert m.position_error_m < 0.003
+        assert m.yaw_error_deg < 3.0
+
+
+@pytest.mark.skipif(not backend_status().opengl, reason="no OpenGL context on this machine")
+@pytest.mark.parametrize("seed", [1, 4])
+def test_opengl_and_raycast_agree_on_classes_and_positions_within_2mm(vision, seed):
+    results = {}
+    for backend in ("opengl", "raycast"):
+        world, rig = _world(vision, seed, backend)
+        frame, found = _detect(world, rig)
+        assert frame.backend == backend
+        results[backend] = found
+        rig.close()
+    gl, rc = results["opengl"], results["raycast"]
+    assert [d.cls for d in gl] == [d.cls for d in rc]
+    for a, b in zip(gl, rc, strict=True):
+        assert np.linalg.norm(a.pos - b.pos) < 0.002
+
+
+def test_a_blob_cut_by_the_region_of_interest_keeps_its_class_with_low_confidence(vision):
+    world, rig = _world(vision, 0, "raycast")
+    frame = rig.capture(world.data, CAMERA)
+    boxes = world.scenario.perception.class_boxes()
+    whole = [d for d in detect_objects(frame, boxes) if d.cls == "red"]
+    x, y, w, h = whole[0].bbox
+    roi = (0, 0, x + w // 2, frame.intrinsics.height)  # the right half of the red cube cut off
+    near = lambda d: np.linalg.norm(d.pos[:2] - whole[0].pos[:2]) < 0.03  # noqa: E731
+    cut = [d for d in detect_objects(frame, boxes, roi=roi) if near(d)]
+    assert [d.cls for d in cut] == ["red"]
+    assert whole[0].confidence >= 0.9
+    assert cut[0].confidence < 0.5
+
+
+def test_pixel_noise_is_drawn_per_seed_and_reproducible(vision):
+    a = _detect(*_world(vision, 3, "raycast"))[0].rgb
+    b = _detect(*_world(vision, 3, "raycast"))[0].rgb
+    c = _detect(*_world(vision, 4, "raycast"))[0].rgb
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
+
+
+def test_pick_place_vision_picks_the_red_cube_by_camera(vision):
+    result = run_episode(vision, 2)
+    assert result.outcome == "succeeded", result.metrics
+    m = result.metrics
+    assert m["misclassified"] == 0
+    assert 0.0 < m["detection_error_mm"] < 3.0
+    assert m["detection_yaw_error_deg"] < 3.0
+    assert m["perception_backend"] in ("opengl", "raycast")
+    again = run_episode(vision, 2)
+    assert again.metrics == result.metrics and again.transitions == result.transitions
+
+
+def test_detect_writes_the_documented_detection_records(vision):
+    from orchestrator.engine.context import Context  # noqa: F401 - the blackboard contract
+
+    captured = {}
+
+    class Grab:
+        def on_start(self, ctx, executor):
+            self.ctx = ctx
+
+        def on_tick(self, ctx, executor):
+            if "detections" in ctx.blackboard and ctx.blackboard["detections"] and not captured:
+                captured["d"] = ctx.blackboard["detections"]
+                captured["pose"] = ctx.blackboard["object_pose"]
+
+        def on_end(self, ctx, executor, result):
+            pass
+
+    run_episode(vision, 0, [Grab()])
+    dets = captured["d"]
+    assert [d["id"] for d in dets] == list(range(len(dets)))
+    assert {"id", "class", "pose", "confidence", "pixels", "bbox", "size_m", "camera"} <= set(
+        dets[0]
+    )
+    assert [d["class"] for d in dets] == ["red"]  # the machine asks for class red only
+    assert captured["pose"].pos == pytest.approx(dets[0]["pose"]["pos"])
+    json.dumps(dets)  # plain data
+
+
+def test_an_unknown_colour_class_or_camera_is_a_located_error(cli):
+    res = cli("run", "pick_place_vision", "--seed", "0", "--set", "blackboard.target_class=pink")
+    assert res.exit_code == 2
+    assert "no colour class 'pink'" in res.stdout + res.stderr
+    assert "valid: red, green, blue, yellow" in res.stdout + res.stderr
+    res = cli("run", "pick_place_vision", "--seed", "0", "--set", "blackboard.camera=wrist")
+    assert res.exit_code == 2
+    assert "pick_place_vision.yaml:" in res.stdout + res.stderr
+    assert "no camera 'wrist'" in res.stdout + res.stderr
+
+
+_NO_EGL = """
+import sys
+sys.modules["OpenGL.EGL"] = None  # as on a machine without libEGL: importing it fails
+from orchestrator.perception.backends import backend_status
+from orchestrator.engine.runner import run_episode
+from orchestrator.language.load import load_scenario
+status = backend_status()
+result = run_episode(load_scenario("pick_place_vision"), 5)
+print(status.opengl, status.platform, result.outcome, result.metrics["perception_backend"])
+"""
+
+
+def test_without_libegl_and_mujoco_gl_unset_the_raycast_backend_takes_over():
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "DISPLAY")}
+    env.pop("WAYLAND_DISPLAY", None)
+    out = subprocess.run(
+        [sys.executable, "-c", _NO_EGL],
+        check=False,
+        env=env,
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["False", "egl", "succeeded", "raycast"]
