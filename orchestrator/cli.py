@@ -237,6 +237,9 @@ def list_() -> None:
     out.print(table)
     out.print("[bold]guards[/]:    " + ", ".join(sorted(GUARDS)))
     out.print("[bold]robots[/]:    " + ", ".join(sorted(ROBOTS)))
+    from .perception.backends import backend_status
+
+    out.print("[bold]camera renderer[/]: " + backend_status().describe())
 
 
 @app.command()

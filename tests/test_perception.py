@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ctypes.util
 import json
 import math
 import os
@@ -192,3 +193,23 @@ def test_without_libegl_and_mujoco_gl_unset_the_raycast_backend_takes_over():
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["False", "egl", "succeeded", "raycast"]
+
+
+@pytest.mark.skipif(
+    ctypes.util.find_library("OSMesa") is not None, reason="OSMesa is installed here"
+)
+def test_mujoco_gl_naming_a_missing_library_falls_back_to_raycast_instead_of_crashing():
+    env = dict(os.environ, MUJOCO_GL="osmesa")
+    code = (
+        "import orchestrator, mujoco\n"
+        "from orchestrator.perception.backends import backend_status\n"
+        "print(backend_status().describe())"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], check=False, env=env, cwd=REPO, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    assert (
+        out.stdout.strip()
+        == "raycast (no OpenGL via none: MUJOCO_GL=osmesa but libOSMesa is missing)"
+    )

@@ -84,7 +84,8 @@ def _context_class(platform: str) -> type:
 def _probe() -> BackendStatus:
     platform = _platform()
     if platform == "none":
-        return BackendStatus(False, "none", "MUJOCO_GL disables OpenGL")
+        why = os.environ.get("ORCHESTRATOR_GL_MISSING") or "MUJOCO_GL disables OpenGL"
+        return BackendStatus(False, "none", why)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # GLFW warns before it fails on a headless machine
