@@ -8,9 +8,8 @@ from typing import TYPE_CHECKING, Annotated, ClassVar
 import numpy as np
 from pydantic import Field, NonNegativeFloat
 
-from orchestrator.perception.colours import classify_rgb
 from orchestrator.perception.detections import Detection, detect_objects
-from orchestrator.perception.truth import TrueObject, match_detections
+from orchestrator.perception.truth import match_detections, true_objects
 from orchestrator.world.pose import Pose
 
 from .base import Skill, SkillParams
@@ -18,7 +17,7 @@ from .base import Skill, SkillParams
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
 
-__all__ = ["Detect", "true_objects"]
+__all__ = ["Detect"]
 
 CAMERA = {"scene_ref": "camera"}
 COLOUR_CLASS = {"scene_ref": "colour_class"}
@@ -110,7 +109,7 @@ class Detect(Skill):
         """Add this call's errors against the truth to the run's metrics (worst over calls)."""
         m = ctx.metrics
         m["perception_backend"] = ctx.cameras.renderer.name
-        matches = match_detections(found, true_objects(ctx))
+        matches = match_detections(found, true_objects(ctx.world))
         wrong = sum(1 for x in matches if not x.correct)
         m["misclassified"] = int(m.get("misclassified", 0)) + wrong
         pos = [x.position_error_m * 1000.0 for x in matches if x.correct]
@@ -120,24 +119,3 @@ class Detect(Skill):
             m["detection_yaw_error_deg"] = round(
                 max(m.get("detection_yaw_error_deg", 0.0), *yaw), 3
             )
-
-
-def true_objects(ctx: Context) -> list[TrueObject]:
-    """The scene's free objects as the simulator knows them (class from their nominal colour)."""
-    classes = ctx.scenario.perception.class_boxes()
-    out = []
-    for spec in ctx.scenario.scene.objects:
-        pose = ctx.object_pose(spec.name)
-        w, x, y, z = pose.quat  # its z axis in the world: the top face's normal
-        axis = np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
-        up = axis * spec.size[2] / 2.0
-        out.append(
-            TrueObject(
-                name=spec.name,
-                cls=classify_rgb(spec.rgba, classes),
-                top=np.asarray(pose.pos) + up,
-                yaw=pose.yaw,
-                size=np.asarray(spec.size, float),
-            )
-        )
-    return out

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import ctypes.util
 import json
-import math
 import os
 import subprocess
 import sys
@@ -18,7 +17,7 @@ from orchestrator.language.load import load_scenario
 from orchestrator.perception.backends import backend_status
 from orchestrator.perception.detections import detect_objects
 from orchestrator.perception.rig import CameraRig
-from orchestrator.perception.truth import TrueObject, fully_in_view, match_detections
+from orchestrator.perception.truth import fully_in_view, match_detections, true_objects
 from orchestrator.world.world import World
 
 from .conftest import REPO
@@ -40,23 +39,6 @@ def _world(loaded, seed: int, backend: str):
     return world, CameraRig(world.model, scn, seed)
 
 
-def _truths(world) -> list[TrueObject]:
-    from orchestrator.perception.colours import classify_rgb
-
-    classes = world.scenario.perception.class_boxes()
-    out = []
-    for spec in world.scenario.scene.objects:
-        h = world.objects[spec.name]
-        pos = world.data.xpos[h.body_id]
-        quat = world.data.xquat[h.body_id]
-        yaw = math.atan2(
-            2 * (quat[0] * quat[3] + quat[1] * quat[2]), 1 - 2 * (quat[2] ** 2 + quat[3] ** 2)
-        )
-        top = pos + [0.0, 0.0, spec.size[2] / 2]
-        out.append(TrueObject(spec.name, classify_rgb(spec.rgba, classes), top, yaw, spec.size))
-    return out
-
-
 def _detect(world, rig):
     frame = rig.capture(world.data, CAMERA)
     boxes = world.scenario.perception.class_boxes()
@@ -68,7 +50,7 @@ def _detect(world, rig):
 def test_detections_match_the_truth_in_class_position_and_yaw(vision, seed):
     world, rig = _world(vision, seed, "raycast")
     frame, found = _detect(world, rig)
-    truths = _truths(world)
+    truths = true_objects(world)
     assert all(fully_in_view(t, frame) for t in truths)
     matches = match_detections(found, truths)
     assert sorted(m.truth.name for m in matches if m.truth) == sorted(t.name for t in truths)

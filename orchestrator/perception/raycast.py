@@ -50,7 +50,8 @@ class RaycastCamera:
             self._cast[standin & in_body] = True
             self._colour_of[standin & in_body] = meshes[0]
         self._mask = np.array([1, 0, 0, 0, 0, 0], np.uint8)
-        self._rays: dict[tuple[int, int, float], np.ndarray] = {}
+        self._rays: dict[int, tuple[bytes, np.ndarray, np.ndarray]] = {}
+        """Camera id -> (its orientation, its pixels' rays in the world, their unit vectors)."""
 
     def render(
         self, data: mujoco.MjData, cam_id: int, intrinsics: Intrinsics, segmentation: bool
@@ -68,10 +69,7 @@ class RaycastCamera:
         h, w = intrinsics.height, intrinsics.width
         pos = data.cam_xpos[cam_id].copy()
         rot = data.cam_xmat[cam_id].reshape(3, 3).copy()
-        key = (w, h, intrinsics.fy)
-        if key not in self._rays:
-            self._rays[key] = intrinsics.ray_directions()
-        vec = (self._rays[key] @ rot.T).reshape(h, w, 3)
+        vec, view = self._world_rays(cam_id, intrinsics, rot)
         geom = np.full((h, w), -2, np.int32)  # -2: not cast yet
         dist = np.zeros((h, w))
         normal = np.zeros((h, w, 3))
@@ -88,7 +86,7 @@ class RaycastCamera:
             m.geom_group[:] = saved
         hit = geom >= 0
         depth = np.where(hit, dist, 0.0).astype(np.float32)
-        rgb = self._shade(data, rgba, geom[hit], normal[hit], vec[hit], (h, w), hit)
+        rgb = self._shade(data, rgba, geom[hit], normal[hit], view[hit], (h, w), hit)
         return Frame(
             camera=m.camera(cam_id).name,
             backend=self.name,
@@ -99,6 +97,26 @@ class RaycastCamera:
             pos=pos,
             rot=rot,
         )
+
+    def _world_rays(
+        self, cam_id: int, intrinsics: Intrinsics, rot: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Each pixel's ray in the world (z component -1 in the camera frame) and its unit
+        vector, shapes (h, w, 3); kept while the camera does not turn (a fixed camera: always).
+        """
+        key = (
+            rot.tobytes() + np.array([intrinsics.width, intrinsics.height, intrinsics.fy]).tobytes()
+        )
+        cached = self._rays.get(cam_id)
+        if cached is not None and cached[0] == key:
+            return cached[1], cached[2]
+        local = intrinsics.ray_directions()
+        # three columns by hand: a BLAS matrix product of (n, 3) by (3, 3) spins up threads
+        vec = local[:, :1] * rot[:, 0] + local[:, 1:2] * rot[:, 1] + local[:, 2:] * rot[:, 2]
+        vec = vec.reshape(intrinsics.height, intrinsics.width, 3)
+        view = (vec / np.sqrt(np.sum(vec * vec, axis=-1, keepdims=True))).astype(np.float32)
+        self._rays[cam_id] = (key, vec, view)
+        return vec, view
 
     def _cast_rays(
         self,
@@ -169,24 +187,28 @@ class RaycastCamera:
         rgba: np.ndarray,
         geom: np.ndarray,
         normal: np.ndarray,
-        vec: np.ndarray,
+        view: np.ndarray,
         shape: tuple[int, int],
         hit: np.ndarray,
     ) -> np.ndarray:
         m = self.model
-        view = (vec / np.linalg.norm(vec, axis=1, keepdims=True)).astype(np.float32)
-        nrm = normal.astype(np.float32)
-        facing = np.sum(nrm * view, axis=1)
-        nrm[facing > 0.0] *= -1.0  # the side that faces the eye
+        nx, ny, nz = (normal[:, i].astype(np.float32) for i in range(3))
+        facing = nx * view[:, 0] + ny * view[:, 1] + nz * view[:, 2]
+        toward = np.where(facing > 0.0, np.float32(-1.0), np.float32(1.0))  # the eye's side
         head = m.vis.headlight
         active = np.flatnonzero(m.light_active)
-        light = np.empty((len(geom), 3), np.float32)
-        light[:] = np.asarray(head.ambient) + m.light_ambient[active].sum(0)
-        light += np.abs(facing)[:, None] * np.asarray(head.diffuse, np.float32)
+        ambient = np.asarray(head.ambient, np.float32) + m.light_ambient[active].sum(0)
+        terms = [(np.abs(facing), np.asarray(head.diffuse, np.float32))]
         for i in active:
-            lam = np.clip(-(nrm @ data.light_xdir[i].astype(np.float32)), 0.0, None)
-            light += lam[:, None] * m.light_diffuse[i].astype(np.float32)
+            dx, dy, dz = (float(v) for v in data.light_xdir[i])
+            lam = np.clip(-(nx * dx + ny * dy + nz * dz) * toward, 0.0, None)
+            terms.append((lam, m.light_diffuse[i].astype(np.float32)))
+        base = rgba[geom, :3].astype(np.float32)
         out = np.zeros((*shape, 3), np.uint8)
-        colour = rgba[geom, :3].astype(np.float32) * light
-        out[hit] = np.rint(np.clip(colour, 0.0, 1.0) * 255.0)
+        for c in range(3):  # per channel on flat arrays: cheaper than (n, 3) temporaries
+            light = np.full(len(geom), ambient[c], np.float32)
+            for lam, colour in terms:
+                light += lam * colour[c]
+            light *= base[:, c]
+            out[..., c][hit] = np.rint(np.clip(light, 0.0, 1.0) * np.float32(255.0))
         return out

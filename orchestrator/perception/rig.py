@@ -42,6 +42,8 @@ class CameraRig:
         self._renderer: Renderer | None = None
         self.frames = 0
         """Frames captured so far."""
+        self.segmentation = False
+        """Render the segmentation image too (a second pass for OpenGL): for a recording."""
 
     @property
     def renderer(self) -> Renderer:
@@ -50,8 +52,13 @@ class CameraRig:
             self._renderer = open_renderer(self.model, self.scenario.perception.backend)
         return self._renderer
 
-    def capture(self, data: mujoco.MjData, camera: str, segmentation: bool = True) -> Frame:
+    def capture(self, data: mujoco.MjData, camera: str, segmentation: bool | None = None) -> Frame:
         """A frame of `camera` of the current state, with the scenario's pixel and depth noise.
+
+        Args:
+            data: The simulation state.
+            camera: Camera name.
+            segmentation: Render the geom-id image too (default: `self.segmentation`).
 
         Raises:
             PerceptionError: No camera of that name (the message lists the valid ones).
@@ -60,17 +67,22 @@ class CameraRig:
             valid = ", ".join(self.specs) or "none: the scenario has no `cameras`"
             raise PerceptionError(f"no camera {camera!r} (valid: {valid})")
         cam_id = int(self.model.camera(camera).id)
-        frame = self.renderer.render(data, cam_id, self.intrinsics[camera], segmentation)
+        seg = self.segmentation if segmentation is None else segmentation
+        frame = self.renderer.render(data, cam_id, self.intrinsics[camera], seg)
         self.frames += 1
         r = self.scenario.perception.randomize
         if r.pixel_noise <= 0.0 and r.depth_noise_m <= 0.0:
             return frame
         rgb, depth = frame.rgb, frame.depth
         if r.pixel_noise > 0.0:
-            noise = self._rng.normal(0.0, r.pixel_noise, rgb.shape)
-            rgb = np.clip(np.rint(rgb + noise), 0, 255).astype(np.uint8)
+            noise = self._rng.standard_normal(rgb.shape, dtype=np.float32)
+            noise *= np.float32(r.pixel_noise)
+            noise += rgb
+            rgb = np.clip(np.rint(noise), 0, 255).astype(np.uint8)
         if r.depth_noise_m > 0.0:
-            noisy = depth + self._rng.normal(0.0, r.depth_noise_m, depth.shape)
+            noisy = depth + np.float32(r.depth_noise_m) * self._rng.standard_normal(
+                depth.shape, dtype=np.float32
+            )
             depth = np.where(depth > 0.0, noisy, 0.0).astype(np.float32)
         return Frame(
             frame.camera,

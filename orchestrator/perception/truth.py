@@ -9,13 +9,25 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .colours import classify_rgb
 from .detections import Detection
 from .frame import Frame
 
-__all__ = ["Match", "TrueObject", "fully_in_view", "match_detections", "yaw_error_deg"]
+if TYPE_CHECKING:
+    from ..world.world import World
+
+__all__ = [
+    "Match",
+    "TrueObject",
+    "fully_in_view",
+    "match_detections",
+    "true_objects",
+    "yaw_error_deg",
+]
 
 MATCH_RADIUS_M = 0.03
 """A detection farther than this (xy) from every true object matches none [m]."""
@@ -121,3 +133,26 @@ def fully_in_view(truth: TrueObject, frame: Frame, margin_px: float = 2.0) -> bo
     local = (truth.top - frame.pos) @ frame.rot
     depth = float(frame.depth[row, col])
     return depth > 0.0 and abs(depth - (-local[2])) < 0.005
+
+
+def true_objects(world: World) -> list[TrueObject]:
+    """The scene's free objects as the simulator holds them now (their class: the colour class
+    of their nominal colour, before any jitter)."""
+    classes = world.scenario.perception.class_boxes()
+    qpos = world.data.qpos
+    out = []
+    for spec in world.scenario.scene.objects:
+        adr = world.objects[spec.name].qpos_adr
+        pos = qpos[adr : adr + 3]
+        w, x, y, z = (float(v) for v in qpos[adr + 3 : adr + 7])
+        normal = np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+        out.append(
+            TrueObject(
+                name=spec.name,
+                cls=classify_rgb(spec.rgba, classes),
+                top=pos + normal * spec.size[2] / 2.0,
+                yaw=math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)),
+                size=np.asarray(spec.size, float),
+            )
+        )
+    return out
