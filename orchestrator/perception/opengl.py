@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+
 import mujoco
 import numpy as np
 
@@ -20,8 +22,56 @@ _OFF_FLAGS = (
 software OpenGL (llvmpipe), and none of them helps colour segmentation."""
 
 
+_UPLOADED = (
+    "mesh_vert", "mesh_normal", "mesh_face", "mesh_texcoord", "mesh_vertadr", "mesh_vertnum",
+    "tex_data", "tex_width", "tex_height", "hfield_data", "hfield_size", "skin_vert",
+    "geom_type", "geom_size", "geom_dataid", "mat_texid",
+)  # fmt: skip
+"""What `mjr_makeContext` uploads (meshes, textures, height fields, skins, plane geometry):
+two models equal in these share a context."""
+
+
+class _SharedGL:
+    """One OpenGL context per process, and the `MjrContext` of the last model it rendered.
+
+    Making an EGL context costs ~160 ms and an `MjrContext` for the Panda ~110 ms: per episode,
+    that is most of a short run's rendering. Episodes of one scenario differ in object poses and
+    colours, never in what the context holds, so a batch worker makes both once.
+    """
+
+    def __init__(self, context_cls: type) -> None:
+        self.context_cls = context_cls
+        self.gl = context_cls(64, 64)  # rendering goes to MuJoCo's own offscreen buffer
+        self.key = b""
+        self.con: mujoco.MjrContext | None = None
+
+    def context_for(self, model: mujoco.MjModel, key: bytes) -> mujoco.MjrContext:
+        """The `MjrContext` for `model` (whose `_upload_key` is `key`), made current; rebuilt
+        only when the uploads differ from the last model's."""
+        self.gl.make_current()
+        if self.con is None or key != self.key:
+            if self.con is not None:
+                self.con.free()
+            self.con = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50.value)
+            self.con.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+            self.key = key
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self.con)
+        return self.con
+
+
+def _upload_key(model: mujoco.MjModel) -> bytes:
+    h = hashlib.blake2b(digest_size=16)
+    h.update(np.array([model.vis.global_.offwidth, model.vis.global_.offheight]).tobytes())
+    for name in _UPLOADED:
+        h.update(np.ascontiguousarray(getattr(model, name)).tobytes())
+    return h.digest()
+
+
+_shared: dict[type, _SharedGL] = {}
+
+
 class OpenGLCamera:
-    """Renders the model's fixed cameras with MuJoCo's renderer: colour and depth from one
+    """Renders the model's cameras with MuJoCo's renderer: colour and depth from one
     pass (`mjr_readPixels` reads both), segmentation from a second pass when asked for.
 
     Args:
@@ -33,12 +83,11 @@ class OpenGLCamera:
 
     def __init__(self, model: mujoco.MjModel, context_cls: type) -> None:
         self.model = model
-        w, h = int(model.vis.global_.offwidth), int(model.vis.global_.offheight)
-        self._gl = context_cls(w, h)
-        self._gl.make_current()
-        self._con = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50.value)
-        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._con)
-        self._con.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        if context_cls not in _shared:
+            _shared[context_cls] = _SharedGL(context_cls)
+        self._gl = _shared[context_cls]
+        self._key = _upload_key(model)
+        self._con = self._gl.context_for(model, self._key)
         self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 4 * model.ngeom))
         for flag in _OFF_FLAGS:
             self._scene.flags[flag] = 0
@@ -53,7 +102,7 @@ class OpenGLCamera:
         self, data: mujoco.MjData, cam_id: int, intrinsics: Intrinsics, segmentation: bool
     ) -> Frame:
         """Render camera `cam_id` of the current state."""
-        self._gl.make_current()
+        self._con = self._gl.context_for(self.model, self._key)  # another camera may have used it
         w, h = intrinsics.width, intrinsics.height
         rect = mujoco.MjrRect(0, 0, w, h)
         self._cam.fixedcamid = cam_id
@@ -115,8 +164,4 @@ class OpenGLCamera:
         return lut[np.clip(segid, 0, scene.ngeom)]
 
     def close(self) -> None:
-        """Free the OpenGL context."""
-        if self._gl is not None:
-            self._con.free()
-            self._gl.free()
-            self._gl = None
+        """Nothing to free: the context is kept for the process's next episode."""

@@ -81,20 +81,28 @@ def find_blobs(
     x0, y0, x1, y1 = max(0, x0), max(0, y0), min(w, x1), min(h, y1)
     hsv = cv2.cvtColor(np.ascontiguousarray(rgb[y0:y1, x0:x1]), cv2.COLOR_RGB2HSV)
     out: list[Blob] = []
+    rh, rw = hsv.shape[:2]
     for name, boxes in classes.items():
-        mask = np.zeros(hsv.shape[:2], np.uint8)
+        mask = np.zeros((rh, rw), np.uint8)
         for lo, hi in boxes:
             mask |= cv2.inRange(hsv, np.array(lo, np.uint8), np.array(hi, np.uint8))
-        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _KERNEL)
-        n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        # work on the part of the image where the class is at all (objects are small)
+        cx, cy, cw, ch = cv2.boundingRect(mask)
+        if cw == 0:
+            continue
+        cx0, cy0 = max(0, cx - 1), max(0, cy - 1)
+        cx1, cy1 = min(rw, cx + cw + 1), min(rh, cy + ch + 1)
+        sub = cv2.morphologyEx(mask[cy0:cy1, cx0:cx1], cv2.MORPH_OPEN, _KERNEL)
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(sub, connectivity=8)
         for i in range(1, n):
             bx, by, bw, bh, area = (int(v) for v in stats[i])
             if area < min_pixels:
                 continue
             rows, cols = np.nonzero(labels[by : by + bh, bx : bx + bw] == i)
+            bx, by = bx + cx0, by + cy0  # in the region of interest
             rows, cols = rows + by, cols + bx
             hue = float(np.median(hsv[rows, cols, 0]))
-            cut = bx == 0 or by == 0 or bx + bw == x1 - x0 or by + bh == y1 - y0
+            cut = bx == 0 or by == 0 or bx + bw == rw or by + bh == rh
             out.append(
                 Blob(
                     cls=name,
