@@ -87,7 +87,8 @@ class Detect(Skill):
             frame, classes, p.min_pixels, roi, scn.perception.randomize.depth_noise_m
         )
         self._score(ctx, found)
-        ctx.camera_shots.append((ctx.tick, ctx.t, frame, found))
+        if ctx.keep_camera_shots:
+            ctx.camera_shots.append((ctx.tick, ctx.t, frame, found))
         ctx.blackboard[p.into] = [d.to_blackboard() for d in found]
         best = next((d for d in found if d.confidence >= p.min_confidence), None)
         seen = None if best is None else ctx.perceived(Pose.coerce(best.to_blackboard()["pose"]))

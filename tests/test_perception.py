@@ -195,3 +195,18 @@ def test_mujoco_gl_naming_a_missing_library_falls_back_to_raycast_instead_of_cra
         out.stdout.strip()
         == "raycast (no OpenGL via none: MUJOCO_GL=osmesa but libOSMesa is missing)"
     )
+
+
+def test_the_recording_shows_the_camera_images_and_boxes_at_each_detect(vision, tmp_path):
+    from .test_recording import record
+
+    rec = record(vision, 0, tmp_path / "vision.rrd")
+    cam = "/world/cameras/overhead"
+    detect_t = [t["t"] for t in rec.result.transitions if t["from"] == "PICK.DETECT"]
+    for entity in (f"{cam}/rgb", f"{cam}/depth", f"{cam}/segmentation", f"{cam}/detections"):
+        rows = rec.temporal[entity]
+        assert len(rows) == len(detect_t), entity  # once per detect call, not per tick
+        assert [r["sim_time"].total_seconds() for r in rows] == pytest.approx(detect_t)
+    labels = rec.column(f"{cam}/detections", "Boxes2D:labels")
+    assert labels[0][0].startswith("red ")
+    assert rec.column(cam, "Pinhole:resolution")[0][0] == pytest.approx([320, 240])

@@ -98,9 +98,11 @@ class Context:
         self.perception = PerceptionFaults()
         """Perception faults; every perception skill reports through `perceived()`."""
         self._cameras: CameraRig | None = None
+        self.keep_camera_shots = False
+        """Skills keep the frames they look at in `camera_shots` (a recorder asks for it)."""
         self.camera_shots: list[tuple[int, float, Any, list[Any]]] = []
-        """`(tick, t, Frame, detections)` of every camera frame a skill looked at (the
-        recorder shows them); cleared by the recorder as it logs them."""
+        """`(tick, t, Frame, detections)` of the camera frames skills looked at, while
+        `keep_camera_shots`; the recorder takes them as it logs them."""
 
     # -- time ---------------------------------------------------------------------------
     @property
