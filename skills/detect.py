@@ -6,8 +6,9 @@ import math
 from typing import TYPE_CHECKING, Annotated, ClassVar
 
 import numpy as np
-from pydantic import Field, NonNegativeFloat
+from pydantic import Field, NonNegativeFloat, model_validator
 
+from orchestrator.exceptions import SkillError
 from orchestrator.perception.detections import Detection, detect_objects
 from orchestrator.perception.truth import match_detections, true_objects
 from orchestrator.world.pose import Pose
@@ -46,6 +47,14 @@ class DetectParams(SkillParams):
     )
     duration_s: NonNegativeFloat = Field(default=0.05, description="Time perception takes [s].")
 
+    @model_validator(mode="after")
+    def _roi(self) -> DetectParams:
+        if self.roi is not None:
+            x0, y0, x1, y1 = self.roi
+            if not (0 <= x0 < x1 and 0 <= y0 < y1):
+                raise ValueError(f"roi {self.roi}: need 0 <= x0 < x1 and 0 <= y0 < y1 [px]")
+        return self
+
 
 class Detect(Skill):
     """Render `camera`, segment the image by colour in HSV (OpenCV) and localize each blob with
@@ -71,6 +80,14 @@ class Detect(Skill):
     params: DetectParams
 
     def start(self, ctx: Context) -> None:
+        p = self.params
+        cameras = [c.name for c in ctx.scenario.cameras]
+        if p.camera not in cameras:
+            valid = ", ".join(cameras) or "none: the scenario has no `cameras`"
+            raise SkillError(f"no camera {p.camera!r} (valid: {valid})")
+        classes = list(ctx.scenario.perception.classes)
+        if p.class_ is not None and p.class_ not in classes:
+            raise SkillError(f"no colour class {p.class_!r} (valid: {', '.join(classes)})")
         self.t0 = ctx.t
 
     def step(self, ctx: Context) -> str | None:

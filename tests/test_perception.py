@@ -210,3 +210,22 @@ def test_the_recording_shows_the_camera_images_and_boxes_at_each_detect(vision, 
     labels = rec.column(f"{cam}/detections", "Boxes2D:labels")
     assert labels[0][0].startswith("red ")
     assert rec.column(cam, "Pinhole:resolution")[0][0] == pytest.approx([320, 240])
+
+
+def test_a_bad_region_of_interest_is_a_located_error(cli, write_yaml):
+    path = write_yaml(
+        "bad_roi.yaml",
+        (REPO / "machines" / "pick_place_vision.yaml")
+        .read_text()
+        .replace("pose_into: object_pose}", "pose_into: object_pose, roi: [100, 0, 50, 240]}"),
+    )
+    scenario = write_yaml(
+        "s.yaml",
+        (REPO / "scenarios" / "pick_place_vision.yaml")
+        .read_text()
+        .replace("machine: pick_place_vision", f"machine: {path}"),
+    )
+    res = cli("validate", str(scenario))
+    assert res.exit_code == 2
+    text = res.stdout + res.stderr
+    assert "bad_roi.yaml:" in text and "roi [100, 0, 50, 240]: need 0 <= x0 < x1" in text
