@@ -229,3 +229,24 @@ def test_a_bad_region_of_interest_is_a_located_error(cli, write_yaml):
     assert res.exit_code == 2
     text = res.stdout + res.stderr
     assert "bad_roi.yaml:" in text and "roi [100, 0, 50, 240]: need 0 <= x0 < x1" in text
+
+
+def test_a_camera_mounted_on_the_hand_moves_with_it(vision):
+    from orchestrator.language.scenario import CameraSpec
+
+    wrist = CameraSpec(name="wrist", body="hand", pos=[0.0, 0.0, 0.1], quat=[0.0, 1.0, 0.0, 0.0])
+    scn = vision.scenario.model_copy(update={"cameras": [*vision.scenario.cameras, wrist]})
+    world = World.build(scn, 0)
+    model, data = world.model, world.data
+    hand = model.body(world.robot.hand_body).id
+    cam = model.camera("wrist").id
+    seen = []
+    for q1 in (0.0, 0.4):
+        data.qpos[1] = q1
+        mujoco.mj_forward(model, data)
+        rot = data.xmat[hand].reshape(3, 3)
+        assert data.cam_xpos[cam] == pytest.approx(data.xpos[hand] + rot @ [0.0, 0.0, 0.1])
+        frame = CameraRig(model, scn, 0).capture(data, "wrist")
+        assert frame.pos == pytest.approx(data.cam_xpos[cam])
+        seen.append(frame.pos.copy())
+    assert np.linalg.norm(seen[0] - seen[1]) > 0.05
