@@ -68,7 +68,8 @@ class Detect(Skill):
     (`perception_miss`, `perception_offset`) apply to the best detection.
 
     Metrics (over the run, against the simulator's truth): `detection_error_mm` (largest
-    position error of a matched detection), `detection_yaw_error_deg` (largest yaw error),
+    position error of a matched detection at or above `min_confidence`: a cut blob's centre is
+    not its object's), `detection_yaw_error_deg` (largest yaw error, the same detections),
     `misclassified` (detections of a wrong class or of no object), `perception_backend`.
     """
 
@@ -130,8 +131,11 @@ class Detect(Skill):
         matches = match_detections(found, true_objects(ctx.world))
         wrong = sum(1 for x in matches if not x.correct)
         m["misclassified"] = int(m.get("misclassified", 0)) + wrong
-        pos = [x.position_error_m * 1000.0 for x in matches if x.correct]
-        yaw = [x.yaw_error_deg for x in matches if x.correct]
+        sure = [
+            x for x in matches if x.correct and x.detection.confidence >= self.params.min_confidence
+        ]
+        pos = [x.position_error_m * 1000.0 for x in sure]
+        yaw = [x.yaw_error_deg for x in sure]
         if pos:
             m["detection_error_mm"] = round(max(m.get("detection_error_mm", 0.0), *pos), 3)
             m["detection_yaw_error_deg"] = round(
