@@ -3,8 +3,9 @@
 Accuracy: `--seeds` randomized scenes (3-6 cubes of red/green/blue/yellow at random poses
 under pick_place_vision's overhead camera, some partly out of view; light intensity and
 direction, colour jitter, pixel and depth noise drawn per seed). For every cube fully in
-view: class accuracy (a detection of its class matched to it), position error of its top-face
-centre (median, p95, max) and yaw error (median, max, modulo the square's quarter turn).
+view: class accuracy (a detection of its class, confidence >= 0.5, matched to it), position
+error of its top-face centre (median, p95, max) and yaw error (median, max, modulo the
+square's quarter turn).
 Over every detection: wrong classes reported with confidence >= 0.5 (must be none).
 
 Cost: one `detect` at 320x240 (render + segmentation-free detection), median over the scenes,
@@ -106,7 +107,11 @@ def accuracy(base, seeds: int, backend: str, progress: Progress) -> dict:
             if not fully_in_view(truth, frame):
                 continue
             in_view += 1
-            mine = [m for m in matches if m.truth is truth and m.correct]
+            mine = [
+                m
+                for m in matches
+                if m.truth is truth and m.correct and m.detection.confidence >= 0.5
+            ]
             if mine:
                 correct += 1
                 best = min(mine, key=lambda m: m.position_error_m)

@@ -250,3 +250,27 @@ def test_a_camera_mounted_on_the_hand_moves_with_it(vision):
         assert frame.pos == pytest.approx(data.cam_xpos[cam])
         seen.append(frame.pos.copy())
     assert np.linalg.norm(seen[0] - seen[1]) > 0.05
+
+
+def test_two_touching_cubes_of_one_colour_are_two_detections(vision):
+    from orchestrator.perception.vision import find_blobs
+
+    red = [0.85, 0.15, 0.15, 1.0]
+    cubes = [
+        {"name": "a", "size": [0.05] * 3, "xy": [0.600, 0.100], "yaw_deg": 45.0, "rgba": red},
+        {"name": "b", "size": [0.05] * 3, "xy": [0.584, 0.024], "yaw_deg": 40.0, "rgba": red},
+    ]
+    raw = vision.scenario.model_dump()
+    raw["scene"]["objects"] = cubes
+    raw["perception"]["backend"] = "raycast"
+    scn = type(vision.scenario).model_validate(raw)
+    world = World.build(scn, 0)
+    mujoco.mj_forward(world.model, world.data)
+    frame = CameraRig(world.model, scn, 0).capture(world.data, CAMERA)
+    boxes = scn.perception.class_boxes()
+    assert len(find_blobs(frame.rgb, boxes)) == 1  # their sides bridge the gap in the image
+    matches = match_detections(detect_objects(frame, boxes), true_objects(world))
+    assert sorted(m.truth.name for m in matches) == ["a", "b"]
+    for m in matches:
+        assert m.correct and m.detection.confidence >= 0.5
+        assert m.position_error_m < 0.003

@@ -67,21 +67,54 @@ class Detection:
 
 def localize(
     blob: Blob, frame: Frame, min_pixels: int, depth_noise_m: float = 0.0
-) -> Detection | None:
-    """The detection of `blob` in `frame` (id 0), or None if it has too few valid depths.
+) -> list[Detection]:
+    """The detections (id 0) of `blob` in `frame`: one per top face it holds; none if it has
+    too few valid depths.
 
     The blob's pixels are back-projected to world points; those within a few millimetres of
-    its highest part form the top face (side faces seen in perspective drop out). Position:
-    the mean of the top face's points (z: their median). Yaw and size: `cv2.minAreaRect` of
-    the top face's points in the world xy plane.
+    its highest part form the top face (side faces seen in perspective drop out). Two objects
+    of one colour close together make one blob (their sides bridge the gap) but two top faces:
+    each top face that is a connected region of the image of at least a fifth of the largest
+    one is reported on its own. Position: the mean of the top face's points (z: their median).
+    Yaw and size: `cv2.minAreaRect` of the top face's points in the world xy plane.
     """
     pts = frame.backproject(blob.rows, blob.cols)
     ok = np.isfinite(pts[:, 0])
     if ok.sum() < 3:
-        return None
-    pts = pts[ok]
-    z_top = float(np.percentile(pts[:, 2], 95))
-    top = pts[pts[:, 2] >= z_top - _TOP_BAND_M - 3.0 * depth_noise_m]
+        return []
+    z_top = float(np.percentile(pts[ok, 2], 95))
+    top = np.flatnonzero(ok & (pts[:, 2] >= z_top - _TOP_BAND_M - 3.0 * depth_noise_m))
+    if len(top) < 3:
+        return []
+    faces = _top_faces(blob, top, min_pixels)
+    if len(faces) <= 1:
+        det = _detection(blob, pts[top], frame, _confidence(blob, min_pixels))
+        return [] if det is None else [det]
+    out = []
+    for face in faces:
+        part = blob.part(face)
+        det = _detection(part, pts[face], frame, _confidence(part, min_pixels))
+        if det is not None:
+            out.append(det)
+    return out
+
+
+def _top_faces(blob: Blob, top: np.ndarray, min_pixels: int) -> list[np.ndarray]:
+    """Indices (into the blob's pixels) of each separate top face among `top`."""
+    x, y, w, h = blob.bbox
+    mask = np.zeros((h, w), np.uint8)
+    mask[blob.rows[top] - y, blob.cols[top] - x] = 1
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    if n <= 2:
+        return [top]
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    keep = [i + 1 for i in np.flatnonzero(areas >= max(min_pixels / 2, 0.2 * areas.max()))]
+    label = labels[blob.rows[top] - y, blob.cols[top] - x]
+    return [top[label == k] for k in keep]
+
+
+def _detection(blob: Blob, top: np.ndarray, frame: Frame, confidence: float) -> Detection | None:
+    """The detection of `blob` whose top face is the world points `top` (shape (n, 3))."""
     if len(top) < 3:
         return None
     pos = np.array([top[:, 0].mean(), top[:, 1].mean(), float(np.median(top[:, 2]))])
@@ -101,7 +134,7 @@ def localize(
         cls=blob.cls,
         pos=pos,
         yaw=yaw,
-        confidence=_confidence(blob, min_pixels),
+        confidence=confidence,
         pixels=blob.pixels,
         bbox=blob.bbox,
         size_m=(float(size[0]), float(size[1])),
@@ -160,7 +193,5 @@ def detect_objects(
     """
     found = []
     for blob in find_blobs(frame.rgb, classes, roi, min_pixels):
-        det = localize(blob, frame, min_pixels, depth_noise_m)
-        if det is not None:
-            found.append(det)
+        found += localize(blob, frame, min_pixels, depth_noise_m)
     return sort_detections(found)

@@ -25,6 +25,7 @@ class Blob:
         cols: Column of each pixel. Shape (n,).
         bbox: Bounding box `(x, y, width, height)` [px].
         cut: It touches the image's (or the region of interest's) border.
+        bounds: The region it was found in `(x0, y0, x1, y1)` [px], end exclusive.
         hue_margin: Hue steps (OpenCV units) from the blob's median hue to the nearest hue
             outside its class: small means its colour is ambiguous.
     """
@@ -35,11 +36,21 @@ class Blob:
     bbox: tuple[int, int, int, int]
     cut: bool
     hue_margin: float
+    bounds: tuple[int, int, int, int]
 
     @property
     def pixels(self) -> int:
         """Area [px]."""
         return len(self.rows)
+
+    def part(self, index: np.ndarray) -> Blob:
+        """The blob made of the pixels `index` of this one (its box and cut recomputed)."""
+        rows, cols = self.rows[index], self.cols[index]
+        r0, r1, c0, c1 = int(rows.min()), int(rows.max()), int(cols.min()), int(cols.max())
+        x0, y0, x1, y1 = self.bounds
+        cut = c0 == x0 or r0 == y0 or c1 == x1 - 1 or r1 == y1 - 1
+        bbox = (c0, r0, c1 - c0 + 1, r1 - r0 + 1)
+        return Blob(self.cls, rows, cols, bbox, cut, self.hue_margin, self.bounds)
 
 
 def _class_hues(boxes: Sequence[HsvBox]) -> np.ndarray:
@@ -111,6 +122,7 @@ def find_blobs(
                     bbox=(bx + x0, by + y0, bw, bh),
                     cut=cut,
                     hue_margin=hue_margin(hue, boxes),
+                    bounds=(x0, y0, x1, y1),
                 )
             )
     return out
