@@ -280,3 +280,19 @@ def test_two_touching_cubes_of_one_colour_are_two_detections(vision):
     for m in matches:
         assert m.correct and m.detection.confidence >= 0.5
         assert m.position_error_m < 0.003
+
+
+def test_a_red_whose_pixels_straddle_hue_zero_is_not_ambiguous():
+    import cv2
+
+    from orchestrator.perception.colours import hsv_boxes
+    from orchestrator.perception.vision import find_blobs
+
+    hsv = np.zeros((60, 60, 3), np.uint8)
+    hsv[..., 1:] = (0, 128)  # grey background
+    hsv[10:50, 10:50] = (2, 200, 200)
+    hsv[10:50:2, 10:50] = (178, 200, 200)  # every other row just below 180: still red
+    rgb = cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)
+    blobs = find_blobs(rgb, {"red": hsv_boxes("red")})
+    assert [b.cls for b in blobs] == ["red"]
+    assert blobs[0].hue_margin >= 6.0  # mean hue 0: 9 steps to orange, 11 to magenta

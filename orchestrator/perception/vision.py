@@ -10,7 +10,7 @@ import numpy as np
 
 from .colours import HsvBox
 
-__all__ = ["Blob", "find_blobs", "hue_margin"]
+__all__ = ["Blob", "circular_mean_hue", "find_blobs", "hue_margin"]
 
 _KERNEL = np.ones((3, 3), np.uint8)
 
@@ -26,8 +26,8 @@ class Blob:
         bbox: Bounding box `(x, y, width, height)` [px].
         cut: It touches the image's (or the region of interest's) border.
         bounds: The region it was found in `(x0, y0, x1, y1)` [px], end exclusive.
-        hue_margin: Hue steps (OpenCV units) from the blob's median hue to the nearest hue
-            outside its class: small means its colour is ambiguous.
+        hue_margin: Hue steps (OpenCV units) from the blob's mean hue (circular) to the
+            nearest hue outside its class: small means its colour is ambiguous.
     """
 
     cls: str
@@ -58,6 +58,14 @@ def _class_hues(boxes: Sequence[HsvBox]) -> np.ndarray:
     for lo, hi in boxes:
         hues[lo[0] : hi[0] + 1] = True
     return hues
+
+
+def circular_mean_hue(hues: np.ndarray) -> float:
+    """Mean of OpenCV hues (0-179, a circle of 180 steps) [hue steps]: red's pixels sit on both
+    sides of 0, where an ordinary mean or median lands on the opposite colour."""
+    angle = hues.astype(np.float64) * (2.0 * np.pi / 180.0)
+    mean = np.arctan2(np.mean(np.sin(angle)), np.mean(np.cos(angle)))
+    return float(mean * 180.0 / (2.0 * np.pi)) % 180.0
 
 
 def hue_margin(hue: float, boxes: Sequence[HsvBox]) -> float:
@@ -112,7 +120,7 @@ def find_blobs(
             rows, cols = np.nonzero(labels[by : by + bh, bx : bx + bw] == i)
             bx, by = bx + cx0, by + cy0  # in the region of interest
             rows, cols = rows + by, cols + bx
-            hue = float(np.median(hsv[rows, cols, 0]))
+            hue = circular_mean_hue(hsv[rows, cols, 0])
             cut = bx == 0 or by == 0 or bx + bw == rw or by + bh == rh
             out.append(
                 Blob(
