@@ -479,6 +479,10 @@ def list_(
         out.print("[bold]guards[/]:    " + ", ".join(sorted(GUARDS)))
     if "robots" in show:
         out.print("[bold]robots[/]:    " + ", ".join(sorted(ROBOTS)))
+    if what is None:
+        from .perception.backends import backend_status
+
+        out.print("[bold]camera renderer[/]: " + escape(backend_status().describe()))
 
 
 def _first_sentence(cls: type) -> str:

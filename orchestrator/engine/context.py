@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..exceptions import SkillError
+from ..perception.rig import CameraRig
 from ..world.actuators import ActuatorFault
 from ..world.pose import Pose
 from ..world.sensors import JointEncoders, PerceptionFaults, WristForceFault
@@ -101,6 +102,12 @@ class Context:
         """An injected motor fault, if any (the runner applies it to the commanded torques)."""
         self.perception = PerceptionFaults()
         """Perception faults; every perception skill reports through `perceived()`."""
+        self._cameras: CameraRig | None = None
+        self.keep_camera_shots = False
+        """Skills keep the frames they look at in `camera_shots` (a recorder asks for it)."""
+        self.camera_shots: list[tuple[int, float, Any, list[Any]]] = []
+        """`(tick, t, Frame, detections)` of the camera frames skills looked at, while
+        `keep_camera_shots`; the recorder takes them as it logs them."""
 
     # -- time ---------------------------------------------------------------------------
     @property
@@ -248,6 +255,19 @@ class Context:
             pos=q[h.qpos_adr : h.qpos_adr + 3].tolist(),
             quat=q[h.qpos_adr + 3 : h.qpos_adr + 7].tolist(),
         )
+
+    @property
+    def cameras(self) -> CameraRig:
+        """The scenario's cameras (the renderer opens on first use, not before)."""
+        if self._cameras is None:
+            self._cameras = CameraRig(self.model, self.scenario, self.world.seed)
+        return self._cameras
+
+    def close(self) -> None:
+        """Free what the episode holds outside Python (a camera's OpenGL context)."""
+        if self._cameras is not None:
+            self._cameras.close()
+            self._cameras = None
 
     def perceived(self, pose: Pose) -> Pose | None:
         """What perception reports for an object at `pose`: every perception skill passes its

@@ -273,6 +273,7 @@ def run_episode(
     )
     for obs in observers:
         obs.on_end(ctx, executor, result)
+    ctx.close()
     if wall_cut:
         raise WallTimeExceeded(wall_cut, result)
     return result

@@ -9,11 +9,14 @@ from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validato
 from .events import ScheduledEvent
 from .faults import Fault
 from .machine import GuardRef
+from .perception import CameraSpec, Perception
 
 __all__ = [
+    "CameraSpec",
     "Marker",
     "ObjectSpec",
     "Obstacle",
+    "Perception",
     "Phantom",
     "Physics",
     "RobotRef",
@@ -332,13 +335,6 @@ class SuccessCheck(_Strict):
         return self
 
 
-class Perception(_Strict):
-    """Noise of the simulated perception used by `search`."""
-
-    position_noise_m: float = Field(default=0.0, ge=0.0, le=1.0, description="Std. dev. [m].")
-    yaw_noise_deg: float = Field(default=0.0, ge=0.0, le=180.0, description="Std. dev. [deg].")
-
-
 class ToolSpec(_Strict):
     """A probe mounted on the flange: a shaft along the flange z axis ending in a ball tip.
 
@@ -403,6 +399,9 @@ class Scenario(_Strict):
     )
     physics: Physics = Field(default_factory=Physics, description="Rates and time limit.")
     perception: Perception = Field(default_factory=Perception, description="Noise of `search`.")
+    cameras: list[CameraSpec] = Field(
+        default_factory=list, description="Cameras (see docs/perception.md)."
+    )
     faults: list[Fault] = Field(
         default_factory=list, description="Faults injected into the run (see docs/safety.md)."
     )

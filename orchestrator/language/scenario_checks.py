@@ -43,6 +43,8 @@ def check_scene_names(
         "target": ("object or marker", objects + [m.name for m in scenario.scene.markers]),
         "zone": ("no-go zone", [z.name for z in getattr(scenario.scene, "zones", [])]),
         "body": ("scene body", scene_bodies(scenario)),
+        "camera": ("camera", [c.name for c in scenario.cameras]),
+        "colour_class": ("colour class", list(scenario.perception.classes)),
     }
     values = initial_values(machine, scenario.blackboard)
 
@@ -57,9 +59,10 @@ def check_scene_names(
                 continue
             extra = info.json_schema_extra
             kind = extra.get("scene_ref") if isinstance(extra, dict) else None
-            if kind is None or field not in params:
+            key = info.alias or field
+            if kind is None or key not in params:
                 continue
-            value, via = params[field], ""
+            value, via = params[key], ""
             ref = parse_ref(value)
             if ref is not None and not ref[1]:
                 value, via = values.get(ref[0]), f" (the value of ${ref[0]})"
@@ -69,7 +72,7 @@ def check_scene_names(
                     none = "" if valid else f"; it has no {what}s at all"
                     found.append(
                         src.diag(
-                            (*at, field),
+                            (*at, key),
                             f"no {what} {item!r} in scenario {scenario.name!r}{via}{none}",
                             tuple(valid),
                         )

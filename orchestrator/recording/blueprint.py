@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import mujoco
 import numpy as np
 import rerun.blueprint as rrb
 
-from .paths import ACTIVE_STATE, EVENTS, GRAPH, GUARDS, LEVELS, SIM_TIME, WORLD
+from .paths import ACTIVE_STATE, CAMERAS, EVENTS, GRAPH, GUARDS, LEVELS, SIM_TIME, WORLD
 from .signals import GRIPPER_WIDTH, JOINT_TORQUE, TCP_ERROR, WRIST_FORCE
 
 __all__ = ["default_blueprint", "graph_view_bounds", "machine_share"]
@@ -47,6 +49,7 @@ def machine_share(bounds: tuple[float, float, float, float] | None) -> float:
 def default_blueprint(
     model: mujoco.MjModel | None = None,
     graph_bounds: tuple[float, float, float, float] | None = None,
+    cameras: Sequence[str] = (),
 ) -> rrb.Blueprint:
     """The layout a saved or live recording opens with.
 
@@ -60,6 +63,8 @@ def default_blueprint(
         graph_bounds: Where the machine graph's layout lies (x0, y0, x1, y1) [px]: the view
             shows exactly that, and its column is made wide enough to show it at zoom 1 in a
             1600x900 window (within 28-50% of the width).
+        cameras: Scenario cameras: each gets a 2D view (its image, depth, segmentation and
+            detections) under the 3D scene.
     """
     eye = None
     if model is not None:
@@ -87,9 +92,13 @@ def default_blueprint(
         origin=GRAPH,
         visual_bounds=graph_view_bounds(graph_bounds) if graph_bounds is not None else None,
     )
+    left = rrb.Vertical(scene, states, row_shares=[3, 1])
+    if cameras:
+        views = [rrb.Spatial2DView(name=f"Camera {c}", origin=f"{CAMERAS}/{c}") for c in cameras]
+        left = rrb.Vertical(scene, rrb.Horizontal(*views), states, row_shares=[3, 2, 1])
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Vertical(scene, states, row_shares=[3, 1]),
+            left,
             graph,
             right,
             column_shares=[1.0 - machine - _PLOTS_SHARE, machine, _PLOTS_SHARE],

@@ -7,6 +7,7 @@ import re
 __all__ = [
     "ACTIVE_STATE",
     "BODIES",
+    "CAMERAS",
     "EVENTS",
     "GEOMS",
     "GRAPH",
@@ -35,6 +36,9 @@ BODIES = f"{WORLD}/bodies"
 """`<BODIES>/<body>`: one MuJoCo body's pose in the world frame."""
 GEOMS = "geoms"
 """`<BODIES>/<body>/<GEOMS>/<geom>`: one geom, posed relative to its body."""
+CAMERAS = f"{WORLD}/cameras"
+"""`<CAMERAS>/<camera>`: a camera's pose and pinhole; `rgb`, `depth`, `segmentation` and
+`detections` below it, logged at each frame a skill looked at."""
 TARGETS = f"{WORLD}/targets"
 """`<TARGETS>/ik_target` and one frame per scene marker."""
 STATE_MACHINE = "state_machine"

@@ -11,6 +11,7 @@ import rerun as rr
 
 from .batches import TemporalBatch
 from .blueprint import default_blueprint
+from .camera_shots import CameraShots
 from .events import EventLog
 from .exceptions import RecordingError
 from .signals import GuardSignals, RobotSignals
@@ -110,6 +111,7 @@ class RerunRecorder:
         self._rows = Rows({**self._poses.fields, **self._signals.fields})
         self._guards = GuardSignals()
         self._events = EventLog()
+        self._shots = CameraShots(ctx)
         for g in scene.skipped:
             self._events.add_text(
                 ctx.tick, ctx.t, "recorder", f"geom {g}: an SDF without a mesh is not drawn", "WARN"
@@ -208,6 +210,7 @@ class RerunRecorder:
         self._signals.sample(self._rows, i, ctx)
         self._guards.sample(tick, t, ctx, executor.active_guards)
         self._targets.sample(tick, t, ctx)
+        self._shots.sample()
         self._last_tick = tick
 
     def _flush(self) -> None:
@@ -227,7 +230,11 @@ class RerunRecorder:
         self.rec.send_chunks(chunks)
         if first:
             self.rec.send_blueprint(
-                default_blueprint(self._ctx.model, self._graph_bounds),
+                default_blueprint(
+                    self._ctx.model,
+                    self._graph_bounds,
+                    [c.name for c in self._ctx.scenario.cameras],
+                ),
                 make_active=True,
                 make_default=True,
             )
@@ -237,3 +244,4 @@ class RerunRecorder:
         chunks += self._states.chunks()
         chunks += self._events.chunks()
         self.rec.send_chunks(chunks)
+        self._shots.log(self.rec)

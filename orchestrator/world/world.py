@@ -11,6 +11,7 @@ import numpy as np
 
 from ..robots import Robot, get_robot
 from ..robots.tool import Tool, mount_tool
+from .cameras import add_cameras, randomize_appearance
 from .contacts import ContactSensor, add_contact_sensors, bind_contact_sensors
 from .faults import FaultEffects, add_fault_obstacles
 from .phantom import (
@@ -130,6 +131,8 @@ class World:
         }
         self.table_height = table.height
         self.phantom: PhantomHandle | None = phantom_handle(scenario, seed)
+        self.cameras: dict[str, int] = {c.name: m.camera(c.name).id for c in scenario.cameras}
+        """Camera name -> its id in the model (`MjData.cam_xpos[id]` is where it is)."""
         self.zones: dict[str, int] = {z.name: m.geom(z.name).id for z in scenario.scene.zones}
         """No-go zone name -> its (collision-free) box geom."""
         self.home = np.array(robot.home, dtype=float)
@@ -164,6 +167,7 @@ class World:
         add_scene(spec, scenario, seed)
         add_phantom_scene(spec, scenario, seed)
         add_fault_obstacles(spec, scenario)
+        add_cameras(spec, scenario, robot)
         tool: Tool | None = getattr(robot, "tool", None)
         touchable = {o.name for o in scenario.scene.objects}
         if scenario.scene.phantom is not None:
@@ -177,6 +181,8 @@ class World:
         )
         model = spec.compile()
         set_tissue_stiffness(model, scenario, seed, robot)
+        object_geoms = [model.body(o.name).geomadr[0] for o in scenario.scene.objects]
+        randomize_appearance(model, scenario, seed, [int(g) for g in object_geoms])
         return cls(scenario, seed, robot, model, sensors)
 
     def engage_brake(self, joint: int, torque_nm: float | None = None) -> None:

@@ -1,0 +1,90 @@
+"""Camera frames in a recording: each camera as a pinhole in the 3D scene, with the RGB, depth
+and segmentation images a perception skill looked at and its detections as labelled boxes.
+
+Logged only at the ticks a skill captured a frame (`Context.camera_shots`), never per tick.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import rerun as rr
+
+from .paths import CAMERAS, SIM_TIME, TICK
+
+if TYPE_CHECKING:
+    from ..engine.context import Context
+    from ..perception.detections import Detection
+    from ..perception.frame import Frame
+
+__all__ = ["CameraShots", "camera_path"]
+
+
+def camera_path(name: str) -> str:
+    """Entity path of a camera: its pose and pinhole; images and boxes are its children."""
+    return f"{CAMERAS}/{name}"
+
+
+class CameraShots:
+    """Takes the frames skills captured off the context; logs them once the stream is open."""
+
+    def __init__(self, ctx: Context) -> None:
+        self._ctx = ctx
+        self._pending: list[tuple[int, float, Frame, list[Detection]]] = []
+        if ctx.scenario.cameras:
+            ctx.cameras.segmentation = True  # a recording shows the segmentation image too
+            ctx.keep_camera_shots = True
+
+    def sample(self) -> None:
+        """Move the frames captured since the last call into the buffer."""
+        shots = self._ctx.camera_shots
+        if shots:
+            self._pending.extend(shots)
+            shots.clear()
+
+    def log(self, rec: rr.RecordingStream) -> None:
+        """Log the buffered frames on `rec` at their ticks and simulated times."""
+        if not self._pending:
+            return
+        rec.set_log_time_enabled(False)  # wall-clock stamps would make recordings differ
+        for tick, t, frame, found in self._pending:
+            rec.set_time(TICK, sequence=tick)
+            rec.set_time(SIM_TIME, duration=np.timedelta64(int(round(t * 1e9)), "ns"))
+            for path, archetype in _archetypes(frame, found):
+                rec.log(path, archetype)
+        rec.reset_time()
+        self._pending.clear()
+
+
+def _archetypes(frame: Frame, found: list[Detection]) -> list[tuple[str, Any]]:
+    k = frame.intrinsics
+    path = camera_path(frame.camera)
+    out: list[tuple[str, Any]] = [
+        (path, rr.Transform3D(translation=frame.pos, mat3x3=frame.rot)),
+        (
+            path,
+            rr.Pinhole(
+                image_from_camera=k.matrix(),
+                resolution=[k.width, k.height],
+                camera_xyz=rr.ViewCoordinates.RUB,  # MuJoCo's camera: x right, y up, z back
+                image_plane_distance=0.1,
+            ),
+        ),
+        (f"{path}/rgb", rr.Image(frame.rgb)),
+        (f"{path}/depth", rr.DepthImage(frame.depth, meter=1.0)),
+    ]
+    if frame.seg is not None:
+        out.append((f"{path}/segmentation", rr.SegmentationImage(frame.seg + 1)))
+    out.append(
+        (
+            f"{path}/detections",
+            rr.Boxes2D(
+                array=np.array([d.bbox for d in found], float).reshape(-1, 4),
+                array_format=rr.Box2DFormat.XYWH,
+                labels=[f"{d.cls} {d.confidence:.2f}" for d in found],
+                class_ids=[sum(map(ord, d.cls)) % 256 for d in found],
+            ),
+        )
+    )
+    return out
