@@ -678,6 +678,7 @@ def serve(
         Path | None,
         typer.Option(help="Save a Rerun recording of every task into this folder."),
     ] = None,
+    allow_path: AllowPathOption = None,
 ) -> None:
     """Keep a world running and take commands over Zenoh (see docs/live.md)."""
     from .live.protocol import DEFAULT_ENDPOINT
@@ -700,7 +701,13 @@ def serve(
 
     try:
         live = Session(
-            scenario, session, seed=seed, speed=speed, watchdog_s=watchdog, recorder=recorder
+            scenario,
+            session,
+            seed=seed,
+            speed=speed,
+            watchdog_s=watchdog,
+            recorder=recorder,
+            allow_paths=_allowed(allow_path),
         )
     except ConfigError as exc:
         _fail_config(exc)

@@ -263,7 +263,7 @@ class Move(Skill):
         )
         elapsed = ctx.clock - self.t0
         if elapsed < self.duration:
-            return text + f"; still on its path ({elapsed:.2f} of {self.duration:.2f} s)"
+            return text + f"; still on its line ({elapsed:.2f} of {self.duration:.2f} s)"
         if ik_pos > 0.5 * p.tolerance_m:
             text += f"; the IK is stuck {ik_pos * 1000:.1f} mm short (joint limits)"
         return text

@@ -57,7 +57,7 @@ def test_the_scenario_reference_has_every_key_of_every_scenario_model():
             assert f"| `{name}` |" in text, f"{model.__name__}.{name}"
     for section in ("## `scene`", "## `scene.objects[]`", "## `physics.safe_stop`"):
         assert section in text
-    assert "| `time_limit_s` | float | s | `30.0` | > 0 |" in text
+    assert "| `time_limit_s` | float | s | `30.0` | > 0, ≤ 86400 |" in text
 
 
 def test_show_skill_prints_parameters_with_type_unit_default_and_range(cli):

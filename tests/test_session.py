@@ -102,6 +102,9 @@ def test_stop_is_the_machines_own_stop_event_when_it_declares_one(session, tmp_p
         "    transitions: {reached: STOPPED, timeout: FAILED}\n"
         "  DONE: {final: succeeded}\n  STOPPED: {final: failed}\n  FAILED: {final: failed}\n"
     )
+    refused = session.submit(_cmd("run", machine=str(machine)))
+    assert not refused.accepted and "--allow-path" in refused.reason  # outside the tree
+    session.allow_paths = (tmp_path,)
     reply = session.submit(_cmd("run", machine=str(machine)))
     assert reply.accepted, reply.reason
     session._drain()

@@ -99,6 +99,7 @@ def load_scenario(
     data = copy.deepcopy(data)
     overridden: dict[str, str] = {}
     """Path of a value set on the command line -> the option that set it (`--set k=v`)."""
+    own_machine = data.get("machine")
     parsed = [parse_override(text) for text in overrides or []]
     for ov in parsed:  # `--set machine=...` chooses the machine: apply it before loading one
         if isinstance(ov, Override) and ov.path == ("machine",):
@@ -121,8 +122,9 @@ def load_scenario(
             problems += sub
     types = blackboard_types(node) if node else {}
     keys = set(types)
-    if machine is not None and machine != data.get("machine"):
+    if machine is not None:
         data["machine"] = machine
+    if data.get("machine") != own_machine:  # another machine (`machine=` or `--set machine=`)
         data.pop("success", None)  # the scenario's criteria judge its own machine
         if isinstance(data.get("blackboard"), dict):
             data["blackboard"] = {k: v for k, v in data["blackboard"].items() if k in keys}

@@ -32,9 +32,14 @@ def explain_yaml_error(exc: yaml.MarkedYAMLError, text: str) -> tuple[int, int, 
     problem = exc.problem or "syntax error"
     lines = text.splitlines()
     row = line - 1
-    if "'\\t'" in problem or "\t" in problem:
+    here_line = lines[row] if 0 <= row < len(lines) else ""
+    leading = here_line[: len(here_line) - len(here_line.lstrip(" \t"))]
+    if "'\\t'" in problem or "\t" in problem or "\t" in leading:
         return line, col, "a tab character: YAML indents with spaces only — replace it by spaces"
-    if problem.startswith("expected <block end>") and 0 <= row < len(lines):
+    # PyYAML's words, or libyaml's (the C parser) for the same mistake
+    if problem.startswith(("expected <block end>", "did not find expected key")) and (
+        0 <= row < len(lines)
+    ):
         prev = _previous(lines, row)
         here = _indent(lines[row])
         above = f"line {prev + 1} is indented by {_indent(lines[prev])}" if prev is not None else ""

@@ -23,7 +23,8 @@ import queue
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -81,8 +82,11 @@ class Session:
         watchdog_s: float | None = None,
         publish: Publish | None = None,
         recorder: Callable[[Task], Observer] | None = None,
+        allow_paths: Sequence[Path | str] = (),
     ) -> None:
         self.recorder = recorder
+        self.allow_paths = tuple(allow_paths)
+        """Directories besides the scenario's tree that a task's machine may come from."""
         self._observer: Observer | None = None
         self.scenario_ref, self.name, self.speed, self.watchdog_s = (
             scenario,
@@ -90,7 +94,7 @@ class Session:
             speed,
             watchdog_s,
         )
-        self.loaded = load_scenario(scenario)
+        self.loaded = load_scenario(scenario, allow_paths=self.allow_paths)
         scn = self.loaded.scenario
         self.world = world = World.build(scn, seed)
         dt = float(world.model.opt.timestep)
@@ -185,7 +189,9 @@ class Session:
             return f"the robot is {self.state}: send `reset` first", None
         machine = cmd.machine or self.loaded.scenario.machine
         try:
-            loaded = load_scenario(self.scenario_ref, cmd.set, machine=machine)
+            loaded = load_scenario(
+                self.scenario_ref, cmd.set, allow_paths=self.allow_paths, machine=machine
+            )
         except ConfigError as exc:
             return str(exc), None
         keys = [o.path[0] for o in map(parse_override, cmd.set) if not isinstance(o, Diagnostic)]
