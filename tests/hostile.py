@@ -98,7 +98,7 @@ def diamond_includes(levels: int = 21) -> Hostile:
     return Hostile(f"diamond includes, 2^{levels} paths", files)
 
 
-def chained_states(n: int = 20_000) -> Hostile:
+def chained_states(n: int = 9_000) -> Hostile:
     lines = "".join(f"  S{i}: {{skill: hold, transitions: {{held: S{i + 1}}}}}\n" for i in range(n))
     text = "name: m\ninitial: S0\nstates:\n" + lines + f"  S{n}: {{final: ok}}\n"
     return Hostile(f"{n} chained states", {"m.yaml": text})

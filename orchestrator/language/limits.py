@@ -28,7 +28,7 @@ class InputLimits:
     """Caps on one input file and on the machine tree built from it.
 
     Attributes:
-        max_file_bytes: Size of one YAML file [bytes] (default 1 MiB).
+        max_file_bytes: Size of one YAML file [bytes] (default 512 KiB).
         max_depth: Nesting of YAML mappings and lists in one file, aliases expanded.
         max_nodes: Values (scalars, mappings, lists) in one file, each alias counted with
             everything it expands to (stops "billion laughs" before any memory is spent).
@@ -39,7 +39,7 @@ class InputLimits:
         max_ref_chars: Length of a `machine:` reference [characters].
     """
 
-    max_file_bytes: int = 1 << 20
+    max_file_bytes: int = 1 << 19
     max_depth: int = 64
     max_nodes: int = 250_000
     max_machine_depth: int = 24

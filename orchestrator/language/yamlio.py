@@ -197,7 +197,7 @@ class _Assembler:
         ):
             # a plain word no implicit resolver claims, or a quoted string (state names, keys,
             # most values): a str. The common cases are assembled inline; this loop runs for
-            # every value of a 1 MiB file within the 2 s every answer must take.
+            # every value of a 512 KiB file well within the 2 s every answer must take.
             top = self.stack[-1]
             key = top.key
             if not top.is_map:
