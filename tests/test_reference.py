@@ -148,3 +148,13 @@ def test_the_scenario_reference_example_is_a_valid_scenario(tmp_path: Path):
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(data))
     loaded = load_scenario(str(tmp_path / "s.yaml"))
     assert loaded.scenario.success["cube_placed"].xy_tol_m == 0.01
+
+
+def test_the_skills_page_lists_only_shipped_skills_and_guards():
+    # tests register a `scripted` skill and a `flag` guard in the same process
+    from tests.scripted import register
+
+    register()
+    text = skills_reference()
+    assert "`scripted`" not in text and "`flag`" not in text
+    assert text == (DOCS_DIR / "skills.md").read_text()

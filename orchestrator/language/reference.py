@@ -231,7 +231,8 @@ def skills_reference() -> str:
         "",
     ]
     for name in sorted(GUARDS):
-        lines.append(guard_markdown(GUARDS[name]))
+        if GUARDS[name].__module__.startswith("orchestrator.guards."):  # not a test's guard
+            lines.append(guard_markdown(GUARDS[name]))
     return "\n".join(lines).rstrip() + "\n"
 
 
