@@ -26,7 +26,7 @@ from .result import RunResult
 from .safety_stop import SafetyStop
 from .success import evaluate
 
-__all__ = ["Observer", "run_episode"]
+__all__ = ["Observer", "make_context", "run_episode"]
 
 SETTLE_S = 0.2
 """Simulated time kept running after the machine finishes, before success is judged [s]."""
@@ -63,6 +63,17 @@ def make_guards(refs, ctx: Context) -> list[Guard]:
     return out
 
 
+def make_context(
+    world: World, controller: Controller, blackboard: Blackboard, seed: int, dt_control: float
+) -> Context:
+    """The context of an episode (or of a live session): sensors, IK, the blackboard."""
+    ctx = Context(world, controller, blackboard, np.random.default_rng([seed, 1]), dt_control)
+    ctx.ik = IKSolver(
+        world.robot, robot_only_model(world.robot), dt_control, world.scenario.robot.base_pos
+    )
+    return ctx
+
+
 def run_episode(
     loaded: LoadedScenario, seed: int, observers: Sequence[Observer] | None = None
 ) -> RunResult:
@@ -77,14 +88,9 @@ def run_episode(
     dt = float(model.opt.timestep)
     n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
     dt_control = n_sub * dt
-    ctx = Context(
-        world,
-        controller,
-        initial_blackboard(loaded.machine, scn.blackboard),
-        np.random.default_rng([seed, 1]),
-        dt_control,
+    ctx = make_context(
+        world, controller, initial_blackboard(loaded.machine, scn.blackboard), seed, dt_control
     )
-    ctx.ik = IKSolver(world.robot, robot_only_model(world.robot), dt_control, scn.robot.base_pos)
     safe_stop = scn.physics.safe_stop
     executor = Executor(
         loaded.machine,

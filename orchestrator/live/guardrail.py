@@ -16,20 +16,16 @@ from typing import Any
 
 import numpy as np
 
+from ..engine.reach import ik_miss
 from ..language.load import LoadedScenario
 from ..language.machine import guard_entries
 from ..language.validation import blackboard_types
-from ..skills.ik import IKSolver
-from ..skills.targets import rot_down
-from ..world.world import World, robot_only_model
+from ..world.world import World
 
 __all__ = ["REACH_TOL_M", "GoalRejected", "check_goals", "goals_of"]
 
 REACH_TOL_M = 0.002
 """A goal is reachable if the IK gets the TCP this close to it [m]."""
-_IK_DT = 0.02
-_IK_ITERATIONS = 250
-_STALL_ITERATIONS = 20
 
 
 class GoalRejected(Exception):
@@ -126,21 +122,9 @@ def _check_clear(where: str, p: np.ndarray, world: World) -> None:
 
 
 def _check_reach(where: str, p: np.ndarray, world: World, q_arm: np.ndarray) -> None:
-    robot = world.robot
-    ik = IKSolver(robot, robot_only_model(robot), _IK_DT, world.scenario.robot.base_pos)
-    ik.reset(np.asarray(q_arm, float))
-    rot = rot_down(0.0)
-    history: list[float] = []
-    for _ in range(_IK_ITERATIONS):
-        ik.step(p, rot)
-        miss = float(np.linalg.norm(ik.error[:3]))
-        if miss <= REACH_TOL_M:
-            return
-        history.append(miss)
-        if len(history) > _STALL_ITERATIONS and history[-_STALL_ITERATIONS - 1] - miss < 1e-5:
-            break  # no progress: stuck at a joint limit or the edge of the reach
-    miss = float(np.linalg.norm(ik.error[:3]))
-    raise GoalRejected(
-        f"{where}: unreachable (the IK gets the TCP no closer than {miss * 1000:.1f} mm, "
-        f"tolerance {REACH_TOL_M * 1000:.0f} mm)"
-    )
+    miss = ik_miss(world, q_arm, p, REACH_TOL_M)
+    if miss > REACH_TOL_M:
+        raise GoalRejected(
+            f"{where}: unreachable (the IK gets the TCP no closer than {miss * 1000:.1f} mm, "
+            f"tolerance {REACH_TOL_M * 1000:.0f} mm)"
+        )
