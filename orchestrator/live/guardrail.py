@@ -19,7 +19,7 @@ import numpy as np
 from ..engine.reach import ik_miss
 from ..language.load import LoadedScenario
 from ..language.machine import guard_entries
-from ..language.validation import blackboard_types
+from ..language.scenario_checks import goal_keys
 from ..world.world import World
 
 __all__ = ["REACH_TOL_M", "GoalRejected", "check_goals", "goals_of"]
@@ -46,13 +46,13 @@ def _as_point(value: Any) -> np.ndarray | None:
 
 
 def goals_of(loaded: LoadedScenario, keys: list[str]) -> dict[str, np.ndarray]:
-    """The blackboard values set by `keys` that are positions (the goals to check)."""
-    types = blackboard_types(loaded.machine)
+    """The values set by `keys` that the machine moves to (a motion skill's `target` reads
+    them) and that are positions: the goals to check. Offsets and names are not goals."""
+    targets = goal_keys(loaded.machine)
     out = {}
     for k in keys:
-        value = loaded.scenario.blackboard.get(k)
-        point = _as_point(value)
-        if point is not None and types.get(k) in ("vec3", "pose", "any"):
+        point = _as_point(loaded.scenario.blackboard.get(k))
+        if point is not None and k in targets:
             out[k] = point
     return out
 
@@ -75,7 +75,8 @@ def check_goals(
         GoalRejected: Naming the first goal that fails and why.
     """
     goals = goals_of(loaded, keys)
-    for k in keys:  # a NaN hides from _as_point's type test no more than from this one
+    targets = goal_keys(loaded.machine)
+    for k in (k for k in keys if k in targets):
         value = loaded.scenario.blackboard.get(k)
         flat = value.get("pos", value) if isinstance(value, dict) else value
         if isinstance(flat, (list, tuple)) and any(
