@@ -241,12 +241,24 @@ def test_unknown_scene_names_are_caught_before_simulating(cli):
     assert "nothing was simulated" in res.stderr
 
 
-def test_a_bad_value_met_while_running_stops_the_run_with_its_location(cli, monkeypatch):
-    res = cli("run", "pick_place", "--set", "place_at=[0.5, 0.2, .inf]")
-    assert res.exit_code == 2 and "nothing was simulated" in res.stderr  # refused up front
-    # a value only met while running (as if a skill had written it) stops the run there
+def test_a_bad_value_met_while_running_stops_the_run_with_its_location(monkeypatch):
+    # `run --set` refuses this value before anything moves (next test); a value that reaches
+    # the blackboard another way (as if a skill had written it) is caught where it is used
+    from orchestrator.engine.runner import run_episode
+    from orchestrator.exceptions import ConfigError
+    from orchestrator.language.load import load_scenario
+
     monkeypatch.setattr("orchestrator.language.load.all_finite", lambda value: True)
+    with pytest.raises(ConfigError) as info:
+        run_episode(load_scenario("pick_place", ["place_at=[0.5, 0.2, .inf]"]), 0)
+    text = str(info.value)
+    assert info.value.during_run
+    assert "pick_place.yaml:" in text and "states.TRANSPORT: at t=" in text
+    assert "finite number" in text
+
+
+def test_a_goal_that_is_not_finite_is_refused_before_the_run(cli):
     res = cli("run", "pick_place", "--set", "place_at=[0.5, 0.2, .inf]")
     assert res.exit_code == 2 and res.exception is None
-    assert "pick_place.yaml:" in res.stderr and "states.TRANSPORT: at t=" in res.stderr
-    assert "finite number" in res.stderr and "the run was stopped" in res.stderr
+    assert "blackboard.place_at: [0.5, 0.2, inf] holds NaN or infinity" in res.stderr
+    assert "nothing was simulated" in res.stderr

@@ -179,8 +179,8 @@ def test_an_estop_event_is_the_estop_fault(cli):
 
 
 def test_a_pause_holds_the_arm_and_delays_the_run_by_its_length(uninterrupted):
-    # paused in TRANSPORT, a move the joints can follow without lag
-    result = run_episode(load_scenario("pick_place", events=["2.0:pause", "3.0:resume"]), 3)
+    # the command: paused at 1.0 s (approaching the cube), resumed at 2.0 s
+    result = run_episode(load_scenario("pick_place", events=["1.0:pause", "2.0:resume"]), 3)
     assert result.outcome == "succeeded"
     assert result.sim_time == pytest.approx(uninterrupted.sim_time + 1.0, abs=0.05)
     (pause,) = result.metrics["pauses"]

@@ -629,6 +629,11 @@ class Executor:
         self.stop.start(f"{violation.guard}: {violation.message}")
         self.changed()
 
+    def trip(self, guard: str, message: str, value: Any = None, limit: Any = None) -> None:
+        """A safety function outside the guards fired (a live session's watchdog): abort
+        as a guard would, with `guard` as the reason."""
+        self.abort(Violation(guard, message, value, limit))
+
     def estop(self, source: str) -> None:
         """An emergency stop: outranks every guard and any `on_abort` response."""
         self.abort(Violation(ESTOP, f"emergency stop ({source})", None, None))

@@ -27,7 +27,7 @@ from .result import RunResult
 from .safety_stop import SafetyStop
 from .success import errors, evaluate
 
-__all__ = ["WALL_GRACE_S", "Observer", "WallTimeExceeded", "run_episode"]
+__all__ = ["WALL_GRACE_S", "Observer", "WallTimeExceeded", "make_context", "run_episode"]
 
 WALL_GRACE_S = 5.0
 """Wall time the controlled stop may take after the wall limit before the run is cut [s]."""
@@ -81,6 +81,17 @@ def make_guards(refs, ctx: Context) -> list[Guard]:
     return out
 
 
+def make_context(
+    world: World, controller: Controller, blackboard: Blackboard, seed: int, dt_control: float
+) -> Context:
+    """The context of an episode (or of a live session): sensors, IK, the blackboard."""
+    ctx = Context(world, controller, blackboard, np.random.default_rng([seed, 1]), dt_control)
+    ctx.ik = IKSolver(
+        world.robot, robot_only_model(world.robot), dt_control, world.scenario.robot.base_pos
+    )
+    return ctx
+
+
 def run_episode(
     loaded: LoadedScenario,
     seed: int,
@@ -109,14 +120,9 @@ def run_episode(
     dt = float(model.opt.timestep)
     n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
     dt_control = n_sub * dt
-    ctx = Context(
-        world,
-        controller,
-        initial_blackboard(loaded.machine, scn.blackboard),
-        np.random.default_rng([seed, 1]),
-        dt_control,
+    ctx = make_context(
+        world, controller, initial_blackboard(loaded.machine, scn.blackboard), seed, dt_control
     )
-    ctx.ik = IKSolver(world.robot, robot_only_model(world.robot), dt_control, scn.robot.base_pos)
     safe_stop = scn.physics.safe_stop
     executor = Executor(
         loaded.machine,

@@ -17,7 +17,7 @@ from .refs import parse_ref
 from .scenario import Scenario
 from .yamlio import SourceMap
 
-__all__ = ["check_faults", "check_scenario_refs", "check_scene_names", "scene_bodies"]
+__all__ = ["goal_keys", "check_faults", "check_scenario_refs", "check_scene_names", "scene_bodies"]
 
 
 def scene_bodies(scenario: Scenario) -> list[str]:
@@ -102,6 +102,35 @@ def check_scene_names(
                 at = (*node.at, "states", s, "parallel", b, "with")
                 out += check(node.source, at, cls.Params, br.with_)
     return out
+
+
+def goal_keys(machine: MachineNode) -> set[str]:
+    """Blackboard keys the machine moves to: those a skill's target parameter (a `target`,
+    e.g. `move`'s) reads as `$key` anywhere in the tree. Offsets and heights are not goals."""
+    skill_names()  # discover the skills
+    keys: set[str] = set()
+
+    def scan(model, params: dict) -> None:
+        for field, info in model.model_fields.items():
+            extra = info.json_schema_extra
+            if not isinstance(extra, dict) or extra.get("scene_ref") != "target":
+                continue
+            value = params.get(field)
+            for item in value if isinstance(value, list) else [value]:
+                ref = parse_ref(item)
+                if ref is not None and not ref[1]:
+                    keys.add(ref[0])
+
+    for node in machine.nodes():
+        for st in node.states.values():
+            cls = SKILLS.get(st.skill or "")
+            if cls is not None:
+                scan(cls.Params, st.with_)
+        for _, _, br in node.skill_branches():
+            cls = SKILLS.get(br.skill or "")
+            if cls is not None:
+                scan(cls.Params, br.with_)
+    return keys
 
 
 def check_scenario_refs(

@@ -16,20 +16,16 @@ from typing import Any
 
 import numpy as np
 
+from ..engine.reach import ik_miss
 from ..language.load import LoadedScenario
 from ..language.machine import guard_entries
-from ..language.validation import blackboard_types
-from ..skills.ik import IKSolver
-from ..skills.targets import rot_down
-from ..world.world import World, robot_only_model
+from ..language.scenario_checks import goal_keys
+from ..world.world import World
 
 __all__ = ["REACH_TOL_M", "GoalRejected", "check_goals", "goals_of"]
 
 REACH_TOL_M = 0.002
 """A goal is reachable if the IK gets the TCP this close to it [m]."""
-_IK_DT = 0.02
-_IK_ITERATIONS = 250
-_STALL_ITERATIONS = 20
 
 
 class GoalRejected(Exception):
@@ -50,13 +46,13 @@ def _as_point(value: Any) -> np.ndarray | None:
 
 
 def goals_of(loaded: LoadedScenario, keys: list[str]) -> dict[str, np.ndarray]:
-    """The blackboard values set by `keys` that are positions (the goals to check)."""
-    types = blackboard_types(loaded.machine)
+    """The values set by `keys` that the machine moves to (a motion skill's `target` reads
+    them) and that are positions: the goals to check. Offsets and names are not goals."""
+    targets = goal_keys(loaded.machine)
     out = {}
     for k in keys:
-        value = loaded.scenario.blackboard.get(k)
-        point = _as_point(value)
-        if point is not None and types.get(k) in ("vec3", "pose", "any"):
+        point = _as_point(loaded.scenario.blackboard.get(k))
+        if point is not None and k in targets:
             out[k] = point
     return out
 
@@ -79,7 +75,8 @@ def check_goals(
         GoalRejected: Naming the first goal that fails and why.
     """
     goals = goals_of(loaded, keys)
-    for k in keys:  # a NaN hides from _as_point's type test no more than from this one
+    targets = goal_keys(loaded.machine)
+    for k in (k for k in keys if k in targets):
         value = loaded.scenario.blackboard.get(k)
         flat = value.get("pos", value) if isinstance(value, dict) else value
         if isinstance(flat, (list, tuple)) and any(
@@ -126,21 +123,9 @@ def _check_clear(where: str, p: np.ndarray, world: World) -> None:
 
 
 def _check_reach(where: str, p: np.ndarray, world: World, q_arm: np.ndarray) -> None:
-    robot = world.robot
-    ik = IKSolver(robot, robot_only_model(robot), _IK_DT, world.scenario.robot.base_pos)
-    ik.reset(np.asarray(q_arm, float))
-    rot = rot_down(0.0)
-    history: list[float] = []
-    for _ in range(_IK_ITERATIONS):
-        ik.step(p, rot)
-        miss = float(np.linalg.norm(ik.error[:3]))
-        if miss <= REACH_TOL_M:
-            return
-        history.append(miss)
-        if len(history) > _STALL_ITERATIONS and history[-_STALL_ITERATIONS - 1] - miss < 1e-5:
-            break  # no progress: stuck at a joint limit or the edge of the reach
-    miss = float(np.linalg.norm(ik.error[:3]))
-    raise GoalRejected(
-        f"{where}: unreachable (the IK gets the TCP no closer than {miss * 1000:.1f} mm, "
-        f"tolerance {REACH_TOL_M * 1000:.0f} mm)"
-    )
+    miss = ik_miss(world, q_arm, p, REACH_TOL_M)
+    if miss > REACH_TOL_M:
+        raise GoalRejected(
+            f"{where}: unreachable (the IK gets the TCP no closer than {miss * 1000:.1f} mm, "
+            f"tolerance {REACH_TOL_M * 1000:.0f} mm)"
+        )

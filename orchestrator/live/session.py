@@ -31,18 +31,15 @@ import mujoco
 import numpy as np
 
 from ..engine.blackboard import Blackboard
-from ..engine.context import Context
-from ..engine.runner import Observer
+from ..engine.runner import Observer, make_context
 from ..engine.safety_stop import SafetyStop
 from ..exceptions import ConfigError
-from ..guards.base import Violation
 from ..language.diagnostics import Diagnostic
 from ..language.load import load_scenario
 from ..language.machine import ESTOP, PAUSE, RESUME
 from ..language.overrides import parse_override
 from ..robots import Controller
-from ..skills.ik import IKSolver
-from ..world.world import World, as_index, robot_only_model
+from ..world.world import World, as_index
 from .guardrail import GoalRejected, check_goals
 from .protocol import PRIORITY, Command, Reply
 from .task import Task
@@ -101,16 +98,7 @@ class Session:
         self.controller = Controller(world.robot, dt)
         self.controller.hold(world.home)
         self.n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
-        self.ctx = ctx = Context(
-            world,
-            self.controller,
-            Blackboard({}),
-            np.random.default_rng([seed, 1]),
-            self.n_sub * dt,
-        )
-        ctx.ik = IKSolver(
-            world.robot, robot_only_model(world.robot), ctx.dt_control, scn.robot.base_pos
-        )
+        self.ctx = make_context(world, self.controller, Blackboard({}), seed, self.n_sub * dt)
         mujoco.mj_forward(world.model, world.data)
         self.publish: Publish = publish or (lambda leaf, msg: None)
         self.inbox: queue.SimpleQueue[tuple[int, int, Command, Any, int, float]] = (
@@ -341,7 +329,7 @@ class Session:
             return
         self.error = f"watchdog: no client heartbeat for {silent:.3f} s (limit {self.watchdog_s} s)"
         self.tasks.clear()
-        task.executor.abort(Violation("watchdog", self.error, round(silent, 4), self.watchdog_s))
+        task.executor.trip("watchdog", self.error, round(silent, 4), self.watchdog_s)
         self.publish("events", {"event": "watchdog", "message": self.error})
 
     def _tick(self) -> None:
