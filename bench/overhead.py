@@ -16,7 +16,11 @@ Each pair runs both on the same seed, in alternating order (drift in the machine
 both alike); the figure is the median of the per-pair ratios, in wall time and in CPU time
 (`time.thread_time`, robust to other processes on a shared machine).
 
-    python bench/overhead.py [--pairs 20] [--seed-base 0]
+    python bench/overhead.py [--pairs 20] [--seed-base 0] [--without-guard-checks]
+
+`--without-guard-checks` runs the framework with its guards active but never checked (a
+diagnostic, not a mode the framework offers): the difference is what checking them every
+physics step costs.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from orchestrator.skills.targets import rot_down, yaw_of_rot
 from orchestrator.skills.time_scaling import feasible_time_scale, fit_path_to_joints
 from orchestrator.skills.trajectory import CartesianLine
 
+from orchestrator.engine.executor import Executor
 from orchestrator.engine.runner import run_episode
 from orchestrator.language.load import LoadedScenario, load_scenario
 from orchestrator.language.scenario import Scenario
@@ -404,7 +409,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--pairs", type=int, default=20, help="Paired runs (seeds).")
     parser.add_argument("--seed-base", type=int, default=0)
+    parser.add_argument(
+        "--without-guard-checks",
+        action="store_true",
+        help="Diagnostic: the framework's guards are never checked (what they cost).",
+    )
     args = parser.parse_args()
+    if args.without_guard_checks:
+        _skip_guard_checks()
     loaded = load_scenario("pick_place")
     framework(loaded, 10_000)  # warm caches (robot model, imports) for both
     hand_written(loaded.scenario, 10_000)
@@ -454,6 +466,16 @@ def main() -> None:
         f"same ratio in CPU time (thread_time, robust to a busy machine): median {med(cpu):.3f} "
         f"(IQR {_iqr(cpu)})"
     )
+
+
+def _skip_guard_checks() -> None:
+    changed = Executor.changed
+
+    def without_checks(self: Executor) -> None:
+        changed(self)
+        self.active_checks = ()
+
+    Executor.changed = without_checks  # type: ignore[method-assign]
 
 
 def _cycle(e: Episode) -> str:
