@@ -38,8 +38,8 @@ _DIVERGED = tuple(
         mujoco.mjtWarning.mjWARN_BADQVEL,
     )
 )
-_DIVERGED_SPAN = slice(min(_DIVERGED), max(_DIVERGED) + 1)
-assert len(range(*_DIVERGED_SPAN.indices(99))) == len(_DIVERGED), "warnings not contiguous"
+_DIVERGED_INDEX = as_index(np.array(sorted(_DIVERGED)))
+"""The same warnings as one slice of `MjData.warning.number` (an index array if not adjacent)."""
 
 
 class Observer(Protocol):
@@ -172,7 +172,7 @@ def run_episode(
         max_force_sq = max(max_force_sq, ctx.wrist_force_norm_sq())
         # a NaN or an inf anywhere makes the sum non-finite: the element-wise test only then
         finite = math.isfinite(qpos.sum()) or bool(np.isfinite(qpos).all())
-        if not finite or any(warnings[_DIVERGED_SPAN].tolist()):
+        if not finite or any(warnings[_DIVERGED_INDEX].tolist()):
             diverged = f"physics diverged at t={ctx.t:.3f} s (state {executor.leaf})"
             break
         if ctx.t >= time_limit and not executor.done:
