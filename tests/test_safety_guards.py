@@ -12,7 +12,14 @@ from orchestrator.robots import Controller
 
 from orchestrator.engine.blackboard import Blackboard
 from orchestrator.engine.context import Context
-from orchestrator.guards import Collision, GraspLost, JointTorque, JointVelocity, SensorHealth
+from orchestrator.guards import (
+    Collision,
+    GraspLost,
+    JointLimits,
+    JointTorque,
+    JointVelocity,
+    SensorHealth,
+)
 from orchestrator.language.load import load_scenario
 from orchestrator.world import World
 from orchestrator.world.actuators import ActuatorFault
@@ -185,6 +192,32 @@ def test_sensor_health_compares_commanded_and_measured_joint_torque():
     assert violation is not None and "joint 2 motor delivers" in violation.message
     ctx.data.ctrl[act] = ctx.controller.tau  # a healthy motor delivers what it is told
     mujoco.mj_forward(ctx.model, ctx.data)
+    assert guard.check(ctx) is None
+
+
+def test_sensor_health_flags_a_non_finite_joint_reading_without_an_encoder_fault():
+    ctx = _ctx()
+    guard = _guard(SensorHealth, ctx)
+    assert guard.check(ctx) is None
+    ctx.data.qpos[ctx.world.arm_qpos[4]] = np.nan  # both channels read NaN: NaN != NaN
+    violation = guard.check(ctx)
+    assert violation is not None and "joint 5 encoder reads a non-finite" in violation.message
+
+
+# -- joint_limits -----------------------------------------------------------------------------
+
+
+def test_joint_limits_reads_the_joints_as_they_move_after_binding():
+    ctx = _ctx()
+    guard = _guard(JointLimits, ctx, margin_rad=0.01)
+    assert guard.check(ctx) is None
+    j4 = ctx.world.arm_qpos[3]
+    upper = float(ctx.model.jnt_range[ctx.model.joint("panda_joint4").id, 1])
+    ctx.data.qpos[j4] = upper - 0.005  # inside the range, beyond the margin
+    violation = guard.check(ctx)
+    assert violation is not None and "panda_joint4" in violation.message
+    assert violation.limit == pytest.approx(upper - 0.01)
+    ctx.data.qpos[j4] = np.nan  # divergence is the runner's to report
     assert guard.check(ctx) is None
 
 

@@ -77,6 +77,15 @@ class Context:
         self.events: list[Event] = []
         self.listeners: list[Callable[[Event], None]] = []
         self._wrist_views: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        # Views read every control tick or physics step, bound once (MjData never reallocates;
+        # a fresh view through MjData's attributes costs more than the arithmetic done on it).
+        d = self.data
+        self._tcp_pos = d.site_xpos[world.tcp_site]
+        self._tcp_rot = d.site_xmat[world.tcp_site].reshape(3, 3)
+        self._ctrl = d.ctrl
+        finger_index = as_index(world.finger_qpos)
+        self._fingers = d.qpos[finger_index] if isinstance(finger_index, slice) else None
+        self._grip_step = world.robot.gripper_speed_mps * dt_control
         self._norm_sq_t = -1.0
         self._norm_sq = 0.0
         self.metrics: dict[str, Any] = {}
@@ -142,17 +151,19 @@ class Context:
     @property
     def tcp_pos(self) -> np.ndarray:
         """TCP position in the world [m]. Shape (3,)."""
-        return self.data.site_xpos[self.world.tcp_site]
+        return self._tcp_pos
 
     @property
     def tcp_rot(self) -> np.ndarray:
         """TCP orientation in the world. Shape (3, 3)."""
-        return self.data.site_xmat[self.world.tcp_site].reshape(3, 3)
+        return self._tcp_rot
 
     @property
     def gripper_width(self) -> float:
         """Distance between the fingers [m]."""
-        return float(self.data.qpos[self.world.finger_qpos].sum())
+        if self._fingers is None:
+            return float(self.data.qpos[self.world.finger_qpos].sum())
+        return float(self._fingers.sum())
 
     def wrist_force(self) -> np.ndarray:
         """External force on the hand in the world frame [N], hand weight removed. Shape (3,)."""
@@ -224,10 +235,10 @@ class Context:
     def advance_gripper(self, rate: float = 1.0) -> None:
         """Move the gripper's setpoint one control tick towards `gripper_target`, at `rate`
         times the gripper's speed (a pause slows it to 0)."""
-        ctrl = self.data.ctrl
+        ctrl = self._ctrl
         act = self.world.gripper_act
         now = float(ctrl[act])
-        step = self.robot.gripper_speed_mps * self.dt_control * rate
+        step = self._grip_step * rate
         goal = self.gripper_target
         finger = 0.5 * self.gripper_width
         if goal > now:  # opening: from where the fingers are, not from a squeezing setpoint

@@ -56,6 +56,8 @@ _DIVERGED = tuple(
         mujoco.mjtWarning.mjWARN_BADQVEL,
     )
 )
+_DIVERGED_INDEX = as_index(np.array(sorted(_DIVERGED)))
+"""The same warnings as one slice of `MjData.warning.number` (an index array if not adjacent)."""
 
 
 class Observer(Protocol):
@@ -179,6 +181,9 @@ def run_episode(
             stop = None
         # states change in tick() or abort(), never between: bind the checks once per tick
         checks = executor.active_checks
+        # faults only schedule in tick(), fire_due() and abort(): read the due time there, and
+        # MjData's time (an attribute lookup through the bindings) only when one is due
+        due = injector.next_t
         ctx.advance_gripper(executor.rate)
         for _ in range(n_sub):
             tau = compute(*read_encoders())
@@ -186,10 +191,11 @@ def run_episode(
                 tau = ctx.actuator_fault.apply(tau)
             ctrl[act_idx] = tau
             mj_step(model, data)
-            if data.time >= injector.next_t:
+            if due != math.inf and data.time >= due - 1e-9:
                 injector.fire_due(data.time)
                 checks = executor.active_checks
                 stop = executor.stop if end_stop is None else end_stop
+                due = injector.next_t
             if stop is not None:
                 stop.step()
                 if not stop.active:
@@ -200,10 +206,13 @@ def run_episode(
                     executor.abort(violation)
                     checks = executor.active_checks  # none while the safety response runs
                     stop = executor.stop
+                    due = injector.next_t
                     break
         ctx.tick += 1
         max_force_sq = max(max_force_sq, ctx.wrist_force_norm_sq())
-        if not np.isfinite(qpos).all() or any(warnings[w] for w in _DIVERGED):
+        # a NaN or an inf anywhere makes the sum non-finite: the element-wise test only then
+        finite = math.isfinite(qpos.sum()) or bool(np.isfinite(qpos).all())
+        if not finite or any(warnings[_DIVERGED_INDEX].tolist()):
             diverged = f"physics diverged at t={ctx.t:.3f} s (state {executor.leaf})"
             break
         if ctx.t >= time_limit and not executor.done:

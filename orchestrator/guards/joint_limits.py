@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import operator
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -38,14 +37,15 @@ class JointLimits(Guard):
         self.idx = w.arm_qpos_index
         self.names = ctx.robot.arm_joints
         # check() runs every physics step: plain floats beat a few small numpy operations
-        self._lower = self.lower.tolist()
-        self._upper = self.upper.tolist()
+        self._bounds = list(zip(self.lower.tolist(), self.upper.tolist(), strict=True))
+        self._q = ctx.data.qpos[self.idx] if isinstance(self.idx, slice) else None
 
     def check(self, ctx: Context) -> Violation | None:
-        q_list = ctx.data.qpos[self.idx].tolist()
-        if not (
-            any(map(operator.lt, q_list, self._lower)) or any(map(operator.gt, q_list, self._upper))
-        ):  # NaN compares false: divergence is the runner's to report, not a violation
+        q_now = self._q if self._q is not None else ctx.data.qpos[self.idx]
+        for q, (lo, hi) in zip(q_now.tolist(), self._bounds, strict=True):
+            if q < lo or q > hi:
+                break
+        else:  # NaN compares false: divergence is the runner's to report, not a violation
             return None
         q = ctx.data.qpos[self.idx]
         i = int(np.argmax(np.maximum(self.lower - q, q - self.upper)))

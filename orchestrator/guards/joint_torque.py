@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from operator import ge
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -50,8 +49,12 @@ class JointTorque(Guard):
 
     def check(self, ctx: Context) -> Violation | None:
         taus = self._tau.tolist()
-        if self._counting == 0 and not any(map(ge, map(abs, taus), self._limit)):
-            return None  # the fast path (C-level maps): every joint below its limit
+        if self._counting == 0:  # the fast path: every joint below its limit, one plain loop
+            for tau, lim in zip(taus, self._limit, strict=True):
+                if tau >= lim or tau <= -lim:
+                    break
+            else:
+                return None
         count = self._count
         for i, (tau, lim) in enumerate(zip(taus, self._limit, strict=True)):
             if tau >= lim or tau <= -lim:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from operator import gt
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -53,7 +52,10 @@ class JointVelocity(Guard):
 
     def check(self, ctx: Context) -> Violation | None:
         qd = (self._qd if self._qd is not None else ctx.data.qvel[self._dofs]).tolist()
-        if not any(map(gt, map(abs, qd), self._lim)):  # the fast path (C-level maps)
+        for v, lim in zip(qd, self._lim, strict=True):  # the fast path
+            if v > lim or v < -lim:
+                break
+        else:
             return None
         for i, (v, lim) in enumerate(zip(qd, self._lim, strict=True)):
             if v > lim or v < -lim:

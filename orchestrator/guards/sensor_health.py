@@ -69,7 +69,7 @@ class SensorHealth(Guard):
         norm_sq = ctx.wrist_force_norm_sq()
         if not norm_sq <= self._range_sq:  # NaN compares false too
             return self._ft(norm_sq)
-        age = ctx.wrist_force_age_s()
+        age = 0.0 if ctx.ft_fault is None else ctx.wrist_force_age_s()
         if age > self._stale_s:
             return Violation(
                 self.name,
@@ -88,7 +88,15 @@ class SensorHealth(Guard):
                         round(b, 3),
                         round(a, 3),
                     )
-        primary, safety = ctx.encoders.read()[0][: self._n].tolist(), self._safety_q.tolist()
+        safety = self._safety_q.tolist()
+        encoders = ctx.encoders
+        if encoders.fault is None or encoders.failed_over:
+            # the primary channel reads the safety channel's values: they can only disagree
+            # by a NaN (NaN != NaN), which makes the sum NaN; compare in full only then
+            total = sum(safety)
+            if not math.isnan(total):
+                return None
+        primary = encoders.read()[0][: self._n].tolist()
         if primary != safety:
             tol = self._tol
             for i, (a, b) in enumerate(zip(primary, safety, strict=True)):
