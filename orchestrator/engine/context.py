@@ -73,6 +73,7 @@ class Context:
         self._wrist_views: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._norm_sq_t = -1.0
         self._norm_sq = 0.0
+        self._true_weight: tuple[float, ...] = (0.0, 0.0, 0.0)
         self.metrics: dict[str, Any] = {}
         """Figures skills add to the result's `metrics` (e.g. force RMS error of a trace)."""
         self.ik: Any = None
@@ -147,16 +148,35 @@ class Context:
             self._norm_sq_t = now
         return self._norm_sq
 
-    def _wrist_force_xyz(self) -> tuple[float, float, float]:
+    def true_wrist_force_norm_sq(self) -> float:
+        """Squared norm of the true external force on the wrist [N^2]: the noise-free sensor
+        with the true weight of the hand and its tool removed (a perfect zero). Ground truth
+        for the run's metrics, read every physics step; never what a skill or guard sees."""
+        if self._wrist_views is None:
+            self._bind_wrist()
+        f_site, rot, _ = self._wrist_views  # type: ignore[misc]
+        f0, f1, f2 = f_site.tolist()
+        r = rot.tolist()
+        bx, by, bz = self._true_weight
+        fx = bx - (r[0] * f0 + r[1] * f1 + r[2] * f2)
+        fy = by - (r[3] * f0 + r[4] * f1 + r[5] * f2)
+        fz = bz - (r[6] * f0 + r[7] * f1 + r[8] * f2)
+        return fx * fx + fy * fy + fz * fz
+
+    def _bind_wrist(self) -> None:
         # Plain floats on views bound once (MjData never reallocates): a 3x3 matrix-vector
         # product in numpy costs more in call overhead than in arithmetic.
+        d, w = self.data, self.world
+        self._wrist_views = (
+            d.sensordata[w.force_adr : w.force_adr + 3],
+            d.site_xmat[w.wrist_site],
+            w.wrist_bias_world,  # updated in place by zero_wrist_force()
+        )
+        self._true_weight = tuple(float(v) for v in w.wrist_weight_world)
+
+    def _wrist_force_xyz(self) -> tuple[float, float, float]:
         if self._wrist_views is None:
-            d, w = self.data, self.world
-            self._wrist_views = (
-                d.sensordata[w.force_adr : w.force_adr + 3],
-                d.site_xmat[w.wrist_site],
-                w.wrist_bias_world,  # updated in place by zero_wrist_force()
-            )
+            self._bind_wrist()
         f_site, rot, bias = self._wrist_views
         f0, f1, f2 = f_site.tolist()
         r = rot.tolist()

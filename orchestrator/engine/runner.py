@@ -41,7 +41,12 @@ _DIVERGED = tuple(
 
 
 class Observer(Protocol):
-    """Watches a run (the Rerun recorder is one). Called on simulated time only."""
+    """Watches a run (the Rerun recorder is one). Called on simulated time only.
+
+    An observer may also define `on_step(ctx)`: it is then called after every physics step
+    (bench/physical_honesty.py instruments the plant that way). Observers without it cost the
+    physics step nothing.
+    """
 
     def on_start(self, ctx: Context, executor: Executor) -> None: ...
     def on_tick(self, ctx: Context, executor: Executor) -> None: ...
@@ -102,6 +107,8 @@ def run_episode(
     warnings = data.warning.number
     compute, mj_step, read_encoders = controller.compute, mujoco.mj_step, ctx.encoders.read
     time_limit = scn.physics.time_limit_s
+    steppers = [obs.on_step for obs in observers if hasattr(obs, "on_step")]
+    true_force_sq = ctx.true_wrist_force_norm_sq
     max_force_sq = 0.0
     timed_out = False
     diverged: str | None = None
@@ -146,6 +153,12 @@ def run_episode(
                 tau = ctx.actuator_fault.apply(tau)
             ctrl[act_idx] = tau
             mj_step(model, data)
+            # the reported peak is the true force of every step, not a per-tick sample
+            force_sq = true_force_sq()
+            if force_sq > max_force_sq:
+                max_force_sq = force_sq
+            for on_step in steppers:
+                on_step(ctx)
             if data.time >= injector.next_t:
                 injector.fire_due(data.time)
                 checks = executor.active_checks
@@ -162,7 +175,6 @@ def run_episode(
                     stop = executor.stop
                     break
         ctx.tick += 1
-        max_force_sq = max(max_force_sq, ctx.wrist_force_norm_sq())
         if not np.isfinite(qpos).all() or any(warnings[w] for w in _DIVERGED):
             diverged = f"physics diverged at t={ctx.t:.3f} s (state {executor.leaf})"
             break

@@ -110,6 +110,9 @@ class World:
         hand_mass = float(m.body_subtreemass[self.hand_body]) - (tool.mass_kg if tool else 0.0)
         self.wrist_bias_world = hand_mass * gravity
         """Force [N] the arm exerts on the hand at rest (its weight), removed from readings."""
+        self.wrist_weight_world = float(m.body_subtreemass[self.hand_body]) * gravity
+        """True weight of everything on the wrist sensor (hand, fingers, tool) [N]: removed
+        from the ground-truth wrist force the run's metrics report. Shape (3,)."""
         self.objects: dict[str, ObjectHandle] = {}
         for spec in scenario.scene.objects:
             body = m.body(spec.name)
