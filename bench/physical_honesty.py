@@ -189,7 +189,8 @@ def summarize(rows: list[dict[str, Any]]) -> None:
                 f" | {np.median(vals):.4g} |"
             )
     worst = max(rows, key=lambda r: r["max_accel_ratio_outside_contact"])
-    print(f"worst acceleration outside contact: seed {worst['seed']} at {worst['where'].get('a_free')}")
+    where = worst["where"].get("a_free")
+    print(f"worst acceleration outside contact: seed {worst['seed']} at {where}")
 
 
 def main() -> None:

@@ -23,7 +23,7 @@ import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat, field_validator, model_validator
 
 from orchestrator.exceptions import SkillError
-from orchestrator.world.path import PlannedPath
+from orchestrator.world.path import PlannedPath, TraceSpec
 from orchestrator.world.pose import Pose
 
 from . import impedance
@@ -149,7 +149,7 @@ class Contact(Skill):
         stiffness[int(np.argmax(np.abs(self.n)))] = k_n
         self.gains = impedance.gains(stiffness, p.rotational_stiffness)
         pos, self.rot = impedance.setpoint(ctx, stiffness)
-        frame = _frame(p.frame)
+        frame, self.frame_pose = _frame(p.frame)
         self.planned = PlannedPath(np.array([frame(w) for w in p.path]), self.n) if p.path else None
         """The path in the world, projected on the plane perpendicular to the axis."""
         if p.at is not None:
@@ -200,6 +200,7 @@ class Contact(Skill):
         # The impedance setpoint stays (a compliant hold, keeping any contact preload for the
         # next skill); the controller's q_d follows the arm meanwhile.
         ctx.planned_path = None
+        ctx.trace = None
         self._report(ctx)
 
     # -- phases -------------------------------------------------------------------------
@@ -247,9 +248,18 @@ class Contact(Skill):
         if self.profile is None:
             self.profile = Trapezoid(self.planned.length, p.speed, p.accel)
             self.t_trace = ctx.t
+            ctx.trace = TraceSpec(
+                np.asarray(p.path, dtype=float),
+                self.frame_pose,
+                self.n,
+                p.target_force_n,
+                self.lateral.copy(),
+            )
         elapsed = ctx.t - self.t_trace
         fraction, _ = self.profile.progress(elapsed)
         self.lateral = self.planned.point_at(fraction * self.planned.length)
+        if ctx.trace is not None:
+            ctx.trace.reference[:] = self.lateral
         self._command(ctx)
         dev = self.planned.deviation(ctx.tcp_pos)
         self.trace.append((p.target_force_n - f_n, math.sqrt(float(force @ force)), dev))
@@ -289,10 +299,13 @@ class Contact(Skill):
         )
 
 
-def _frame(value: Any) -> Callable[[Any], np.ndarray]:
-    """A function mapping points [m] in the pose `value` (or the world if None) to the world."""
+def _frame(
+    value: Any,
+) -> tuple[Callable[[Any], np.ndarray], tuple[np.ndarray, np.ndarray] | None]:
+    """A function mapping points [m] in the pose `value` (or the world if None) to the world,
+    and the pose as (position [m] shape (3,), rotation shape (3, 3)) or None."""
     if value is None:
-        return lambda p: np.asarray(p, dtype=float)
+        return (lambda p: np.asarray(p, dtype=float)), None
     try:
         pose = Pose.coerce(value)
     except (TypeError, ValueError) as exc:
@@ -302,4 +315,4 @@ def _frame(value: Any) -> Callable[[Any], np.ndarray]:
     mujoco.mju_quat2Mat(rot, quat / np.linalg.norm(quat))
     rot = rot.reshape(3, 3)
     origin = np.asarray(pose.pos, dtype=float)
-    return lambda p: rot @ np.asarray(p, dtype=float) + origin
+    return (lambda p: rot @ np.asarray(p, dtype=float) + origin), (origin, rot)

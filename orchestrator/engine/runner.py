@@ -17,6 +17,7 @@ from ..language.loading import MachineNode, initial_values
 from ..language.machine import SAFE_STOP, guard_entries
 from ..robots import Controller
 from ..skills.ik import IKSolver
+from ..world.realism import link_mass_scale
 from ..world.world import World, as_index, robot_only_model
 from .blackboard import Blackboard
 from .context import Context
@@ -25,6 +26,7 @@ from .faults import FaultInjector
 from .result import RunResult
 from .safety_stop import SafetyStop
 from .success import evaluate
+from .trace_truth import TraceTruth
 
 __all__ = ["Observer", "run_episode"]
 
@@ -77,7 +79,11 @@ def run_episode(
     scn = loaded.scenario
     world = World.build(scn, seed)
     model, data = world.model, world.data
-    controller = Controller(world.robot, float(world.model.opt.timestep))
+    controller = Controller(
+        world.robot,
+        float(world.model.opt.timestep),
+        link_mass_scale(scn.physics.realism, world.robot.pinocchio_model().njoints - 1, seed),
+    )
     controller.hold(world.home)
     dt = float(model.opt.timestep)
     n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
@@ -108,6 +114,8 @@ def run_episode(
     compute, mj_step, read_encoders = controller.compute, mujoco.mj_step, ctx.encoders.read
     time_limit = scn.physics.time_limit_s
     steppers = [obs.on_step for obs in observers if hasattr(obs, "on_step")]
+    trace_truth = TraceTruth(ctx)
+    steppers.append(trace_truth.on_step)
     true_force_sq = ctx.true_wrist_force_norm_sq
     max_force_sq = 0.0
     timed_out = False
@@ -155,7 +163,7 @@ def run_episode(
             mj_step(model, data)
             # the reported peak is the true force of every step, not a per-tick sample
             force_sq = true_force_sq()
-            if force_sq > max_force_sq:
+            if force_sq > max_force_sq:  # noqa: PLR1730 (cheaper than max() per step)
                 max_force_sq = force_sq
             for on_step in steppers:
                 on_step(ctx)
@@ -184,6 +192,7 @@ def run_episode(
 
     outcome = executor.outcome or "failed"
     final_state = executor.final_state
+    ctx.metrics.update(trace_truth.figures())  # before the success checks that read them
     success = evaluate(ctx, scn.success) if not diverged else dict.fromkeys(scn.success, False)
     if outcome == "succeeded" and not all(success.values()):
         outcome = "failed"

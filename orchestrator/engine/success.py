@@ -19,6 +19,9 @@ def evaluate(ctx: Context, checks: dict[str, SuccessCheck]) -> dict[str, bool]:
 
 
 def _check(ctx: Context, c: SuccessCheck) -> bool:
+    if c.kind == "trace":
+        return _traced(ctx.metrics, c)
+    assert c.object is not None
     pose = ctx.object_pose(c.object)
     if c.kind == "object_at":
         assert c.target is not None
@@ -41,3 +44,15 @@ def _check(ctx: Context, c: SuccessCheck) -> bool:
         if dist < c.min_distance_m:
             return False
     return bool(open_enough)
+
+
+def _traced(m: dict, c: SuccessCheck) -> bool:
+    """A trace ran and its ground-truth figures (engine/trace_truth.py) are within bounds."""
+    if "true_cross_track_max_mm" not in m:
+        return False
+    return bool(
+        m["true_cross_track_max_mm"] <= c.cross_track_max_mm
+        and m["trace_end_gap_mm"] <= c.end_tol_mm
+        and m["true_force_rms_error_n"] <= c.force_rms_max_n
+        and m["true_peak_force_n"] <= c.force_peak_max_n
+    )

@@ -21,6 +21,7 @@ from .phantom import (
     tool_from_spec,
 )
 from .randomization import object_poses
+from .realism import apply_joint_friction
 from .scene import add_scene
 
 if TYPE_CHECKING:
@@ -178,7 +179,9 @@ class World:
         )
         model = spec.compile()
         set_tissue_stiffness(model, scenario, seed, robot)
-        return cls(scenario, seed, robot, model, sensors)
+        world = cls(scenario, seed, robot, model, sensors)
+        apply_joint_friction(model, robot, world.arm_dof, scenario.physics.realism)
+        return world
 
     def engage_brake(self, joint: int, torque_nm: float | None = None) -> None:
         """Engage the holding brake of arm joint `joint` (0-based): a dry friction of
