@@ -47,7 +47,10 @@ class ContactParams(SkillParams):
         default=2.0, le=50.0, description="Normal force to reach and hold [N]."
     )
     max_force_n: PositiveFloat = Field(
-        default=10.0, le=100.0, description="Filtered force that ends the skill `overforce` [N]."
+        default=10.0,
+        le=100.0,
+        description="Filtered force, normal or in total (a lateral load counts), that ends the"
+        " skill `overforce` [N].",
     )
     approach_speed: PositiveFloat = Field(default=0.01, le=0.05, description="[m/s]")
     max_travel_m: PositiveFloat = Field(
@@ -168,6 +171,8 @@ class Contact(Skill):
         self.alpha = 1.0 - math.exp(-2.0 * math.pi * p.filter_hz * ctx.dt_control)
         self.q_null = ctx.q.copy()
         self.f_filt = self._normal(ctx.wrist_force())
+        self.f_total_filt = float(np.linalg.norm(ctx.wrist_force()))
+        """Low-passed norm of the whole wrist force [N]: the lateral load counts too."""
         self.t0 = ctx.t
         self.phase = "tare" if p.tare_s > 0.0 else "approach"
         self.tare: list[np.ndarray] = []
@@ -185,10 +190,15 @@ class Contact(Skill):
         force = ctx.wrist_force()
         f_n = self._normal(force)
         self.f_filt += self.alpha * (f_n - self.f_filt)
+        self.f_total_filt += self.alpha * (math.sqrt(float(force @ force)) - self.f_total_filt)
         if self.phase == "tare":
             return self._tare(ctx, force)
-        if self.f_filt > p.max_force_n:
-            ctx.log("skill", f"contact: {self.f_filt:.2f} N exceeds {p.max_force_n} N")
+        if self.f_filt > p.max_force_n or self.f_total_filt > p.max_force_n:
+            ctx.log(
+                "skill",
+                f"contact: {self.f_total_filt:.2f} N ({self.f_filt:.2f} N normal) exceeds"
+                f" {p.max_force_n} N",
+            )
             self.s = float(ctx.tcp_pos @ self.n) - self.depth0  # release the spring preload
             self._command(ctx)
             return "overforce"
@@ -212,6 +222,7 @@ class Contact(Skill):
         ctx.zero_wrist_force(offset)
         ctx.log("skill", f"contact: wrist sensor re-zeroed ({np.linalg.norm(offset):.3f} N)")
         self.f_filt = self._normal(ctx.wrist_force())
+        self.f_total_filt = float(np.linalg.norm(ctx.wrist_force()))
         self.phase = "approach"
         return None
 

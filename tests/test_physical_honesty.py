@@ -11,7 +11,9 @@ import math
 
 import numpy as np
 import pytest
+from orchestrator.robots import Controller
 
+from orchestrator.engine.context import Context
 from orchestrator.engine.runner import run_episode
 from orchestrator.language.load import load_scenario
 from orchestrator.world import World
@@ -100,9 +102,6 @@ def test_realism_is_on_by_default_with_the_robots_datasheet_values():
 
 
 def test_encoders_read_in_steps_of_their_resolution_and_difference_velocity():
-    from orchestrator.engine.context import Context  # noqa: PLC0415
-    from orchestrator.robots import Controller  # noqa: PLC0415
-
     world = World.build(load_scenario("pick_place").scenario, 0)
     ctx = Context(world, Controller(world.robot), None, np.random.default_rng(0), 0.01)  # type: ignore[arg-type]
     res = world.robot.encoder_resolution_rad
@@ -119,9 +118,6 @@ def test_encoders_read_in_steps_of_their_resolution_and_difference_velocity():
 
 def test_wrist_sensor_is_noisy_and_drifts_but_deterministic():
     def readings(seed: int) -> np.ndarray:
-        from orchestrator.engine.context import Context  # noqa: PLC0415
-        from orchestrator.robots import Controller  # noqa: PLC0415
-
         world = World.build(load_scenario("surgical").scenario, seed)
         ctx = Context(world, Controller(world.robot), None, np.random.default_rng(0), 0.01)  # type: ignore[arg-type]
         out = []
