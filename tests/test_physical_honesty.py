@@ -169,3 +169,16 @@ def test_safe_hold_releases_the_nodule(tmp_path):
     assert after, "the run ended at the abort"
     # the hold stops pushing: the tip rests on the tissue below the 2 N it traced with
     assert max(after) < 2.5, f"still {max(after):.2f} N on the nodule 0.3 s after the abort"
+
+
+def test_a_force_ceiling_watches_the_safety_response_itself():
+    # SAFE_HOLD backs the probe out; 0.2 s in, the wrist feels 20 N (above the scenario's
+    # 10 N ceiling): the response ends, the arm is stopped again and held
+    fault = "ft_bias:force_n=[0,0,20]@SAFE_HOLD.BACK_OUT+0.2"
+    result, _ = _run("surgical_complication", 0, faults=[fault])
+    assert result.outcome == "aborted"
+    assert result.reason is not None and result.reason["guard"] == "contact_force"
+    moves = [(t["from"], t["to"]) for t in result.transitions]
+    assert moves[-1] == ("SAFE_HOLD.BACK_OUT", "SAFE_STOP")
+    assert result.final_state == "SAFE_STOP"
+    assert result.metrics["rest_speed_rad_s"] < 0.01

@@ -103,6 +103,8 @@ def run_episode(
         make_guards(scn.guards, ctx),
         lambda: SafetyStop(ctx, safe_stop),
         safe_stop.hold_s,
+        make_guards(["joint_limits"], ctx),
+        make_guards([{"contact_force": {"max_n": safe_stop.force_ceiling_n}}], ctx),
     )
     injector = FaultInjector(list(scn.faults), ctx, executor)
 

@@ -251,6 +251,13 @@ class SafeStop(_Strict):
         le=60.0,
         description="Longest the stop may take before the run ends anyway (reported) [s].",
     )
+    force_ceiling_n: PositiveFloat = Field(
+        default=30.0,
+        le=500.0,
+        description="Hard wrist-force ceiling while the `on_abort` response moves the stopped"
+        " arm [N]; above it the response ends and the arm is stopped and held. The joint"
+        " limits stay checked during every safety response too.",
+    )
 
 
 class Realism(_Strict):
