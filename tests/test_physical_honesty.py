@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import mujoco
 import numpy as np
 import pytest
 from orchestrator.robots import Controller
@@ -19,6 +20,10 @@ from orchestrator.language.load import load_scenario
 from orchestrator.world import World
 
 SATURATED = 0.999
+HAND_GRIP_N = 20.0
+"""The grasp force the Panda's hand model squeezes with (robots/panda: 20 N per finger; the
+real Franka Hand is rated 70 N continuous). Written out, not read from the model: a hand that
+squeezes harder than designed must fail here."""
 
 
 class StepProbe:
@@ -39,6 +44,8 @@ class StepProbe:
         self.pen_m = 0.0
         self.force = 0.0
         self.forces: list[tuple[float, float]] = []
+        self.grip_n = 0.0
+        self._wrench = np.zeros(6)
 
     def on_tick(self, ctx, executor) -> None:
         pass
@@ -46,6 +53,7 @@ class StepProbe:
     def on_step(self, ctx) -> None:
         d = ctx.data
         self.speed = max(self.speed, float(np.max(np.abs(d.qvel[self.dof]) / self.vlim)))
+        grip = 0.0
         for i in range(d.ncon):
             c = d.contact[i]
             g1, g2 = int(c.geom1), int(c.geom2)
@@ -53,8 +61,11 @@ class StepProbe:
                 g2 in self.fingers and g1 in self.objects
             ):
                 self.pen_m = max(self.pen_m, -float(c.dist))
+                mujoco.mj_contactForce(ctx.model, d, i, self._wrench)
+                grip += float(self._wrench[0])  # normal force, both fingers
             elif g1 in self.robot or g2 in self.robot:
                 self.last_contact_t = d.time
+        self.grip_n = max(self.grip_n, 0.5 * grip)  # each finger squeezes with half the sum
         tau = float(np.max(np.abs(d.actuator_force[self.act]) / self.tlim))
         self.torque = max(self.torque, tau)
         if tau >= SATURATED and d.time - self.last_contact_t > 0.01:
@@ -85,6 +96,7 @@ def test_pick_place_stays_within_the_pandas_limits_at_every_physics_step(pick_ru
         assert probe.saturated_outside_contact == 0
         assert probe.torque < SATURATED
         assert probe.pen_m <= 0.001, f"fingers {probe.pen_m * 1000:.2f} mm into the cube"
+        assert 0.5 * HAND_GRIP_N < probe.grip_n <= 1.2 * HAND_GRIP_N, f"grip {probe.grip_n:.0f} N"
         assert probe.force <= 15.0, f"peak wrist force {probe.force:.1f} N"
         # the reported peak is the per-step ground truth, not a per-tick sample
         assert result.metrics["max_wrist_force_n"] == pytest.approx(probe.force, abs=1e-3)
