@@ -62,13 +62,18 @@ def _posture_0() -> None:
 
 
 def _no_hold_brake() -> None:
-    """The `hold` skill (SAFE_HOLD's STOP) keeps the previous Cartesian setpoint instead of
-    braking the joints where they are."""
+    """No brake in the safety response: the controlled stop's brake does nothing and the
+    `hold` skill (SAFE_HOLD's STOP) keeps the previous Cartesian setpoint instead of braking
+    the joints where they are — a probe pressing on tissue keeps pressing."""
 
     def start(self, ctx) -> None:
         self.t0 = ctx.t
 
+    def brake(self, q, qd, max_decel) -> float:
+        return 0.0
+
     hold.Hold.start = start  # type: ignore[method-assign]
+    Controller.brake = brake  # type: ignore[method-assign]
 
 
 MUTANTS = {
