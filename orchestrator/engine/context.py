@@ -13,6 +13,7 @@ from ..exceptions import SkillError
 from ..perception.rig import CameraRig
 from ..world.actuators import ActuatorFault
 from ..world.pose import Pose
+from ..world.realism import WristForceNoise
 from ..world.sensors import JointEncoders, PerceptionFaults, WristForceFault
 from ..world.world import as_index
 from .blackboard import Blackboard
@@ -22,7 +23,7 @@ if TYPE_CHECKING:
 
     from ..language.scenario import Scenario
     from ..robots import Controller, Robot
-    from ..world.path import PlannedPath
+    from ..world.path import PlannedPath, TraceSpec
     from ..world.world import ObjectHandle, World
 
 __all__ = ["Context", "Event"]
@@ -88,6 +89,7 @@ class Context:
         self._grip_step = world.robot.gripper_speed_mps * dt_control
         self._norm_sq_t = -1.0
         self._norm_sq = 0.0
+        self._true_weight: tuple[float, ...] = (0.0, 0.0, 0.0)
         self.metrics: dict[str, Any] = {}
         """Figures skills add to the result's `metrics` (e.g. force RMS error of a trace)."""
         self.ik: Any = None
@@ -96,6 +98,17 @@ class Context:
         """The pose the active motion skill is driving the TCP to (for guards and recording)."""
         self.planned_path: PlannedPath | None = None
         """The path the active skill is moving the TCP along (for `path_deviation`)."""
+        self.trace: TraceSpec | None = None
+        """The path a contact skill is tracing now, for the ground-truth probe
+        (engine/trace_truth.py); None when no trace runs."""
+        realism = world.scenario.physics.realism
+        quantize = realism.enabled and realism.encoder_quantization
+        self.ft_noise: WristForceNoise | None = (
+            WristForceNoise(realism.ft_noise_n, realism.ft_drift_n_per_sqrt_s, world.seed)
+            if realism.enabled and (realism.ft_noise_n > 0 or realism.ft_drift_n_per_sqrt_s > 0)
+            else None
+        )
+        """Noise and bias drift of the wrist force sensor (`physics.realism`), if on."""
         self.encoders = JointEncoders(
             self.data.qpos,
             self.data.qvel,
@@ -103,6 +116,8 @@ class Context:
             as_index(world.robot_dof),
             world.robot.n_arm,
             np.random.default_rng([world.seed, 0xE2C0]),
+            world.robot.encoder_resolution_rad if quantize else 0.0,
+            lambda: float(self.data.time),
         )
         """The joint encoders the controller, the skills and `sensor_health` read."""
         self.ft_fault: WristForceFault | None = None
@@ -179,17 +194,51 @@ class Context:
             self._norm_sq_t = now
         return self._norm_sq
 
-    def _wrist_force_xyz(self) -> tuple[float, float, float]:
+    def true_wrist_force_norm_sq(self) -> float:
+        """Squared norm of the true external force on the wrist [N^2]: the noise-free sensor
+        with the true weight of the hand and its tool removed (a perfect zero). Ground truth
+        for the run's metrics, read every physics step; never what a skill or guard sees."""
+        if self._wrist_views is None:
+            self._bind_wrist()
+        f_site, rot, _ = self._wrist_views  # type: ignore[misc]
+        f0, f1, f2 = f_site.tolist()
+        r = rot.tolist()
+        bx, by, bz = self._true_weight
+        fx = bx - (r[0] * f0 + r[1] * f1 + r[2] * f2)
+        fy = by - (r[3] * f0 + r[4] * f1 + r[5] * f2)
+        fz = bz - (r[6] * f0 + r[7] * f1 + r[8] * f2)
+        return fx * fx + fy * fy + fz * fz
+
+    def true_wrist_force(self) -> tuple[float, float, float]:
+        """The true external force on the wrist, world frame [N] (see
+        `true_wrist_force_norm_sq`): ground truth, never what a skill or guard sees."""
+        if self._wrist_views is None:
+            self._bind_wrist()
+        f_site, rot, _ = self._wrist_views  # type: ignore[misc]
+        f0, f1, f2 = f_site.tolist()
+        r = rot.tolist()
+        bx, by, bz = self._true_weight
+        return (
+            bx - (r[0] * f0 + r[1] * f1 + r[2] * f2),
+            by - (r[3] * f0 + r[4] * f1 + r[5] * f2),
+            bz - (r[6] * f0 + r[7] * f1 + r[8] * f2),
+        )
+
+    def _bind_wrist(self) -> None:
         # Plain floats on views bound once (MjData never reallocates): a 3x3 matrix-vector
         # product in numpy costs more in call overhead than in arithmetic.
+        d, w = self.data, self.world
+        self._wrist_views = (
+            d.sensordata[w.force_adr : w.force_adr + 3],
+            d.site_xmat[w.wrist_site],
+            w.wrist_bias_world,  # updated in place by zero_wrist_force()
+        )
+        self._true_weight = tuple(float(v) for v in w.wrist_weight_world)
+
+    def _wrist_force_xyz(self) -> tuple[float, float, float]:
         if self._wrist_views is None:
-            d, w = self.data, self.world
-            self._wrist_views = (
-                d.sensordata[w.force_adr : w.force_adr + 3],
-                d.site_xmat[w.wrist_site],
-                w.wrist_bias_world,  # updated in place by zero_wrist_force()
-            )
-        f_site, rot, bias = self._wrist_views
+            self._bind_wrist()
+        f_site, rot, bias = self._wrist_views  # type: ignore[misc]
         f0, f1, f2 = f_site.tolist()
         r = rot.tolist()
         bx, by, bz = bias.tolist()
@@ -198,6 +247,8 @@ class Context:
             by - (r[3] * f0 + r[4] * f1 + r[5] * f2),
             bz - (r[6] * f0 + r[7] * f1 + r[8] * f2),
         )
+        if self.ft_noise is not None:
+            f = self.ft_noise.apply(f, self.data.time)
         if self.ft_fault is not None:
             return self.ft_fault.apply(f, self.data.time)
         return f

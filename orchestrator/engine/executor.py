@@ -14,7 +14,7 @@ events (`events: {stop: GO_HOME}`) take effect at the start of the next control 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -418,6 +418,12 @@ class Executor:
         scenario_guards: Guards active for the whole run.
         new_stop: Makes the controlled stop an abort starts (a `SafetyStop`).
         hold_s: Simulated time the built-in safe stop holds the stopped arm before the run ends.
+        response_guards: Guards that stay on during every safety response (the joint
+            limits). One of them firing escalates: the `on_abort` response ends, the arm is
+            stopped and held.
+        stopped_guards: Guards that join them once the arm has been stopped, while the
+            `on_abort` response moves it (a hard force ceiling: the braking itself starts from
+            the force that fired the abort).
     """
 
     def __init__(
@@ -427,8 +433,14 @@ class Executor:
         scenario_guards: list[Guard],
         new_stop: Callable[[], Stopper],
         hold_s: float,
+        response_guards: Sequence[Guard] = (),
+        stopped_guards: Sequence[Guard] = (),
     ) -> None:
         self.root = root
+        self.response_guards = list(response_guards)
+        self.stopped_guards = list(stopped_guards)
+        self._escalated = False
+        """A response guard fired during the safety response: nothing runs but stop and hold."""
         self.ctx = ctx
         self.scenario_guards = scenario_guards
         self.new_stop = new_stop
@@ -483,8 +495,19 @@ class Executor:
     def changed(self) -> None:
         """A state changed somewhere: recompute which guards are active."""
         if self.violation is not None or self.region is None:
-            self.active_guards = []  # the safety response runs; do not re-fire
-            self.active_checks = ()
+            # The safety response runs: the guard that fired does not re-fire, but the joint
+            # limits and the force ceiling watch the response itself — the ceiling once the
+            # arm is stopped (the braking starts from the force that fired the abort).
+            guards: list[Guard] = []
+            if self.violation is not None and not self._escalated and not self.done:
+                guards = list(self.response_guards)
+                if self.final_state != SAFE_STOP:  # the on_abort response moves the arm
+                    guards += self.stopped_guards
+            for guard in guards:
+                if guard not in self.active_guards:
+                    guard.activate(self.ctx)
+            self.active_guards = guards
+            self.active_checks = tuple(g.check for g in guards)
             return
         active = list(self.scenario_guards)
         for region in self.region.regions():
@@ -606,6 +629,7 @@ class Executor:
         if self.violation is not None and (
             violation.guard != ESTOP or self.violation.guard == ESTOP
         ):
+            self._escalate(violation)
             return
         ctx = self.ctx
         self.violation = violation
@@ -633,6 +657,32 @@ class Executor:
         """A safety function outside the guards fired (a live session's watchdog): abort
         as a guard would, with `guard` as the reason."""
         self.abort(Violation(guard, message, value, limit))
+
+    def _escalate(self, violation: Violation) -> None:
+        """A response guard fired during the safety response: end the `on_abort` response,
+        stop the arm (again, if it was moving) and hold it until the run ends `aborted`."""
+        if self._escalated or self.done:
+            return
+        self._escalated = True
+        ctx = self.ctx
+        ctx.log(
+            "violation",
+            f"{violation.guard} during the safety response: {violation.message}",
+            level="ERROR",
+            guard=violation.guard,
+            value=violation.value,
+            limit=violation.limit,
+        )
+        self._on_abort = None
+        if self.final_state != SAFE_STOP and self.region is not None:
+            leaf = self.leaf
+            self.region.stop()
+            self.record(leaf, SAFE_STOP, ABORT)
+            self.final_state = SAFE_STOP
+            self.safe_stop_until = None
+            self.stop = self.new_stop()
+            self.stop.start(f"{violation.guard}: {violation.message}")
+        self.changed()
 
     def estop(self, source: str) -> None:
         """An emergency stop: outranks every guard and any `on_abort` response."""

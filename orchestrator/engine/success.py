@@ -25,7 +25,7 @@ def errors(ctx: Context, checks: dict[str, SuccessCheck]) -> dict[str, float]:
     the distance in the table plane from the object's centre to its target [mm]."""
     out = {}
     for name, c in checks.items():
-        if c.kind == "object_at" and c.target is not None:
+        if c.kind == "object_at" and c.target is not None and c.object is not None:
             pos = ctx.object_pose(c.object).pos
             try:
                 goal = resolve_target(ctx, ctx.blackboard.resolve(c.target))
@@ -37,6 +37,9 @@ def errors(ctx: Context, checks: dict[str, SuccessCheck]) -> dict[str, float]:
 
 
 def _check(ctx: Context, c: SuccessCheck) -> tuple[bool, str]:
+    if c.kind == "trace":
+        return _traced(ctx.metrics, c)
+    assert c.object is not None
     pose = ctx.object_pose(c.object)
     handle = ctx.world.objects[c.object]
     if c.kind == "object_at":
@@ -79,3 +82,21 @@ def _check(ctx: Context, c: SuccessCheck) -> tuple[bool, str]:
     if ctx.gripper_width < need:
         return False, f"gripper open {ctx.gripper_width * 1000:.1f} mm < {need * 1000:.1f} mm"
     return True, gap
+
+
+def _traced(m: dict, c: SuccessCheck) -> tuple[bool, str]:
+    """A trace ran and its ground-truth figures (engine/trace_truth.py) are within bounds."""
+    if "true_cross_track_max_mm" not in m:
+        return False, "no trace ran (no ground-truth trace figures)"
+    figures = (
+        ("true_cross_track_max_mm", c.cross_track_max_mm, "cross_track_max_mm"),
+        ("trace_end_gap_mm", c.end_tol_mm, "end_tol_mm"),
+        ("true_force_rms_error_n", c.force_rms_max_n, "force_rms_max_n"),
+        ("true_peak_force_n", c.force_peak_max_n, "force_peak_max_n"),
+    )
+    over = [
+        f"{key} {m[key]:g} > {name} {limit:g}" for key, limit, name in figures if m[key] > limit
+    ]
+    if over:
+        return False, "; ".join(over)
+    return True, ", ".join(f"{key} {m[key]:g}" for key, _, _ in figures)

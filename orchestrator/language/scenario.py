@@ -19,6 +19,7 @@ __all__ = [
     "Perception",
     "Phantom",
     "Physics",
+    "Realism",
     "RobotRef",
     "SafeStop",
     "Scenario",
@@ -269,6 +270,61 @@ class SafeStop(_Strict):
         le=60.0,
         description="Longest the stop may take before the run ends anyway (reported) [s].",
     )
+    force_ceiling_n: PositiveFloat = Field(
+        default=30.0,
+        le=500.0,
+        description="Hard wrist-force ceiling while the `on_abort` response moves the stopped"
+        " arm [N]; above it the response ends and the arm is stopped and held. The joint"
+        " limits stay checked during every safety response too.",
+    )
+
+
+class Realism(_Strict):
+    """Imperfections of the plant and of the controller's knowledge of it (on by default).
+
+    Without them the simulated Panda is frictionless, its sensors exact and its controller's
+    model perfect: figures measured that way flatter. The robot documents its own datasheet
+    values (joint friction, encoder resolution); these keys scale or add to them.
+    """
+
+    enabled: bool = Field(default=True, description="Apply every imperfection below.")
+    joint_friction_scale: float = Field(
+        default=0.25,
+        ge=0.0,
+        le=10.0,
+        description="Fraction of the robot's identified Coulomb and viscous joint friction"
+        " the controller meets uncompensated (the Panda's torque interface compensates"
+        " friction inside the robot, with a model as good as its identification).",
+    )
+    ft_noise_n: float = Field(
+        default=0.01,
+        ge=0.0,
+        le=10.0,
+        description="White noise of the wrist force sensor, std. dev. per axis per reading [N]"
+        " (a Nano17-class sensor resolves 3 mN; 10 mN covers its electronics at 500 Hz).",
+    )
+    ft_drift_n_per_sqrt_s: float = Field(
+        default=0.005,
+        ge=0.0,
+        le=10.0,
+        description="Random-walk bias drift of the wrist force sensor per axis [N/sqrt(s)]"
+        " (0.04 N after a minute: why a sensor is zeroed before each contact task).",
+    )
+    encoder_quantization: bool = Field(
+        default=True,
+        description="Joint positions in steps of the robot's encoder resolution; velocities"
+        " the difference of successive readings.",
+    )
+    mass_mismatch: float = Field(
+        default=0.0,
+        ge=0.0,
+        le=0.5,
+        description="The controller's link masses (and inertias) are each off by a seeded"
+        " factor in [1 - x, 1 + x] (a model identified to within x). 0 by default: the"
+        " Panda compensates gravity inside the robot with Franka's own model; at x = 0.02 the"
+        " joint impedance (no integral action) already misses the surgical 0.3 mm approach"
+        " tolerance.",
+    )
 
 
 class Physics(_Strict):
@@ -293,6 +349,10 @@ class Physics(_Strict):
         default_factory=SafeStop,
         description="The controlled stop after an abort, an e-stop or at the end of a run.",
     )
+    realism: Realism = Field(
+        default_factory=Realism,
+        description="Joint friction, sensor noise and drift, encoder quantization, model mismatch.",
+    )
 
     @model_validator(mode="after")
     def _tick_fits_steps(self) -> Physics:
@@ -309,12 +369,18 @@ class SuccessCheck(_Strict):
 
     `object_at`: the object rests on the table within `xy_tol_m` of the target and is upright
     within `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and
-    its fingers are at least `min_distance_m` from it. A failed check says by how much in the
-    result's `success_detail`.
+    its fingers are at least `min_distance_m` from it. `trace`: a contact trace ran to the end
+    of its path on the real surface — measured every physics step against the true path (not
+    the registered one): cross-track error within `cross_track_max_mm` at every step, the tip
+    within `end_tol_mm` of the true path's end along it, the true normal force within
+    `force_rms_max_n` RMS of the target and never above `force_peak_max_n`. A failed check
+    says by how much in the result's `success_detail`.
     """
 
-    kind: Literal["object_at", "gripper_clear"]
-    object: str = Field(description="The scene object judged.")
+    kind: Literal["object_at", "gripper_clear", "trace"]
+    object: str | None = Field(
+        default=None, description="`object_at`, `gripper_clear`: the scene object judged."
+    )
     target: str | Vec3 | None = Field(
         default=None,
         description="`object_at`: a marker or object name, `[x, y, z]` [m], or `$key` to "
@@ -327,11 +393,27 @@ class SuccessCheck(_Strict):
     min_distance_m: float = Field(
         default=0.01, ge=0.0, le=10.0, description="`gripper_clear`: finger clearance [m]."
     )
+    cross_track_max_mm: PositiveFloat = Field(
+        default=1.0,
+        le=1000.0,
+        description="`trace`: largest lateral error from the true path [mm].",
+    )
+    end_tol_mm: PositiveFloat = Field(
+        default=2.0, le=1000.0, description="`trace`: tip within this of the true path's end [mm]."
+    )
+    force_rms_max_n: PositiveFloat = Field(
+        default=0.5, le=1000.0, description="`trace`: RMS error of the true normal force [N]."
+    )
+    force_peak_max_n: PositiveFloat = Field(
+        default=5.0, le=1000.0, description="`trace`: largest true wrist force while tracing [N]."
+    )
 
     @model_validator(mode="after")
     def _target(self) -> SuccessCheck:
         if self.kind == "object_at" and self.target is None:
             raise ValueError("`object_at` needs a `target` (a marker name, [x, y, z] or $key)")
+        if self.kind != "trace" and self.object is None:
+            raise ValueError(f"`{self.kind}` needs an `object` (a scene object name)")
         return self
 
 

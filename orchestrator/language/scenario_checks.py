@@ -142,7 +142,7 @@ def check_scenario_refs(
     objects = [o.name for o in scenario.scene.objects]
     markers = [m.name for m in scenario.scene.markers]
     for name, check in scenario.success.items():
-        if check.object not in objects:
+        if check.object is not None and check.object not in objects:
             out.append(
                 src.diag(
                     ("success", name, "object"), f"no scene object {check.object!r}", tuple(objects)

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["PlannedPath"]
+__all__ = ["PlannedPath", "TraceSpec"]
 
 
 @dataclass(frozen=True)
@@ -68,6 +68,23 @@ class PlannedPath:
             distance -= length
         return self.points[-1].copy()
 
+    def progress(self, point: np.ndarray) -> float:
+        """Distance [m] along the path from its start to the path point nearest `point`
+        (shape (3,); laterally, if the path has a normal): how far along the path it is."""
+        p = np.asarray(point, dtype=float)
+        if self.normal is not None:
+            p = p - float(p @ self.normal) * self.normal
+        best, at, walked = math.inf, 0.0, 0.0
+        for start, seg, len_sq in zip(self._start, self._seg, self._len_sq, strict=True):
+            u = min(max(float((p - start) @ seg) / len_sq, 0.0), 1.0)
+            err = p - (start + u * seg)
+            d = float(err @ err)
+            length = math.sqrt(len_sq)
+            if d < best:
+                best, at = d, float(walked + u * length)
+            walked += length
+        return at
+
     def deviation(self, point: np.ndarray) -> float:
         """Distance [m] from `point` (shape (3,)) to the nearest point of the path (laterally,
         if the path has a normal).
@@ -88,3 +105,24 @@ class PlannedPath:
             ex, ey, ez = rx - u * dx, ry - u * dy, rz - u * dz
             best = min(best, ex * ex + ey * ey + ez * ez)
         return math.sqrt(best)
+
+
+@dataclass
+class TraceSpec:
+    """A path a contact skill is tracing, as the ground-truth probe needs it.
+
+    Attributes:
+        local_points: Waypoints in `frame` [m]. Shape (k, 3).
+        frame: Position [m] (shape (3,)) and rotation (3, 3) of the frame the skill was given
+            (a registered pose, an estimate of the truth), or None for the world.
+        normal: Contact axis in the world (force-controlled; not a path error). Shape (3,).
+        target_force_n: Normal force the skill holds [N].
+        reference: Where the skill's setpoint is now, in the world [m] (updated every control
+            tick). Shape (3,).
+    """
+
+    local_points: np.ndarray
+    frame: tuple[np.ndarray, np.ndarray] | None
+    normal: np.ndarray
+    target_force_n: float
+    reference: np.ndarray

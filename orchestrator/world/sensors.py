@@ -13,6 +13,7 @@ brakes on its safety encoders when its primary ones are suspect.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -32,6 +33,12 @@ class JointEncoders:
         v_index: Index of the robot's dofs in `qvel`.
         n_arm: Number of arm joints (faults address arm joints 1..n_arm).
         rng: Random stream of encoder noise (seeded per episode).
+        resolution_rad: Encoder step [rad]; 0 reads the exact state. Above 0, positions are
+            rounded to it and velocities are the difference of the last two readings over
+            the time between them, low-pass filtered (as a drive estimates them), once per
+            simulated instant.
+        clock: Simulated time [s] (needed when `resolution_rad` > 0).
+        velocity_filter_hz: Cut-off of the first-order filter on the differenced velocity.
     """
 
     def __init__(
@@ -42,6 +49,9 @@ class JointEncoders:
         v_index: slice | np.ndarray,
         n_arm: int,
         rng: np.random.Generator,
+        resolution_rad: float = 0.0,
+        clock: Callable[[], float] | None = None,
+        velocity_filter_hz: float = 100.0,
     ) -> None:
         self._qpos, self._qvel = qpos, qvel
         self._qi, self._vi = q_index, v_index
@@ -57,14 +67,24 @@ class JointEncoders:
         self.std = 0.0
         self._frozen: tuple[float, float] = (0.0, 0.0)
         self.failed_over = False
+        self.resolution = float(resolution_rad)
+        if self.resolution > 0.0 and clock is None:
+            raise ValueError("quantized encoders need a clock")
+        self._clock = clock
+        self._omega = 2.0 * math.pi * velocity_filter_hz
+        self._read_t = math.nan
+        self._measured: tuple[np.ndarray, np.ndarray] = self._truth
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
         """Joint positions [rad] and velocities [rad/s], arm then fingers."""
-        if self.fault is None or self.failed_over:
+        if self.failed_over or (self.fault is None and self.resolution == 0.0):
             if not self._views:
                 self._truth = (self._qpos[self._qi], self._qvel[self._vi])
             return self._truth
-        q, v = self._qpos[self._qi].copy(), self._qvel[self._vi].copy()
+        q, v = self._quantized() if self.resolution > 0.0 else self._exact()
+        if self.fault is None:
+            return q, v
+        q, v = q.copy(), v.copy()
         j = self.joint
         if self.fault == "encoder_freeze":
             q[j], v[j] = self._frozen
@@ -73,6 +93,26 @@ class JointEncoders:
         else:
             q[j] = v[j] = math.nan
         return q, v
+
+    def _exact(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._qpos[self._qi].copy(), self._qvel[self._vi].copy()
+
+    def _quantized(self) -> tuple[np.ndarray, np.ndarray]:
+        assert self._clock is not None
+        now = self._clock()
+        if now == self._read_t:
+            return self._measured
+        res = self.resolution
+        q = np.round(self._qpos[self._qi] / res) * res
+        if math.isnan(self._read_t) or now <= self._read_t:
+            v = np.round(self._qvel[self._vi] / res) * res  # no earlier reading to difference
+        else:
+            dt = now - self._read_t
+            raw = (q - self._measured[0]) / dt
+            v = self._measured[1] + (1.0 - math.exp(-self._omega * dt)) * (raw - self._measured[1])
+        self._measured = (q, v)
+        self._read_t = now
+        return self._measured
 
     def safety_channel(self) -> tuple[np.ndarray, np.ndarray]:
         """The independent safety encoders: the true joint state. Never faulty."""

@@ -22,6 +22,7 @@ from .phantom import (
     tool_from_spec,
 )
 from .randomization import object_poses
+from .realism import apply_joint_friction
 from .scene import add_scene
 
 if TYPE_CHECKING:
@@ -113,6 +114,9 @@ class World:
         hand_mass = float(m.body_subtreemass[self.hand_body]) - (tool.mass_kg if tool else 0.0)
         self.wrist_bias_world = hand_mass * gravity
         """Force [N] the arm exerts on the hand at rest (its weight), removed from readings."""
+        self.wrist_weight_world = float(m.body_subtreemass[self.hand_body]) * gravity
+        """True weight of everything on the wrist sensor (hand, fingers, tool) [N]: removed
+        from the ground-truth wrist force the run's metrics report. Shape (3,)."""
         self.objects: dict[str, ObjectHandle] = {}
         for spec in scenario.scene.objects:
             body = m.body(spec.name)
@@ -183,7 +187,9 @@ class World:
         set_tissue_stiffness(model, scenario, seed, robot)
         object_geoms = [model.body(o.name).geomadr[0] for o in scenario.scene.objects]
         randomize_appearance(model, scenario, seed, [int(g) for g in object_geoms])
-        return cls(scenario, seed, robot, model, sensors)
+        world = cls(scenario, seed, robot, model, sensors)
+        apply_joint_friction(model, robot, world.arm_dof, scenario.physics.realism)
+        return world
 
     def engage_brake(self, joint: int, torque_nm: float | None = None) -> None:
         """Engage the holding brake of arm joint `joint` (0-based): a dry friction of

@@ -1,0 +1,99 @@
+"""Ground truth of a contact trace, measured every physics step against the real path.
+
+A contact skill traces a path given in a frame it was handed — a registered pose, an
+estimate with its registration error. What a surgeon cares about is where the tip went on the
+real tissue: this probe maps the same waypoints through the true pose of the phantom (the
+world, for a path given in the world) and, at every physics step of the trace (from the start
+of the lateral motion to its end), measures
+
+* cross-track error: the tip's lateral distance from the true path [mm];
+* along-track error: how far the tip is behind (+) or ahead of (-) the skill's setpoint,
+  both projected on the true path [mm];
+* the true normal force against the force the skill holds [N].
+
+The skill's own `path_deviation_*` figures are per control tick, cross-track only and
+against the registered path: they stay, for comparison; these are the honest ones.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..world.path import PlannedPath, TraceSpec
+
+if TYPE_CHECKING:
+    from .context import Context
+
+__all__ = ["TraceTruth"]
+
+
+class TraceTruth:
+    """Per-step ground truth of every trace of an episode (an `on_step` observer)."""
+
+    def __init__(self, ctx: Context) -> None:
+        self.ctx = ctx
+        self._spec: TraceSpec | None = None
+        self._true: PlannedPath | None = None
+        self.steps = 0
+        self._cross_sq = 0.0
+        self._cross_max = 0.0
+        self._along_sum = 0.0
+        self._along_max = 0.0
+        self._force_err_sq = 0.0
+        self._force_peak = 0.0
+        self._end_gap = math.inf
+        self._tip = ctx.data.site_xpos[ctx.world.tcp_site]
+
+    def on_step(self, ctx: Context) -> None:
+        spec = ctx.trace
+        if spec is None:
+            return
+        if spec is not self._spec:
+            self._spec, self._true = spec, PlannedPath(self._true_points(spec), spec.normal)
+        true = self._true
+        assert true is not None
+        tip = self._tip
+        cross = true.deviation(tip)
+        along = true.progress(spec.reference) - true.progress(tip)
+        fx, fy, fz = ctx.true_wrist_force()
+        n = spec.normal
+        f_n = -(fx * n[0] + fy * n[1] + fz * n[2])
+        self.steps += 1
+        self._cross_sq += cross * cross
+        self._cross_max = max(self._cross_max, cross)
+        self._along_sum += along
+        self._along_max = max(self._along_max, abs(along))
+        err = spec.target_force_n - f_n
+        self._force_err_sq += err * err
+        self._force_peak = max(self._force_peak, math.sqrt(fx * fx + fy * fy + fz * fz))
+        self._end_gap = true.length - true.progress(tip)
+
+    def _true_points(self, spec: TraceSpec) -> np.ndarray:
+        local = spec.local_points
+        if spec.frame is None:
+            return local.copy()
+        phantom = self.ctx.world.phantom
+        if phantom is None:  # no truth known beyond the frame given: the frame is the truth
+            pos, rot = spec.frame
+            return local @ rot.T + pos
+        c, s = math.cos(phantom.yaw), math.sin(phantom.yaw)
+        rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return local @ rot.T + phantom.surface_pos
+
+    def figures(self) -> dict[str, Any]:
+        """The run's ground-truth trace metrics (empty when nothing was traced)."""
+        if not self.steps:
+            return {}
+        k = self.steps
+        return {
+            "true_cross_track_rms_mm": round(math.sqrt(self._cross_sq / k) * 1000, 4),
+            "true_cross_track_max_mm": round(self._cross_max * 1000, 4),
+            "along_track_lag_mean_mm": round(float(self._along_sum) / k * 1000, 4),
+            "along_track_max_mm": round(float(self._along_max) * 1000, 4),
+            "true_force_rms_error_n": round(math.sqrt(self._force_err_sq / k), 4),
+            "true_peak_force_n": round(self._force_peak, 4),
+            "trace_end_gap_mm": round(float(self._end_gap) * 1000, 4),
+        }

@@ -1,0 +1,50 @@
+"""The suite sees a broken controller: each mutant of tests/mutants.py (the five breakages the
+physical-honesty audit found the suite blind to) must make the tests fail.
+
+Slow (a child pytest per mutant): `pytest -m slow tests/test_mutations.py`.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.mutants import MUTANTS
+
+ROOT = Path(__file__).resolve().parent.parent
+TARGETS = [
+    "tests/test_physical_honesty.py",
+    "tests/test_controller.py",
+    "tests/test_surgical.py",
+    "tests/test_pick_place.py",
+]
+"""The tests that bound what a broken controller changes (whole-episode joint speed, torque,
+finger penetration, wrist force, the true incision, the SAFE_HOLD force decay)."""
+
+
+POSTURE_BLIND = pytest.mark.xfail(
+    strict=True,
+    reason="the IK's posture cost (1e-3) barely holds the posture: round a 20 cm square three"
+    " times and the joints drift 0.19 rad with it, 0.21 rad without it, so no flow behaves"
+    " differently without it; a posture bound needs a stronger posture task first",
+)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "mutant",
+    [pytest.param(m, marks=POSTURE_BLIND) if m == "posture_0" else m for m in sorted(MUTANTS)],
+)
+def test_the_suite_fails_for_each_mutant(mutant):
+    env = {**os.environ, "ORCH_MUTANT": mutant}
+    cmd = [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider"]
+    cmd += ["-p", "tests.mutants", "-m", "not slow", *TARGETS]
+    proc = subprocess.run(
+        cmd, check=False, cwd=ROOT, env=env, capture_output=True, text=True, timeout=3600
+    )
+    tail = "\n".join(proc.stdout.splitlines()[-15:])
+    assert proc.returncode == 1, f"mutant {mutant!r} went unnoticed:\n{tail}"

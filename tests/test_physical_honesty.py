@@ -1,0 +1,196 @@
+"""Physical honesty: what the plant does at every physics step, the realism it runs with, and
+figures measured against ground truth (the true incision, the true force).
+
+Bounds over whole episodes, not spot checks: a controller that whips the arm, a gripper that
+crushes the cube or a safe hold that keeps pushing fails here.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+from orchestrator.robots import Controller
+
+from orchestrator.engine.context import Context
+from orchestrator.engine.runner import run_episode
+from orchestrator.language.load import load_scenario
+from orchestrator.world import World
+
+SATURATED = 0.999
+HAND_GRIP_N = 20.0
+"""The grasp force the Panda's hand model squeezes with (robots/panda: 20 N per finger; the
+real Franka Hand is rated 70 N continuous). Written out, not read from the model: a hand that
+squeezes harder than designed must fail here."""
+
+
+class StepProbe:
+    """Worst per-step figures of one episode (ground truth, after every mj_step)."""
+
+    def on_start(self, ctx, executor) -> None:
+        w = ctx.world
+        self.executor = executor
+        self.dof, self.act = w.arm_dof, w.arm_act
+        self.vlim = ctx.robot.joint_velocity_limits()
+        self.tlim = w.arm_effort_limit
+        self.fingers, self.robot = w.finger_geoms, w.robot_geoms
+        self.objects = {h.geom_id for h in w.objects.values()}
+        self.speed = 0.0
+        self.torque = 0.0
+        self.saturated_outside_contact = 0
+        self.last_contact_t = -math.inf
+        self.pen_m = 0.0
+        self.force = 0.0
+        self.forces: list[tuple[float, float]] = []
+        self.grip_n = 0.0
+        self._wrench = np.zeros(6)
+
+    def on_tick(self, ctx, executor) -> None:
+        pass
+
+    def on_step(self, ctx) -> None:
+        d = ctx.data
+        self.speed = max(self.speed, float(np.max(np.abs(d.qvel[self.dof]) / self.vlim)))
+        grip = 0.0
+        for i in range(d.ncon):
+            c = d.contact[i]
+            g1, g2 = int(c.geom1), int(c.geom2)
+            if (g1 in self.fingers and g2 in self.objects) or (
+                g2 in self.fingers and g1 in self.objects
+            ):
+                self.pen_m = max(self.pen_m, -float(c.dist))
+                mujoco.mj_contactForce(ctx.model, d, i, self._wrench)
+                grip += float(self._wrench[0])  # normal force, both fingers
+            elif g1 in self.robot or g2 in self.robot:
+                self.last_contact_t = d.time
+        self.grip_n = max(self.grip_n, 0.5 * grip)  # each finger squeezes with half the sum
+        tau = float(np.max(np.abs(d.actuator_force[self.act]) / self.tlim))
+        self.torque = max(self.torque, tau)
+        if tau >= SATURATED and d.time - self.last_contact_t > 0.01:
+            self.saturated_outside_contact += 1
+        f = math.sqrt(ctx.true_wrist_force_norm_sq())
+        self.force = max(self.force, f)
+        self.forces.append((float(d.time), f))
+
+    def on_end(self, ctx, executor, result) -> None:
+        pass
+
+
+def _run(name: str, seed: int, overrides: list[str] | None = None, faults=None):
+    probe = StepProbe()
+    result = run_episode(load_scenario(name, overrides, faults), seed, [probe])
+    return result, probe
+
+
+@pytest.fixture(scope="module")
+def pick_runs():
+    return [_run("pick_place", seed) for seed in (0, 1, 2)]
+
+
+def test_pick_place_stays_within_the_pandas_limits_at_every_physics_step(pick_runs):
+    for result, probe in pick_runs:
+        assert result.outcome == "succeeded"
+        assert probe.speed <= 1.0, f"seed {result.seed}: joint speed {probe.speed:.2f}x limit"
+        assert probe.saturated_outside_contact == 0
+        assert probe.torque < SATURATED
+        assert probe.pen_m <= 0.001, f"fingers {probe.pen_m * 1000:.2f} mm into the cube"
+        assert 0.5 * HAND_GRIP_N < probe.grip_n <= 1.2 * HAND_GRIP_N, f"grip {probe.grip_n:.0f} N"
+        assert probe.force <= 15.0, f"peak wrist force {probe.force:.1f} N"
+        # the reported peak is the per-step ground truth, not a per-tick sample
+        assert result.metrics["max_wrist_force_n"] == pytest.approx(probe.force, abs=1e-3)
+
+
+def test_realism_is_on_by_default_with_the_robots_datasheet_values():
+    scn = load_scenario("pick_place").scenario
+    assert scn.physics.realism.enabled
+    world = World.build(scn, 0)
+    friction = world.model.dof_frictionloss[world.arm_dof]
+    expected = scn.physics.realism.joint_friction_scale * np.array(world.robot.joint_friction_nm)
+    np.testing.assert_allclose(friction, expected)
+    off = World.build(load_scenario("pick_place", ["physics.realism.enabled=false"]).scenario, 0)
+    assert not off.model.dof_frictionloss[off.arm_dof].any()
+
+
+def test_encoders_read_in_steps_of_their_resolution_and_difference_velocity():
+    world = World.build(load_scenario("pick_place").scenario, 0)
+    ctx = Context(world, Controller(world.robot), None, np.random.default_rng(0), 0.01)  # type: ignore[arg-type]
+    res = world.robot.encoder_resolution_rad
+    world.data.qpos[world.arm_qpos[0]] += 0.3 * res  # below one step: unseen
+    world.data.time = 0.002
+    q, _ = ctx.encoders.read()
+    np.testing.assert_allclose(np.round(q / res) * res, q)
+    world.data.qpos[world.arm_qpos[0]] += 10 * res
+    world.data.time = 0.004
+    q2, v2 = ctx.encoders.read()
+    assert q2[0] - q[0] == pytest.approx(10 * res)
+    assert 0.0 < v2[0] < 10 * res / 0.002  # differenced, then low-pass filtered
+
+
+def test_wrist_sensor_is_noisy_and_drifts_but_deterministic():
+    def readings(seed: int) -> np.ndarray:
+        world = World.build(load_scenario("surgical").scenario, seed)
+        ctx = Context(world, Controller(world.robot), None, np.random.default_rng(0), 0.01)  # type: ignore[arg-type]
+        out = []
+        for k in range(2000):
+            world.data.time = k * 0.002
+            out.append(ctx.wrist_force() - np.array(ctx.true_wrist_force()))
+        return np.array(out)
+
+    a, b = readings(3), readings(3)
+    np.testing.assert_array_equal(a, b)
+    scn = load_scenario("surgical").scenario.physics.realism
+    white = np.diff(a, axis=0).std(axis=0) / math.sqrt(2)
+    np.testing.assert_allclose(white, scn.ft_noise_n, rtol=0.15)
+    assert not np.array_equal(a, readings(4))
+
+
+@pytest.fixture(scope="module")
+def surgical_run():
+    return _run("surgical", 0)
+
+
+def test_surgical_figures_are_measured_against_the_true_incision(surgical_run):
+    result, _ = surgical_run
+    m = result.metrics
+    assert result.outcome == "succeeded" and result.success["incision_traced"]
+    # the registered line is traced to micrometres; the true incision is off by the
+    # registration error and the tip lags its setpoint along the path
+    assert m["true_cross_track_rms_mm"] > 5 * m["path_deviation_rms_mm"]
+    assert 0.3 < m["along_track_lag_mean_mm"] < 3.0
+    assert m["true_cross_track_max_mm"] <= 1.0
+
+
+def test_a_misregistered_phantom_fails_the_surgical_success_check():
+    # perception reports everything 1.5 mm off in y: the registered line is traced well, the
+    # real incision is missed — only the ground truth sees it
+    result, _ = _run("surgical", 0, faults=["perception_offset:offset_m=[0,0.0015,0]@0"])
+    m = result.metrics
+    assert m["path_deviation_max_mm"] < 0.1
+    assert m["true_cross_track_max_mm"] > 1.0
+    assert result.success["incision_traced"] is False
+    assert result.outcome == "failed"
+
+
+def test_safe_hold_releases_the_nodule(tmp_path):
+    result, probe = _run("surgical_complication", 0)
+    assert result.outcome == "aborted"
+    t_abort = result.metrics["abort_t"]
+    after = [f for t, f in probe.forces if t >= t_abort + 0.3]
+    assert after, "the run ended at the abort"
+    # the hold stops pushing: the tip rests on the tissue below the 2 N it traced with
+    assert max(after) < 2.5, f"still {max(after):.2f} N on the nodule 0.3 s after the abort"
+
+
+def test_a_force_ceiling_watches_the_safety_response_itself():
+    # SAFE_HOLD backs the probe out; 0.2 s in, the wrist feels 20 N (above the scenario's
+    # 10 N ceiling): the response ends, the arm is stopped again and held
+    fault = "ft_bias:force_n=[0,0,20]@SAFE_HOLD.BACK_OUT+0.2"
+    result, _ = _run("surgical_complication", 0, faults=[fault])
+    assert result.outcome == "aborted"
+    assert result.reason is not None and result.reason["guard"] == "contact_force"
+    moves = [(t["from"], t["to"]) for t in result.transitions]
+    assert moves[-1] == ("SAFE_HOLD.BACK_OUT", "SAFE_STOP")
+    assert result.final_state == "SAFE_STOP"
+    assert result.metrics["rest_speed_rad_s"] < 0.01
