@@ -85,7 +85,7 @@ MATRICES: dict[str, list[MatrixRow]] = {
         MatrixRow("obstacle:pos=[0.5,0.28,0.42],size=[0.08,0.03,0.08]@TRANSPORT+0.05", "collision"),
         MatrixRow("slip:object=cube,factor=0.005@TRANSPORT", "grasp_lost"),
         MatrixRow(
-            "push:object=cube,force_n=[0,0,-150],duration_ms=20@PICK.GRASP.VERIFY",
+            "push:object=cube,force_n=[0,0,-150],duration_ms=20@PICK.GRASP.VERIFY+0.04",
             "contact_force",
         ),
         MatrixRow("perception_miss@0", "flow:succeeded"),
