@@ -198,15 +198,7 @@ class Context:
         """Squared norm of the true external force on the wrist [N^2]: the noise-free sensor
         with the true weight of the hand and its tool removed (a perfect zero). Ground truth
         for the run's metrics, read every physics step; never what a skill or guard sees."""
-        if self._wrist_views is None:
-            self._bind_wrist()
-        f_site, rot, _ = self._wrist_views  # type: ignore[misc]
-        f0, f1, f2 = f_site.tolist()
-        r = rot.tolist()
-        bx, by, bz = self._true_weight
-        fx = bx - (r[0] * f0 + r[1] * f1 + r[2] * f2)
-        fy = by - (r[3] * f0 + r[4] * f1 + r[5] * f2)
-        fz = bz - (r[6] * f0 + r[7] * f1 + r[8] * f2)
+        fx, fy, fz = self.true_wrist_force()
         return fx * fx + fy * fy + fz * fz
 
     def true_wrist_force(self) -> tuple[float, float, float]:

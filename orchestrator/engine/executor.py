@@ -631,26 +631,12 @@ class Executor:
         ):
             self._escalate(violation)
             return
-        ctx = self.ctx
         self.violation = violation
-        self.violation_t = ctx.t
-        ctx.log(
-            "violation",
-            f"{violation.guard}: {violation.message}",
-            level="ERROR",
-            guard=violation.guard,
-            value=violation.value,
-            limit=violation.limit,
-        )
-        leaf = self.leaf
-        self.region.stop()
-        self.record(leaf, SAFE_STOP, ESTOP if violation.guard == ESTOP else ABORT)
-        self.final_state = SAFE_STOP
-        self.safe_stop_until = None
+        self.violation_t = self.ctx.t
+        self._log_violation(violation, f"{violation.guard}: {violation.message}")
         self._on_abort = self.root.on_abort if violation.guard != ESTOP else None
         self.pause.cancel()  # the safety response is never paused
-        self.stop = self.new_stop()
-        self.stop.start(f"{violation.guard}: {violation.message}")
+        self._enter_safe_stop(violation, ESTOP if violation.guard == ESTOP else ABORT)
         self.changed()
 
     def trip(self, guard: str, message: str, value: Any = None, limit: Any = None) -> None:
@@ -664,25 +650,33 @@ class Executor:
         if self._escalated or self.done:
             return
         self._escalated = True
-        ctx = self.ctx
-        ctx.log(
+        msg = f"{violation.guard} during the safety response: {violation.message}"
+        self._log_violation(violation, msg)
+        self._on_abort = None
+        if self.final_state != SAFE_STOP and self.region is not None:
+            self._enter_safe_stop(violation, ABORT)
+        self.changed()
+
+    def _log_violation(self, violation: Violation, message: str) -> None:
+        self.ctx.log(
             "violation",
-            f"{violation.guard} during the safety response: {violation.message}",
+            message,
             level="ERROR",
             guard=violation.guard,
             value=violation.value,
             limit=violation.limit,
         )
-        self._on_abort = None
-        if self.final_state != SAFE_STOP and self.region is not None:
-            leaf = self.leaf
-            self.region.stop()
-            self.record(leaf, SAFE_STOP, ABORT)
-            self.final_state = SAFE_STOP
-            self.safe_stop_until = None
-            self.stop = self.new_stop()
-            self.stop.start(f"{violation.guard}: {violation.message}")
-        self.changed()
+
+    def _enter_safe_stop(self, violation: Violation, trigger: str) -> None:
+        """Leave the running state for SAFE_STOP and start the controlled stop."""
+        assert self.region is not None
+        leaf = self.leaf
+        self.region.stop()
+        self.record(leaf, SAFE_STOP, trigger)
+        self.final_state = SAFE_STOP
+        self.safe_stop_until = None
+        self.stop = self.new_stop()
+        self.stop.start(f"{violation.guard}: {violation.message}")
 
     def estop(self, source: str) -> None:
         """An emergency stop: outranks every guard and any `on_abort` response."""

@@ -4,9 +4,10 @@ points of the language."""
 from __future__ import annotations
 
 import copy
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from pydantic import ValidationError
 
@@ -128,24 +129,8 @@ def load_scenario(
         data.pop("success", None)  # the scenario's criteria judge its own machine
         if isinstance(data.get("blackboard"), dict):
             data["blackboard"] = {k: v for k, v in data["blackboard"].items() if k in keys}
-    for text in events or []:
-        raw = parse_event_spec(text)
-        if isinstance(raw, Diagnostic):
-            problems.append(raw)
-            continue
-        listed = data.setdefault("events", [])
-        if isinstance(listed, list):
-            overridden[f"events[{len(listed)}]"] = f"--event {text}"
-            listed.append(raw)
-    for text in faults or []:
-        raw = parse_fault_spec(text)
-        if isinstance(raw, Diagnostic):
-            problems.append(raw)
-            continue
-        listed = data.setdefault("faults", [])
-        if isinstance(listed, list):
-            overridden[f"faults[{len(listed)}]"] = f"--fault {text}"
-            listed.append(raw)
+    problems += _append_options(data, "events", "--event", events, parse_event_spec, overridden)
+    problems += _append_options(data, "faults", "--fault", faults, parse_fault_spec, overridden)
     for ov in parsed:
         if isinstance(ov, Diagnostic):
             problems.append(ov)
@@ -249,6 +234,29 @@ def load_machine(
         raise ConfigError(problems)
     assert node is not None
     return node
+
+
+def _append_options(
+    data: dict,
+    key: str,
+    option: str,
+    texts: list[str] | None,
+    parse: Callable[[str], Any],
+    overridden: dict[str, str],
+) -> list[Diagnostic]:
+    """Add command-line `option` texts (`--event`, `--fault`) to the scenario's list `key`,
+    remembering which option set each entry (so a problem with it blames the option)."""
+    problems = []
+    for text in texts or []:
+        raw = parse(text)
+        if isinstance(raw, Diagnostic):
+            problems.append(raw)
+            continue
+        listed = data.setdefault(key, [])
+        if isinstance(listed, list):
+            overridden[f"{key}[{len(listed)}]"] = f"{option} {text}"
+            listed.append(raw)
+    return problems
 
 
 def _register_skills(entries: object, base: Path, source: SourceMap) -> list[Diagnostic]:
