@@ -28,7 +28,7 @@ _UPLOADED = (
     "geom_type", "geom_size", "geom_dataid", "mat_texid",
 )  # fmt: skip
 """What `mjr_makeContext` uploads (meshes, textures, height fields, skins, plane geometry):
-two models equal in these share a context."""
+two models equal in these (and in the offscreen buffer's size and samples) share a context."""
 
 
 class _SharedGL:
@@ -61,7 +61,8 @@ class _SharedGL:
 
 def _upload_key(model: mujoco.MjModel) -> bytes:
     h = hashlib.blake2b(digest_size=16)
-    h.update(np.array([model.vis.global_.offwidth, model.vis.global_.offheight]).tobytes())
+    glob = model.vis.global_
+    h.update(np.array([glob.offwidth, glob.offheight, model.vis.quality.offsamples]).tobytes())
     for name in _UPLOADED:
         h.update(np.ascontiguousarray(getattr(model, name)).tobytes())
     return h.digest()
