@@ -82,7 +82,7 @@ def localize(
     ok = np.isfinite(pts[:, 0])
     if ok.sum() < 3:
         return []
-    z_top = _percentile(pts[ok, 2], 0.95)
+    z_top = _quantile(pts[ok, 2], 0.95)
     top = np.flatnonzero(ok & (pts[:, 2] >= z_top - _TOP_BAND_M - 3.0 * depth_noise_m))
     if len(top) < 3:
         return []
@@ -114,9 +114,10 @@ def _top_faces(blob: Blob, top: np.ndarray, min_pixels: int) -> list[np.ndarray]
     return [top[label == k] for k in keep]
 
 
-def _percentile(values: np.ndarray, q: float) -> float:
-    """`np.percentile(values, 100 * q)` (linear interpolation) from one `np.partition`: the
-    same value without the general function's overhead. `values`: shape (n,), n >= 1."""
+def _quantile(values: np.ndarray, q: float) -> float:
+    """`np.quantile(values, q)` (linear interpolation; q = 0.5: the median) from one
+    `np.partition`, without the general function's overhead (4x its cost on a blob's few
+    hundred values). `values`: shape (n,), n >= 1."""
     n = len(values)
     pos = n * q + (1.0 - q) - 1.0  # numpy's virtual index for the linear method
     lo = min(max(int(math.floor(pos)), 0), n - 1)
@@ -130,11 +131,11 @@ def _detection(blob: Blob, top: np.ndarray, frame: Frame, confidence: float) -> 
     """The detection of `blob` whose top face is the world points `top` (shape (n, 3))."""
     if len(top) < 3:
         return None
-    pos = np.array([top[:, 0].mean(), top[:, 1].mean(), float(np.median(top[:, 2]))])
+    pos = np.array([top[:, 0].mean(), top[:, 1].mean(), _quantile(top[:, 2], 0.5)])
     rect = cv2.minAreaRect((top[:, :2] * 1000.0).astype(np.float32))
     corners = cv2.boxPoints(rect).astype(float) / 1000.0
     e1, e2 = corners[1] - corners[0], corners[2] - corners[1]
-    pixel_m = float(np.median(frame.depth[blob.rows, blob.cols])) / frame.intrinsics.fy
+    pixel_m = _quantile(frame.depth[blob.rows, blob.cols], 0.5) / frame.intrinsics.fy
     l1, l2 = np.linalg.norm(e1) + pixel_m, np.linalg.norm(e2) + pixel_m
     long_edge, size = (e1, (l1, l2)) if l1 >= l2 else (e2, (l2, l1))
     yaw = math.atan2(long_edge[1], long_edge[0])

@@ -84,7 +84,12 @@ class Frame:
         z = self.depth[rows, cols].astype(float)
         x = (cols + 0.5 - k.cx) / k.fx * z
         y = -(rows + 0.5 - k.cy) / k.fy * z
-        pts = np.stack([x, y, -z], axis=-1) @ self.rot.T + self.pos
+        # rot @ (x, y, -z) + pos, a row at a time: a matmul of a few hundred points goes to
+        # BLAS, whose threads then spin on the other core for longer than the product takes
+        r = self.rot
+        pts = np.empty((len(z), 3))
+        for i in range(3):
+            pts[:, i] = r[i, 0] * x + r[i, 1] * y - r[i, 2] * z + self.pos[i]
         pts[z <= 0.0] = np.nan
         return pts
 
