@@ -115,9 +115,12 @@ class CameraRig:
         )
 
     def _indices(self, n: int) -> np.ndarray:
-        """`n` random indices into the quantile tables (16 random bits each: 3x cheaper than
-        `standard_normal`; 65536 levels). Shape (n,), uint16."""
-        return np.frombuffer(self._rng.bytes(2 * n), np.uint16)
+        """`n` random indices into the quantile tables (16 random bits each, 65536 levels):
+        the bit generator's raw 64-bit words cut in four, 3x cheaper than `Generator.bytes`
+        and 10x cheaper than `standard_normal`. Shape (n,), uint16."""
+        words = self._rng.bit_generator.random_raw((n + 3) // 4)
+        # little-endian whatever the machine: the same seed gives the same noise everywhere
+        return np.asarray(words, "<u8").view("<u2")[:n]
 
     def close(self) -> None:
         """Free the renderer (an OpenGL context)."""
