@@ -169,8 +169,8 @@ def _confidence(blob: Blob, min_pixels: int) -> float:
     # the first and last pixel of each row (pixels are in row-major order) span the same
     # convex hull, so the same rectangle, as all of them: a tenth of the points to hull
     rows = blob.rows
-    first = np.flatnonzero(np.diff(rows, prepend=-1))
-    ends = np.concatenate([first, first[1:] - 1, [len(rows) - 1]])
+    step = np.flatnonzero(rows[1:] != rows[:-1])  # last pixel of each row but the last
+    ends = np.concatenate(([0], step, step + 1, [len(rows) - 1]))
     pts = np.column_stack([blob.cols[ends], rows[ends]]).astype(np.float32)
     (_, _), (w, h), _ = cv2.minAreaRect(pts)
     fill = blob.pixels / ((w + 1.0) * (h + 1.0))
