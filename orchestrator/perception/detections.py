@@ -15,7 +15,7 @@ from .colours import HsvBox
 from .frame import Frame
 from .vision import Blob, find_blobs
 
-__all__ = ["Detection", "detect_objects", "localize", "sort_detections"]
+__all__ = ["Detection", "detect_objects", "localize", "quantile", "row_ends", "sort_detections"]
 
 _TOP_BAND_M = 0.004
 """Points this close below the highest part of a blob belong to its top face [m]."""
@@ -82,7 +82,7 @@ def localize(
     ok = np.isfinite(pts[:, 0])
     if ok.sum() < 3:
         return []
-    z_top = _quantile(pts[ok, 2], 0.95)
+    z_top = quantile(pts[ok, 2], 0.95)
     top = np.flatnonzero(ok & (pts[:, 2] >= z_top - _TOP_BAND_M - 3.0 * depth_noise_m))
     if len(top) < 3:
         return []
@@ -114,7 +114,7 @@ def _top_faces(blob: Blob, top: np.ndarray, min_pixels: int) -> list[np.ndarray]
     return [top[label == k] for k in keep]
 
 
-def _quantile(values: np.ndarray, q: float) -> float:
+def quantile(values: np.ndarray, q: float) -> float:
     """`np.quantile(values, q)` (linear interpolation; q = 0.5: the median) from one
     `np.partition`, without the general function's overhead (4x its cost on a blob's few
     hundred values). `values`: shape (n,), n >= 1."""
@@ -131,11 +131,11 @@ def _detection(blob: Blob, top: np.ndarray, frame: Frame, confidence: float) -> 
     """The detection of `blob` whose top face is the world points `top` (shape (n, 3))."""
     if len(top) < 3:
         return None
-    pos = np.array([top[:, 0].mean(), top[:, 1].mean(), _quantile(top[:, 2], 0.5)])
+    pos = np.array([top[:, 0].mean(), top[:, 1].mean(), quantile(top[:, 2], 0.5)])
     rect = cv2.minAreaRect((top[:, :2] * 1000.0).astype(np.float32))
     corners = cv2.boxPoints(rect).astype(float) / 1000.0
     e1, e2 = corners[1] - corners[0], corners[2] - corners[1]
-    pixel_m = _quantile(frame.depth[blob.rows, blob.cols], 0.5) / frame.intrinsics.fy
+    pixel_m = quantile(frame.depth[blob.rows, blob.cols], 0.5) / frame.intrinsics.fy
     l1, l2 = np.linalg.norm(e1) + pixel_m, np.linalg.norm(e2) + pixel_m
     long_edge, size = (e1, (l1, l2)) if l1 >= l2 else (e2, (l2, l1))
     yaw = math.atan2(long_edge[1], long_edge[0])
@@ -163,15 +163,19 @@ def _wrap(angle: float, period: float) -> float:
     return a - period / 2
 
 
+def row_ends(rows: np.ndarray) -> np.ndarray:
+    """Indices of the first and the last pixel of each row among pixels in row-major order
+    (`rows` ascending, columns ascending within a row). They span the same convex hull as all
+    the pixels, so the same `cv2.minAreaRect`, with a tenth of the points. Shape (2 * rows,)."""
+    step = np.flatnonzero(rows[1:] != rows[:-1])  # the last pixel of each row but the last
+    return np.concatenate(([0], step, step + 1, [len(rows) - 1]))
+
+
 def _confidence(blob: Blob, min_pixels: int) -> float:
     """How much to trust a blob: whole (not cut by the border), compact (not occluded: it
     fills its minimum-area rectangle), of an unambiguous colour, and not tiny."""
-    # the first and last pixel of each row (pixels are in row-major order) span the same
-    # convex hull, so the same rectangle, as all of them: a tenth of the points to hull
-    rows = blob.rows
-    step = np.flatnonzero(rows[1:] != rows[:-1])  # last pixel of each row but the last
-    ends = np.concatenate(([0], step, step + 1, [len(rows) - 1]))
-    pts = np.column_stack([blob.cols[ends], rows[ends]]).astype(np.float32)
+    ends = row_ends(blob.rows)
+    pts = np.column_stack([blob.cols[ends], blob.rows[ends]]).astype(np.float32)
     (_, _), (w, h), _ = cv2.minAreaRect(pts)
     fill = blob.pixels / ((w + 1.0) * (h + 1.0))
     score = min(1.0, max(0.0, (fill - 0.55) / 0.3))

@@ -11,7 +11,7 @@ import numpy as np
 
 from .colours import HsvBox
 
-__all__ = ["Blob", "circular_mean_hue", "find_blobs", "hue_margin"]
+__all__ = ["Blob", "circular_mean_hue", "components", "find_blobs", "hue_margin"]
 
 _KERNEL = np.ones((3, 3), np.uint8)
 
@@ -94,7 +94,7 @@ def _class_mask(hsv: np.ndarray, boxes: Sequence[HsvBox]) -> np.ndarray:
     return mask
 
 
-def _components(mask: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+def components(mask: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Pixels (rows, cols; row-major order) of each 8-connected component of `mask`, in label
     order. One `cv2.connectedComponents` and a stable sort of the labelled pixels: OpenCV's
     statistics (`connectedComponentsWithStats`) cost 5x the labelling itself."""
@@ -143,7 +143,7 @@ def find_blobs(
         cx0, cy0 = max(0, cx - 1), max(0, cy - 1)
         cx1, cy1 = min(rw, cx + cw + 1), min(rh, cy + ch + 1)
         sub = cv2.morphologyEx(mask[cy0:cy1, cx0:cx1], cv2.MORPH_OPEN, _KERNEL)
-        for sub_rows, sub_cols in _components(sub):
+        for sub_rows, sub_cols in components(sub):
             if len(sub_rows) < min_pixels:
                 continue
             rows, cols = sub_rows + cy0, sub_cols + cx0  # in the region of interest
