@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -68,11 +69,11 @@ _HUE_COS, _HUE_SIN = np.cos(_HUE_ANGLE), np.sin(_HUE_ANGLE)
 
 
 def circular_mean_hue(hues: np.ndarray) -> float:
-    """Mean of OpenCV hues (0-179, a circle of 180 steps) [hue steps]: red's pixels sit on both
-    sides of 0, where an ordinary mean or median lands on the opposite colour."""
-    idx = hues.astype(np.intp)
-    mean = np.arctan2(np.mean(_HUE_SIN[idx]), np.mean(_HUE_COS[idx]))
-    return float(mean * 180.0 / (2.0 * np.pi)) % 180.0
+    """Mean of OpenCV hues (integers 0-179, a circle of 180 steps) [hue steps]: red's pixels sit
+    on both sides of 0, where an ordinary mean or median lands on the opposite colour."""
+    count = np.bincount(hues.ravel(), minlength=180)[:180]  # a histogram, then 180 products
+    mean = math.atan2(float(count @ _HUE_SIN), float(count @ _HUE_COS))
+    return (mean * 180.0 / (2.0 * math.pi)) % 180.0
 
 
 def hue_margin(hue: float, boxes: Sequence[HsvBox]) -> float:
