@@ -149,3 +149,14 @@ def test_depth_noise_has_its_standard_deviation_and_leaves_no_hit_at_zero(vision
     assert np.all(noisy[:10] == 0.0)  # nothing hit stays nothing hit
     assert np.array_equal(rig().capture(world.data, "overhead").depth, noisy)  # same seed
     assert not np.array_equal(first.capture(world.data, "overhead").depth, noisy)  # per frame
+
+
+def test_hue_margins_are_the_same_for_boxes_given_as_lists_or_tuples():
+    from orchestrator.perception.colours import hsv_boxes
+    from orchestrator.perception.vision import hue_margin
+
+    red = hsv_boxes("red")
+    as_lists = [[list(lo), list(hi)] for lo, hi in red]  # as a Python caller may write them
+    for hue in (0.0, 2.0, 7.5, 175.0):
+        assert hue_margin(hue, as_lists) == hue_margin(hue, red)
+    assert hue_margin(2.0, red) == 7.0  # 9 is orange's first hue; 2 + 7 = 9

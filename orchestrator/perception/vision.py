@@ -78,7 +78,7 @@ def circular_mean_hue(hues: np.ndarray) -> float:
 
 def hue_margin(hue: float, boxes: Sequence[HsvBox]) -> float:
     """Distance (hue steps, circular over 180) from `hue` to the nearest hue outside `boxes`."""
-    outside = _outside_hues(tuple(boxes))
+    outside = _outside_hues(tuple((tuple(lo), tuple(hi)) for lo, hi in boxes))  # hashable
     if len(outside) == 0:
         return 90.0
     d = np.abs(outside - hue)
