@@ -159,4 +159,4 @@ def test_hue_margins_are_the_same_for_boxes_given_as_lists_or_tuples():
     as_lists = [[list(lo), list(hi)] for lo, hi in red]  # as a Python caller may write them
     for hue in (0.0, 2.0, 7.5, 175.0):
         assert hue_margin(hue, as_lists) == hue_margin(hue, red)
-    assert hue_margin(2.0, red) == 7.0  # 9 is orange's first hue; 2 + 7 = 9
+    assert hue_margin(2.0, red) == 7.0  # red ends at 8: 9, the first hue outside it, is 7 away
