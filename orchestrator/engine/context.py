@@ -205,7 +205,7 @@ class Context:
         once per step: the guards and the runner that ask share it)."""
         now = self.data.time
         if now != self._norm_sq_t:
-            fx, fy, fz = self._wrist_force_xyz()
+            fx, fy, fz = self._wrist_force_xyz(now)
             self._norm_sq = fx * fx + fy * fy + fz * fz
             self._norm_sq_t = now
         return self._norm_sq
@@ -214,21 +214,22 @@ class Context:
         """Squared norm of the true external force on the wrist [N^2]: the noise-free sensor
         with the true weight of the hand and its tool removed (a perfect zero). Ground truth
         for the run's metrics, read every physics step; never what a skill or guard sees."""
-        fx, fy, fz = self.true_wrist_force()
+        rx, ry, rz = self._sensed_world(self.data.time)
+        bx, by, bz = self._true_weight
+        fx, fy, fz = bx - rx, by - ry, bz - rz
         return fx * fx + fy * fy + fz * fz
 
     def true_wrist_force(self) -> tuple[float, float, float]:
         """The true external force on the wrist, world frame [N] (see
         `true_wrist_force_norm_sq`): ground truth, never what a skill or guard sees."""
-        rx, ry, rz = self._sensed_world()
+        rx, ry, rz = self._sensed_world(self.data.time)
         bx, by, bz = self._true_weight
         return (bx - rx, by - ry, bz - rz)
 
-    def _sensed_world(self) -> tuple[float, float, float]:
-        """The wrist sensor's raw reading rotated into the world frame [N], computed once per
-        simulated instant: the true force (metrics, every step) and the measured one (guards,
-        every step) share it."""
-        now = self.data.time
+    def _sensed_world(self, now: float) -> tuple[float, float, float]:
+        """The wrist sensor's raw reading rotated into the world frame [N] at simulated time
+        `now` [s], computed once per instant: the true force (metrics, every step) and the
+        measured one (guards, every step) share it."""
         if now == self._sensed_t:
             return self._sensed
         if self._wrist_views is None:
@@ -255,14 +256,16 @@ class Context:
         )
         self._true_weight = tuple(float(v) for v in w.wrist_weight_world)
 
-    def _wrist_force_xyz(self) -> tuple[float, float, float]:
-        rx, ry, rz = self._sensed_world()  # binds the views
+    def _wrist_force_xyz(self, now: float | None = None) -> tuple[float, float, float]:
+        if now is None:
+            now = self.data.time
+        rx, ry, rz = self._sensed_world(now)  # binds the views
         bx, by, bz = self._wrist_views[2].tolist()  # type: ignore[index]
         f = (bx - rx, by - ry, bz - rz)
         if self.ft_noise is not None:
-            f = self.ft_noise.apply(f, self.data.time)
+            f = self.ft_noise.apply(f, now)
         if self._ft_fault is not None:
-            return self._ft_fault.apply(f, self.data.time)
+            return self._ft_fault.apply(f, now)
         return f
 
     @property

@@ -110,9 +110,13 @@ class GuardBank:
             for read, limit in env.scalars:
                 scalars[read] = min(limit, scalars.get(read, limit))
         merged = _merged(list(watched.values()))
-        self._readers = tuple(w.view.tolist for w in merged)
-        self._lo = [v for w in merged for v in w.lo]
-        self._hi = [v for w in merged for v in w.hi]
+        # views that must read all zero (contact counts, fault flags): one `any()` for them
+        zero = [w for w in merged if not any(w.lo) and not any(w.hi)]
+        bounded = [w for w in merged if any(w.lo) or any(w.hi)]
+        self._zero = tuple(w.view.tolist for w in zero)
+        self._readers = tuple(w.view.tolist for w in bounded)
+        self._lo = [v for w in bounded for v in w.lo]
+        self._hi = [v for w in bounded for v in w.hi]
         self._equal = tuple(equal)
         self._scalars = tuple(scalars.items())
         self._open = tuple(open_checks)
@@ -145,6 +149,11 @@ class GuardBank:
     def inside(self) -> bool:
         """Every watched value inside every envelope (NaN never is)."""
         values: list[float] = []
+        for read in self._zero:
+            values += read()
+        if any(values):  # a NaN is true too
+            return False
+        values = []
         for read in self._readers:
             values += read()
         if not (all(map(_le, self._lo, values)) and all(map(_le, values, self._hi))):
