@@ -91,6 +91,7 @@ class Context:
         self._norm_sq = 0.0
         self._sensed_t = math.nan
         self._sensed = (0.0, 0.0, 0.0)
+        self._bias = tuple(world.wrist_bias_world.tolist())
         self._true_weight: tuple[float, ...] = (0.0, 0.0, 0.0)
         self.metrics: dict[str, Any] = {}
         """Figures skills add to the result's `metrics` (e.g. force RMS error of a trace)."""
@@ -204,17 +205,29 @@ class Context:
         """Squared norm of `wrist_force()` [N^2], cheap enough for every physics step (computed
         once per step: the guards and the runner that ask share it)."""
         now = self.data.time
-        if now != self._norm_sq_t:
-            fx, fy, fz = self._wrist_force_xyz(now)
-            self._norm_sq = fx * fx + fy * fy + fz * fz
-            self._norm_sq_t = now
-        return self._norm_sq
+        if now == self._norm_sq_t:
+            return self._norm_sq
+        # `_wrist_force_xyz` written out: this runs every physics step, where every call and
+        # attribute lookup counts (the caches are cold after mj_step)
+        rx, ry, rz = self._sensed if now == self._sensed_t else self._sensed_world(now)
+        bx, by, bz = self._bias
+        fx, fy, fz = bx - rx, by - ry, bz - rz
+        noise = self.ft_noise
+        if noise is not None:
+            ox, oy, oz = noise.offset(now)
+            fx, fy, fz = fx + ox, fy + oy, fz + oz
+        if self._ft_fault is not None:
+            fx, fy, fz = self._ft_fault.apply((fx, fy, fz), now)
+        norm_sq = fx * fx + fy * fy + fz * fz
+        self._norm_sq, self._norm_sq_t = norm_sq, now
+        return norm_sq
 
     def true_wrist_force_norm_sq(self) -> float:
         """Squared norm of the true external force on the wrist [N^2]: the noise-free sensor
         with the true weight of the hand and its tool removed (a perfect zero). Ground truth
         for the run's metrics, read every physics step; never what a skill or guard sees."""
-        rx, ry, rz = self._sensed_world(self.data.time)
+        now = self.data.time
+        rx, ry, rz = self._sensed if now == self._sensed_t else self._sensed_world(now)
         bx, by, bz = self._true_weight
         fx, fy, fz = bx - rx, by - ry, bz - rz
         return fx * fx + fy * fy + fz * fz
@@ -255,12 +268,14 @@ class Context:
             w.wrist_bias_world,  # updated in place by zero_wrist_force()
         )
         self._true_weight = tuple(float(v) for v in w.wrist_weight_world)
+        self._bias: tuple[float, ...] = tuple(w.wrist_bias_world.tolist())
+        """`world.wrist_bias_world` as floats (only `zero_wrist_force` changes it)."""
 
     def _wrist_force_xyz(self, now: float | None = None) -> tuple[float, float, float]:
         if now is None:
             now = self.data.time
         rx, ry, rz = self._sensed_world(now)  # binds the views
-        bx, by, bz = self._wrist_views[2].tolist()  # type: ignore[index]
+        bx, by, bz = self._bias
         f = (bx - rx, by - ry, bz - rz)
         if self.ft_noise is not None:
             f = self.ft_noise.apply(f, now)
@@ -282,6 +297,7 @@ class Context:
         """Zero the wrist sensor: `offset` [N] (world frame, shape (3,), e.g. the mean reading
         at rest with a tool mounted) is removed from every later `wrist_force()` reading."""
         self.world.wrist_bias_world -= np.asarray(offset, dtype=float)
+        self._bias = tuple(self.world.wrist_bias_world.tolist())
         self._norm_sq_t = -1.0
 
     # -- commands -----------------------------------------------------------------------

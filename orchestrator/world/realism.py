@@ -91,6 +91,11 @@ class WristForceNoise:
 
     def apply(self, f: tuple[float, float, float], t: float) -> tuple[float, float, float]:
         """The reading of a sensor that measures `f` [N] at simulated time `t` [s]."""
+        ox, oy, oz = self.offset(t)
+        return (f[0] + ox, f[1] + oy, f[2] + oz)
+
+    def offset(self, t: float) -> tuple[float, float, float]:
+        """What noise and drift add to a reading at simulated time `t` [s], per axis [N]."""
         if t != self._t:
             dt = 0.0 if math.isnan(self._t) else max(t - self._t, 0.0)
             k = self._next
@@ -106,5 +111,4 @@ class WristForceNoise:
             s = self.std
             self._offset = (b[0] + s * n[0], b[1] + s * n[1], b[2] + s * n[2])
             self._t = t
-        ox, oy, oz = self._offset
-        return (f[0] + ox, f[1] + oy, f[2] + oz)
+        return self._offset
