@@ -91,7 +91,8 @@ class Context:
         self._norm_sq = 0.0
         self._sensed_t = math.nan
         self._sensed = (0.0, 0.0, 0.0)
-        self._bias = tuple(world.wrist_bias_world.tolist())
+        self._bias: tuple[float, ...] = tuple(world.wrist_bias_world.tolist())
+        """`world.wrist_bias_world` as floats (only `zero_wrist_force` changes it)."""
         self._true_weight: tuple[float, ...] = (0.0, 0.0, 0.0)
         self.metrics: dict[str, Any] = {}
         """Figures skills add to the result's `metrics` (e.g. force RMS error of a trace)."""
@@ -268,8 +269,7 @@ class Context:
             w.wrist_bias_world,  # updated in place by zero_wrist_force()
         )
         self._true_weight = tuple(float(v) for v in w.wrist_weight_world)
-        self._bias: tuple[float, ...] = tuple(w.wrist_bias_world.tolist())
-        """`world.wrist_bias_world` as floats (only `zero_wrist_force` changes it)."""
+        self._bias = tuple(w.wrist_bias_world.tolist())
 
     def _wrist_force_xyz(self, now: float | None = None) -> tuple[float, float, float]:
         if now is None:

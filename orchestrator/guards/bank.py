@@ -161,8 +161,8 @@ class GuardBank:
         for a, b in self._equal:
             if a() != b():
                 return False
-        for read, limit in self._scalars:
-            if not read() <= limit:
+        for reading, limit in self._scalars:
+            if not reading() <= limit:
                 return False
         return True
 
@@ -170,14 +170,14 @@ class GuardBank:
         """The first violation of the active guards this physics step, or None."""
         if self._full or not self.inside():
             self.full_checks += 1
-            for check in self.checks:
-                violation = check(ctx)
+            for full in self.checks:
+                violation = full(ctx)
                 if violation is not None:
                     return violation
             self._full = any(not g.settled() for g in self._stateful)
             return None
-        for check in self._open:
-            violation = check(ctx)
+        for always in self._open:
+            violation = always(ctx)
             if violation is not None:
                 return violation
         return None
