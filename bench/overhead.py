@@ -31,6 +31,7 @@ import statistics
 import time
 from dataclasses import dataclass
 
+import mink
 import mujoco
 import numpy as np
 from orchestrator.robots import Controller
@@ -46,6 +47,8 @@ from orchestrator.language.load import LoadedScenario, load_scenario
 from orchestrator.language.scenario import Scenario
 from orchestrator.world import World, as_index, robot_only_model
 from orchestrator.world.pose import quat_from_yaw, yaw_of
+from orchestrator.world.realism import link_mass_scale
+from orchestrator.world.sensors import JointEncoders
 
 HOVER = np.array([0.0, 0.0, 0.10])
 """Pre-grasp and place approach height above the target [m] (the flow's `hover`)."""
@@ -65,6 +68,12 @@ GRIP_CONTACT_M = 0.002
 """A closing finger this far behind its setpoint is blocked: squeeze [m] (engine/context.py)."""
 SETTLE_S = 0.2
 """Simulated time after the task before success is judged [s] (engine/runner.py)."""
+SETTLE_GAIN = 8.0
+"""Integral gain of the settling correction once a line has ended [1/s] (skills/move.py)."""
+MAX_CORRECTION_M = 0.015
+"""Largest settling correction of the position [m] (skills/move.py)."""
+MAX_CORRECTION_RAD = math.radians(3.0)
+"""Largest settling correction of the orientation [rad] (skills/move.py)."""
 
 
 @dataclass
@@ -90,7 +99,9 @@ class HandWritten:
         dt = float(self.model.opt.timestep)
         self.n_sub = max(1, round(1.0 / (scenario.physics.control_hz * dt)))
         self.dt_c = self.n_sub * dt
-        self.ctrl = Controller(w.robot, dt)
+        realism = scenario.physics.realism
+        n_bodies = w.robot.pinocchio_model().njoints - 1
+        self.ctrl = Controller(w.robot, dt, link_mass_scale(realism, n_bodies, seed))
         self.ctrl.hold(w.home)
         self.ik = IKSolver(w.robot, robot_only_model(w.robot), self.dt_c, scenario.robot.base_pos)
         self.rng = np.random.default_rng([seed, 1])
@@ -102,7 +113,20 @@ class HandWritten:
         self.q_all, self.qd_all = d.qpos[_span(w.robot_qpos)], d.qvel[_span(w.robot_dof)]
         self.arm_q, self.arm_qd = d.qpos[_span(w.arm_qpos)], d.qvel[_span(w.arm_dof)]
         self.act = as_index(w.arm_act)
-        self.loop_views = (self.q_all, self.qd_all, self.act)
+        # the same plant: the controller and the skills read the joints through the encoders
+        # (quantized, velocity differenced and filtered, with `physics.realism`)
+        quantize = realism.enabled and realism.encoder_quantization
+        self.encoders = JointEncoders(
+            d.qpos,
+            d.qvel,
+            as_index(w.robot_qpos),
+            as_index(w.robot_dof),
+            self.n,
+            np.random.default_rng([seed, 0xE2C0]),
+            w.robot.encoder_resolution_rad if quantize else 0.0,
+            lambda: float(d.time),
+        )
+        self.loop_views = (self.encoders.read, self.act)
         self.fingers_q = d.qpos[_span(w.finger_qpos)]
         self.fingers_qd = d.qvel[_span(w.robot_dof[self.n :])]
         self.tcp_pos = d.site_xpos[w.tcp_site]
@@ -119,13 +143,17 @@ class HandWritten:
     def t(self) -> float:
         return float(self.data.time)
 
+    def read_q(self) -> np.ndarray:
+        """The arm's joint angles as the encoders read them [rad] (the skills' `ctx.q`)."""
+        return self.encoders.read()[0][: self.n].copy()
+
     # -- the loop -----------------------------------------------------------------------
     def physics(self) -> None:
         """One control period: the fingers' setpoint, then controller and mj_step at 500 Hz."""
         self.advance_gripper()
-        m, d, compute, q, qd, act = self.model, self.data, self.ctrl.compute, *self.loop_views
+        m, d, compute, (read, act) = self.model, self.data, self.ctrl.compute, self.loop_views
         for _ in range(self.n_sub):
-            d.ctrl[act] = compute(q, qd)
+            d.ctrl[act] = compute(*read())
             mujoco.mj_step(m, d)
 
     def advance_gripper(self) -> None:
@@ -197,7 +225,7 @@ class HandWritten:
         pose = self.cube_pose
         pos = pose[:3] + self.rng.normal(0.0, self.noise.position_noise_m, 3) * [1, 1, 0]
         yaw = yaw_of(pose[3:]) + self.rng.normal(0.0, math.radians(self.noise.yaw_noise_deg))
-        self.ctrl.hold(self.arm_q.copy())
+        self.ctrl.hold(self.read_q())
         return np.asarray(pos.tolist()), yaw_of(quat_from_yaw(yaw))
 
     def approach(self, seen: tuple[np.ndarray, float]) -> str:
@@ -226,7 +254,7 @@ class HandWritten:
         ik, ctrl = self.ik, self.ctrl
         rot0 = self.tcp_rot.copy()
         rot1 = rot0 if rot1 is None else rot1
-        q0 = self.arm_q.copy()
+        q0 = self.read_q()
         ik.reset(q0)
         if gripper_m is not None:
             self.grip_target = gripper_m
@@ -243,6 +271,7 @@ class HandWritten:
         stretch = feasible_time_scale(ik, path, q0)
         duration = path.duration * stretch
         tol_rad = math.radians(tol_deg)
+        corr_pos, corr_rot = np.zeros(3), np.zeros(3)
         last = self.tcp_pos.copy()
         stalled = 0
         outcome = None
@@ -250,6 +279,21 @@ class HandWritten:
             self.physics()
             elapsed = self.t - t0
             pos, rot = path.sample_so3(elapsed / stretch)
+            if elapsed >= duration:  # the settling correction: integrate the TCP's error
+                corr_pos += SETTLE_GAIN * self.dt_c * (pos1 - self.tcp_pos)
+                norm = float(np.linalg.norm(corr_pos))
+                if norm > MAX_CORRECTION_M:
+                    corr_pos *= MAX_CORRECTION_M / norm
+                tcp_rot = self.tcp_rot
+                corr_rot += (
+                    SETTLE_GAIN
+                    * self.dt_c
+                    * (tcp_rot @ mink.SO3.from_matrix(tcp_rot.T @ rot1).log())
+                )
+                norm = float(np.linalg.norm(corr_rot))
+                if norm > MAX_CORRECTION_RAD:
+                    corr_rot *= MAX_CORRECTION_RAD / norm
+                pos, rot = pos + corr_pos, mink.SO3.exp(corr_rot) @ rot
             q = ik.step(pos, rot)
             ctrl.set_joint_target(q, ik.velocity, ik.acceleration)
             tcp = self.tcp_pos
@@ -322,7 +366,7 @@ class HandWritten:
             if self.t - t0 >= 0.05:
                 held = True
                 break
-        self.ctrl.hold(self.arm_q.copy())
+        self.ctrl.hold(self.read_q())
         return held
 
     def release(self, opening: float) -> bool:
@@ -352,12 +396,12 @@ class HandWritten:
             ctrl.brake(self.q_all, self.qd_all, self.world.robot.acceleration_limits)
         t0 = self.t
         settle_until = t0 + SETTLE_S
-        m, compute, (q, qd, act) = self.model, ctrl.compute, self.loop_views
+        m, compute, (read, act) = self.model, ctrl.compute, self.loop_views
         at_rest = False
         while not (at_rest and self.t >= settle_until - 1e-9) and self.t - t0 < cfg.max_stop_s:
             self.advance_gripper()
             for _ in range(self.n_sub):
-                d.ctrl[act] = compute(q, qd)
+                d.ctrl[act] = compute(*read())
                 mujoco.mj_step(m, d)
                 if not at_rest and ctrl.brake_left_s <= 0.0:
                     at_rest = float(np.max(np.abs(self.arm_qd))) < cfg.rest_speed_rad_s

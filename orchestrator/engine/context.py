@@ -89,6 +89,10 @@ class Context:
         self._grip_step = world.robot.gripper_speed_mps * dt_control
         self._norm_sq_t = -1.0
         self._norm_sq = 0.0
+        self._sensed_t = math.nan
+        self._sensed = (0.0, 0.0, 0.0)
+        self._bias: tuple[float, ...] = tuple(world.wrist_bias_world.tolist())
+        """`world.wrist_bias_world` as floats (only `zero_wrist_force` changes it)."""
         self._true_weight: tuple[float, ...] = (0.0, 0.0, 0.0)
         self.metrics: dict[str, Any] = {}
         """Figures skills add to the result's `metrics` (e.g. force RMS error of a trace)."""
@@ -101,6 +105,10 @@ class Context:
         self.trace: TraceSpec | None = None
         """The path a contact skill is tracing now, for the ground-truth probe
         (engine/trace_truth.py); None when no trace runs."""
+        self.sensor_faults = np.zeros(2)
+        """Flags of the sensor faults in effect, shape (2,): [0] the wrist force sensor's
+        (`ft_fault` set), [1] a joint encoder's (until the safety channel takes over). 1.0 or
+        0.0; read by `sensor_health`'s envelope (guards/bank.py)."""
         realism = world.scenario.physics.realism
         quantize = realism.enabled and realism.encoder_quantization
         self.ft_noise: WristForceNoise | None = (
@@ -118,10 +126,10 @@ class Context:
             np.random.default_rng([world.seed, 0xE2C0]),
             world.robot.encoder_resolution_rad if quantize else 0.0,
             lambda: float(self.data.time),
+            status=self.sensor_faults[1:],
         )
         """The joint encoders the controller, the skills and `sensor_health` read."""
-        self.ft_fault: WristForceFault | None = None
-        """An injected fault of the wrist force sensor, if any."""
+        self._ft_fault: WristForceFault | None = None
         self.actuator_fault: ActuatorFault | None = None
         """An injected motor fault, if any (the runner applies it to the commanded torques)."""
         self.perception = PerceptionFaults()
@@ -132,6 +140,16 @@ class Context:
         self.camera_shots: list[tuple[int, float, Any, list[Any]]] = []
         """`(tick, t, Frame, detections)` of the camera frames skills looked at, while
         `keep_camera_shots`; the recorder takes them as it logs them."""
+
+    @property
+    def ft_fault(self) -> WristForceFault | None:
+        """An injected fault of the wrist force sensor, if any."""
+        return self._ft_fault
+
+    @ft_fault.setter
+    def ft_fault(self, fault: WristForceFault | None) -> None:
+        self._ft_fault = fault
+        self.sensor_faults[0] = 0.0 if fault is None else 1.0
 
     # -- time ---------------------------------------------------------------------------
     @property
@@ -188,33 +206,58 @@ class Context:
         """Squared norm of `wrist_force()` [N^2], cheap enough for every physics step (computed
         once per step: the guards and the runner that ask share it)."""
         now = self.data.time
-        if now != self._norm_sq_t:
-            fx, fy, fz = self._wrist_force_xyz()
-            self._norm_sq = fx * fx + fy * fy + fz * fz
-            self._norm_sq_t = now
-        return self._norm_sq
+        if now == self._norm_sq_t:
+            return self._norm_sq
+        # `_wrist_force_xyz` written out: this runs every physics step, where every call and
+        # attribute lookup counts (the caches are cold after mj_step)
+        rx, ry, rz = self._sensed if now == self._sensed_t else self._sensed_world(now)
+        bx, by, bz = self._bias
+        fx, fy, fz = bx - rx, by - ry, bz - rz
+        noise = self.ft_noise
+        if noise is not None:
+            ox, oy, oz = noise.offset(now)
+            fx, fy, fz = fx + ox, fy + oy, fz + oz
+        if self._ft_fault is not None:
+            fx, fy, fz = self._ft_fault.apply((fx, fy, fz), now)
+        norm_sq = fx * fx + fy * fy + fz * fz
+        self._norm_sq, self._norm_sq_t = norm_sq, now
+        return norm_sq
 
     def true_wrist_force_norm_sq(self) -> float:
         """Squared norm of the true external force on the wrist [N^2]: the noise-free sensor
         with the true weight of the hand and its tool removed (a perfect zero). Ground truth
         for the run's metrics, read every physics step; never what a skill or guard sees."""
-        fx, fy, fz = self.true_wrist_force()
+        now = self.data.time
+        rx, ry, rz = self._sensed if now == self._sensed_t else self._sensed_world(now)
+        bx, by, bz = self._true_weight
+        fx, fy, fz = bx - rx, by - ry, bz - rz
         return fx * fx + fy * fy + fz * fz
 
     def true_wrist_force(self) -> tuple[float, float, float]:
         """The true external force on the wrist, world frame [N] (see
         `true_wrist_force_norm_sq`): ground truth, never what a skill or guard sees."""
+        rx, ry, rz = self._sensed_world(self.data.time)
+        bx, by, bz = self._true_weight
+        return (bx - rx, by - ry, bz - rz)
+
+    def _sensed_world(self, now: float) -> tuple[float, float, float]:
+        """The wrist sensor's raw reading rotated into the world frame [N] at simulated time
+        `now` [s], computed once per instant: the true force (metrics, every step) and the
+        measured one (guards, every step) share it."""
+        if now == self._sensed_t:
+            return self._sensed
         if self._wrist_views is None:
             self._bind_wrist()
         f_site, rot, _ = self._wrist_views  # type: ignore[misc]
         f0, f1, f2 = f_site.tolist()
         r = rot.tolist()
-        bx, by, bz = self._true_weight
-        return (
-            bx - (r[0] * f0 + r[1] * f1 + r[2] * f2),
-            by - (r[3] * f0 + r[4] * f1 + r[5] * f2),
-            bz - (r[6] * f0 + r[7] * f1 + r[8] * f2),
+        sensed = (
+            r[0] * f0 + r[1] * f1 + r[2] * f2,
+            r[3] * f0 + r[4] * f1 + r[5] * f2,
+            r[6] * f0 + r[7] * f1 + r[8] * f2,
         )
+        self._sensed, self._sensed_t = sensed, now
+        return sensed
 
     def _bind_wrist(self) -> None:
         # Plain floats on views bound once (MjData never reallocates): a 3x3 matrix-vector
@@ -226,23 +269,18 @@ class Context:
             w.wrist_bias_world,  # updated in place by zero_wrist_force()
         )
         self._true_weight = tuple(float(v) for v in w.wrist_weight_world)
+        self._bias = tuple(w.wrist_bias_world.tolist())
 
-    def _wrist_force_xyz(self) -> tuple[float, float, float]:
-        if self._wrist_views is None:
-            self._bind_wrist()
-        f_site, rot, bias = self._wrist_views  # type: ignore[misc]
-        f0, f1, f2 = f_site.tolist()
-        r = rot.tolist()
-        bx, by, bz = bias.tolist()
-        f = (
-            bx - (r[0] * f0 + r[1] * f1 + r[2] * f2),
-            by - (r[3] * f0 + r[4] * f1 + r[5] * f2),
-            bz - (r[6] * f0 + r[7] * f1 + r[8] * f2),
-        )
+    def _wrist_force_xyz(self, now: float | None = None) -> tuple[float, float, float]:
+        if now is None:
+            now = self.data.time
+        rx, ry, rz = self._sensed_world(now)  # binds the views
+        bx, by, bz = self._bias
+        f = (bx - rx, by - ry, bz - rz)
         if self.ft_noise is not None:
-            f = self.ft_noise.apply(f, self.data.time)
-        if self.ft_fault is not None:
-            return self.ft_fault.apply(f, self.data.time)
+            f = self.ft_noise.apply(f, now)
+        if self._ft_fault is not None:
+            return self._ft_fault.apply(f, now)
         return f
 
     @property
@@ -253,12 +291,13 @@ class Context:
 
     def wrist_force_age_s(self) -> float:
         """Time since the wrist force reading last updated [s] (its timestamp; 0 when live)."""
-        return 0.0 if self.ft_fault is None else self.ft_fault.age_s(self.data.time)
+        return 0.0 if self._ft_fault is None else self._ft_fault.age_s(self.data.time)
 
     def zero_wrist_force(self, offset: np.ndarray) -> None:
         """Zero the wrist sensor: `offset` [N] (world frame, shape (3,), e.g. the mean reading
         at rest with a tool mounted) is removed from every later `wrist_force()` reading."""
         self.world.wrist_bias_world -= np.asarray(offset, dtype=float)
+        self._bias = tuple(self.world.wrist_bias_world.tolist())
         self._norm_sq_t = -1.0
 
     # -- commands -----------------------------------------------------------------------

@@ -23,6 +23,7 @@ from pydantic import ValidationError
 
 from ..exceptions import ConfigError, SkillError
 from ..guards import get_guard
+from ..guards.bank import GuardBank
 from ..guards.base import Guard, Violation
 from ..language.diagnostics import Diagnostic
 from ..language.loading import MachineNode
@@ -460,7 +461,10 @@ class Executor:
         self.safe_stop_until: float | None = None
         self.active_guards: list[Guard] = []
         self.active_checks: tuple[Callable[[Context], Violation | None], ...] = ()
-        """The bound `check` of each active guard, in priority order (the physics step's)."""
+        """What the physics step calls to check the active guards (one `GuardBank.check`;
+        empty while no guard is active)."""
+        self.guard_bank: GuardBank | None = None
+        """The active guards, in priority order, as the physics step checks them."""
         self._detail: str | None = None
         """Why the state that is ending ended: goes to the next recorded transition."""
         self.halt_detail: str | None = None
@@ -507,7 +511,7 @@ class Executor:
                 if guard not in self.active_guards:
                     guard.activate(self.ctx)
             self.active_guards = guards
-            self.active_checks = tuple(g.check for g in guards)
+            self._bind_checks()
             return
         active = list(self.scenario_guards)
         for region in self.region.regions():
@@ -520,7 +524,13 @@ class Executor:
             if id(guard) not in before:
                 guard.activate(self.ctx)
         self.active_guards = sorted(active, key=lambda g: -g.priority)
-        self.active_checks = tuple(g.check for g in self.active_guards)
+        self._bind_checks()
+
+    def _bind_checks(self) -> None:
+        """What the physics step calls: the active guards as one bank (guards/bank.py), which
+        tests their envelopes at once and runs their full checks only when a value leaves."""
+        self.guard_bank = GuardBank(self.active_guards, self.ctx) if self.active_guards else None
+        self.active_checks = (self.guard_bank.check,) if self.guard_bank is not None else ()
 
     # -- lifecycle ----------------------------------------------------------------------
     @property
@@ -742,6 +752,7 @@ class Executor:
         self.final_state = state
         self.final_t = self.ctx.t
         self.active_guards = []
+        self.guard_bank = None
         self.active_checks = ()
 
 

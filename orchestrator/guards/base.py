@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 import abc
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 if TYPE_CHECKING:
     from ..engine.context import Context
 
-__all__ = ["Guard", "GuardParams", "Violation"]
+__all__ = ["Envelope", "Guard", "GuardParams", "Violation"]
 
 
 class GuardParams(BaseModel):
@@ -40,6 +42,28 @@ class Violation:
         return asdict(self)
 
 
+@dataclass(frozen=True)
+class Envelope:
+    """Where a guard's `check` certainly returns None (and leaves its state as it is).
+
+    Attributes:
+        bounds: `(view, lo, hi)`: every element of the 1-D `view` (a view bound once, read
+            every step) satisfies `lo[i] <= view[i] <= hi[i]` (lo, hi: shape (len(view),)).
+            NaN is never inside.
+        equal: `(a, b)`: the two 1-D views read equal, element for element.
+        scalars: `(read, hi)`: `read() <= hi` (`read` is called every step: a cached reading
+            such as `Context.wrist_force_norm_sq`).
+        stateful: The guard keeps state across steps that only its `check` updates (a
+            duration above a limit): after any step it was checked in full, it is checked in
+            full again until `Guard.settled` says its state is at rest.
+    """
+
+    bounds: tuple[tuple[np.ndarray, Sequence[float], Sequence[float]], ...] = ()
+    equal: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+    scalars: tuple[tuple[Callable[[], float], float], ...] = ()
+    stateful: bool = False
+
+
 class Guard(abc.ABC):
     """A safety check. `bind` once per run (precompute indices), `check` every physics step.
 
@@ -64,6 +88,18 @@ class Guard(abc.ABC):
     @abc.abstractmethod
     def check(self, ctx: Context) -> Violation | None:
         """None while safe, else the violation."""
+
+    def envelope(self, ctx: Context) -> Envelope | None:
+        """Bounds on the readings `check` watches inside which it certainly returns None and
+        changes nothing (guards/bank.py): the physics step then tests all guards' bounds
+        at once and runs `check` only when a value leaves them. Called when the set of active
+        guards changes (after `activate`). None (the default): `check` runs every step."""
+        return None
+
+    def settled(self) -> bool:
+        """For a guard with a stateful envelope: its state is at rest (nothing counting), so
+        an envelope test may stand in for `check` again."""
+        return True
 
     def monitored(self, ctx: Context) -> tuple[float, float] | None:
         """The scalar this guard watches and its limit, for plots (None if not scalar)."""

@@ -11,12 +11,13 @@ the guard reads one small block of numbers per physics step. A collision is any 
 
 from __future__ import annotations
 
+import sys
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 from pydantic import Field
 
-from .base import Guard, GuardParams, Violation
+from .base import Envelope, Guard, GuardParams, Violation
 
 if TYPE_CHECKING:
     from ..engine.context import Context
@@ -106,6 +107,18 @@ class Collision(Guard):
                 if robot_side in (body, m.geom(mine).name):
                     names.append(m.geom(other).name or m.body(int(m.geom_bodyid[other])).name)
         return "/".join(sorted(set(names))) or "?"
+
+    def envelope(self, ctx: Context) -> Envelope:
+        if self._forbidden is not None:  # no forbidden contact counted
+            n = len(self._forbidden)
+            return Envelope(bounds=((self._forbidden, [0.0] * n, [0.0] * n),))
+        if self._block is None:  # no contact sensors: nothing can fire
+            return Envelope()
+        # the allowed sensors may count anything finite (an inf or a NaN: `check` decides)
+        big = sys.float_info.max
+        lo = [0.0 if m else -big for m in self._mask.tolist()]
+        hi = [0.0 if m else big for m in self._mask.tolist()]
+        return Envelope(bounds=((self._block, lo, hi),))
 
     def monitored(self, ctx: Context) -> tuple[float, float]:
         hits = 0.0 if self._block is None else float(self._block.dot(self._mask))

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 from pydantic import Field, PositiveFloat
 
-from .base import Guard, GuardParams, Violation
+from .base import Envelope, Guard, GuardParams, Violation
 
 if TYPE_CHECKING:
     from ..engine.context import Context
@@ -45,6 +45,9 @@ class ContactForce(Guard):
             round(norm, 4),
             self.params.max_n,
         )
+
+    def envelope(self, ctx: Context) -> Envelope:
+        return Envelope(scalars=((ctx.wrist_force_norm_sq, self._max_sq),))
 
     def monitored(self, ctx: Context) -> tuple[float, float]:
         return math.sqrt(ctx.wrist_force_norm_sq()), self.params.max_n

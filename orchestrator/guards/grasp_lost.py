@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, ClassVar
 
 from pydantic import Field, PositiveFloat
 
-from .base import Guard, GuardParams, Violation
+from .base import Envelope, Guard, GuardParams, Violation
 
 if TYPE_CHECKING:
     from ..engine.context import Context
@@ -52,6 +53,13 @@ class GraspLost(Guard):
             round(width, 5),
             round(self._min, 5),
         )
+
+    def envelope(self, ctx: Context) -> Envelope:
+        # both fingers at least half the smallest width: their sum is at least the width
+        # (halving is exact, and rounding a sum never takes it below an exact bound)
+        half = 0.5 * self._min
+        n = len(self._fingers)
+        return Envelope(bounds=((self._fingers, [half] * n, [math.inf] * n),))
 
     def monitored(self, ctx: Context) -> tuple[float, float]:
         return float(sum(self._fingers.tolist())), self._min

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 from pydantic import Field, NonNegativeFloat
 
-from .base import Guard, GuardParams, Violation
+from .base import Envelope, Guard, GuardParams, Violation
 
 if TYPE_CHECKING:
     from ..engine.context import Context
@@ -56,6 +56,11 @@ class JointLimits(Guard):
             round(float(q[i]), 6),
             round(float(bound), 6),
         )
+
+    def envelope(self, ctx: Context) -> Envelope | None:
+        if self._q is None:
+            return None
+        return Envelope(bounds=((self._q, self.lower, self.upper),))
 
     def monitored(self, ctx: Context) -> tuple[float, float]:
         q = ctx.data.qpos[self.idx]

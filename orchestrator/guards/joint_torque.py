@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 from pydantic import Field, PositiveFloat
 
-from .base import Guard, GuardParams, Violation
+from .base import Envelope, Guard, GuardParams, Violation
 
 if TYPE_CHECKING:
     from ..engine.context import Context
@@ -73,6 +73,17 @@ class JointTorque(Guard):
                 self._counting -= count[i]
                 count[i] = 0
         return None
+
+    def envelope(self, ctx: Context) -> Envelope | None:
+        if min(self._limit) <= 0.0:
+            return None
+        # `check` counts a joint at |tau| >= limit: inside is strictly below, the largest
+        # float under the limit
+        below = np.nextafter(np.asarray(self._limit), 0.0)
+        return Envelope(bounds=((self._tau, -below, below),), stateful=True)
+
+    def settled(self) -> bool:
+        return self._counting == 0
 
     def monitored(self, ctx: Context) -> tuple[float, float]:
         return float(np.max(np.abs(self._tau) / np.asarray(self._limit))), 1.0

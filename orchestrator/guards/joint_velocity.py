@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 from pydantic import Field, PositiveFloat
 
-from .base import Guard, GuardParams, Violation
+from .base import Envelope, Guard, GuardParams, Violation
 
 if TYPE_CHECKING:
     from ..engine.context import Context
@@ -66,6 +66,11 @@ class JointVelocity(Guard):
                     round(lim, 5),
                 )
         return None
+
+    def envelope(self, ctx: Context) -> Envelope | None:
+        if self._qd is None:
+            return None
+        return Envelope(bounds=((self._qd, [-v for v in self._lim], self._lim),))
 
     def monitored(self, ctx: Context) -> tuple[float, float]:
         qd = np.abs(ctx.data.qvel[self._dofs]) / np.asarray(self._lim)

@@ -11,11 +11,12 @@
 from __future__ import annotations
 
 import math
+import sys
 from typing import TYPE_CHECKING, ClassVar
 
 from pydantic import Field, PositiveFloat
 
-from .base import Guard, GuardParams, Violation
+from .base import Envelope, Guard, GuardParams, Violation
 
 if TYPE_CHECKING:
     from ..engine.context import Context
@@ -103,6 +104,23 @@ class SensorHealth(Guard):
                 if not abs(a - b) <= tol:
                     return self._encoder(i, a, b)
         return None
+
+    def envelope(self, ctx: Context) -> Envelope | None:
+        w = ctx.world
+        if not (isinstance(w.arm_qpos_index, slice) and isinstance(w.arm_act_index, slice)):
+            return None  # the readings are copies, not views
+        big = sys.float_info.max
+        n = self._n
+        return Envelope(
+            bounds=(
+                # a sensor fault (a stale or disagreeing channel) makes `check` decide
+                (ctx.sensor_faults, [0.0, 0.0], [0.0, 0.0]),
+                # the safety encoders finite (NaN or inf: `check` decides)
+                (self._safety_q, [-big] * n, [big] * n),
+            ),
+            equal=((self._commanded, self._measured),),  # every motor delivers its command
+            scalars=((ctx.wrist_force_norm_sq, self._range_sq),),
+        )
 
     def _ft(self, norm_sq: float) -> Violation:
         if not math.isfinite(norm_sq):

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Annotated, ClassVar
 import numpy as np
 from pydantic import Field, model_validator
 
-from .base import Guard, GuardParams, Violation
+from .base import Envelope, Guard, GuardParams, Violation
 
 if TYPE_CHECKING:
     from ..engine.context import Context
@@ -69,6 +69,9 @@ class Workspace(Guard):
             [round(float(v), 6) for v in p],
             {"axis": axis, "bound": round(float(bound), 6)},
         )
+
+    def envelope(self, ctx: Context) -> Envelope:
+        return Envelope(bounds=((self._tcp, self.params.min, self.params.max),))
 
     def monitored(self, ctx: Context) -> tuple[float, float]:
         p = ctx.data.site_xpos[self.site]

@@ -39,6 +39,9 @@ class JointEncoders:
             simulated instant.
         clock: Simulated time [s] (needed when `resolution_rad` > 0).
         velocity_filter_hz: Cut-off of the first-order filter on the differenced velocity.
+        status: Where to flag a fault (shape (1,), written in place): 1.0 while a fault is
+            injected and the safety channel has not taken over, else 0.0 — a reading a
+            guard's envelope watches without a Python call. Default: an array of its own.
     """
 
     def __init__(
@@ -52,6 +55,7 @@ class JointEncoders:
         resolution_rad: float = 0.0,
         clock: Callable[[], float] | None = None,
         velocity_filter_hz: float = 100.0,
+        status: np.ndarray | None = None,
     ) -> None:
         self._qpos, self._qvel = qpos, qvel
         self._qi, self._vi = q_index, v_index
@@ -67,6 +71,8 @@ class JointEncoders:
         self.std = 0.0
         self._frozen: tuple[float, float] = (0.0, 0.0)
         self.failed_over = False
+        self.status = status if status is not None else np.zeros(1)
+        self.status[0] = 0.0
         self.resolution = float(resolution_rad)
         if self.resolution > 0.0 and clock is None:
             raise ValueError("quantized encoders need a clock")
@@ -123,12 +129,14 @@ class JointEncoders:
         if not 1 <= joint <= self.n_arm:
             raise ValueError(f"joint {joint} is not an arm joint (1..{self.n_arm})")
         self.fault, self.joint, self.std = kind, joint - 1, std_rad
+        self.status[0] = 0.0 if self.failed_over else 1.0
         q, v = self._qpos[self._qi], self._qvel[self._vi]
         self._frozen = (float(q[self.joint]), float(v[self.joint]))
 
     def failover(self) -> None:
         """Read the safety channel from now on (after an abort)."""
         self.failed_over = True
+        self.status[0] = 0.0
 
 
 class WristForceFault:

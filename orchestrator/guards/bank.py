@@ -1,0 +1,183 @@
+"""Every active guard checked every physics step, at the cost of one test of their envelopes.
+
+A guard's `check` is exact but it is Python: eight guards checked one after another cost about
+as much as everything else the framework adds to a physics step. Almost always every value is
+far inside its limit. So each guard may declare an *envelope* (`Guard.envelope`): bounds on the
+raw readings it watches (views into MjData, the controller's output, its own state) inside
+which its `check` certainly returns None and changes nothing. `GuardBank` gathers the envelopes
+of all active guards once, when the active set changes, and every physics step
+
+1. reads each watched view once (one `tolist()` per distinct view),
+2. tests all bounds with two C-level passes (`all(map(le, ...))`), the pairs that must read
+   equal with one list comparison, and the scalars (the wrist force) with one comparison each,
+3. only if a value left the envelope (or a NaN appeared, which no bound admits), runs every
+   active guard's full `check` in priority order, exactly as if there were no envelope.
+
+Guards without an envelope are checked in full every step. Nothing changes what fires or when:
+inside the envelope no guard could have fired; outside it the guards run as they always did,
+so the violation, its message and the step it fires on are the same (tests/test_guard_bank.py).
+"""
+
+from __future__ import annotations
+
+import operator
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .base import Guard, Violation
+
+if TYPE_CHECKING:
+    from ..engine.context import Context
+
+__all__ = ["GuardBank"]
+
+_le = operator.le
+
+
+@dataclass
+class _Watched:
+    """One watched view and the bounds on each of its elements."""
+
+    view: np.ndarray
+    lo: list[float]
+    hi: list[float]
+
+    @property
+    def address(self) -> int:
+        return int(self.view.__array_interface__["data"][0])
+
+
+def _merged(watched: list[_Watched]) -> list[_Watched]:
+    """Views of one array that follow each other in memory, as one view (one `tolist()` a
+    step instead of several): e.g. the arm's joints and the fingers' in `qpos`."""
+    out: list[_Watched] = []
+    for w in sorted(watched, key=lambda w: w.address):
+        last = out[-1] if out else None
+        base = w.view.base
+        if (
+            last is not None
+            and isinstance(base, np.ndarray)
+            and last.view.base is base
+            and base.ndim == 1
+            and base.flags.c_contiguous
+            and w.view.strides[0] == last.view.strides[0] == base.itemsize
+            and last.address + last.view.nbytes == w.address
+        ):
+            start = (last.address - base.__array_interface__["data"][0]) // base.itemsize
+            view = base[start : start + len(last.view) + len(w.view)]
+            out[-1] = _Watched(view, last.lo + w.lo, last.hi + w.hi)
+        else:
+            out.append(w)
+    return out
+
+
+def _key(view: np.ndarray) -> tuple[int, int, int]:
+    if view.ndim != 1:
+        raise ValueError(f"an envelope view must be 1-D, got shape {view.shape}")
+    return (view.__array_interface__["data"][0], len(view), view.strides[0])
+
+
+class GuardBank:
+    """The active guards, in priority order, checked as one (see the module docstring).
+
+    Args:
+        guards: The active guards, highest priority first (bound and activated).
+        ctx: The episode's context (handed to `Guard.envelope`).
+    """
+
+    def __init__(self, guards: Sequence[Guard], ctx: Context) -> None:
+        self.guards = list(guards)
+        self.checks = tuple(g.check for g in self.guards)
+        """Every guard's full `check`, in priority order."""
+        watched: dict[tuple[int, int, int], _Watched] = {}
+        equal: list[tuple[Callable[[], list[float]], Callable[[], list[float]]]] = []
+        scalars: dict[Callable[[], float], float] = {}
+        open_checks: list[Callable[[Context], Violation | None]] = []
+        self._stateful: list[Guard] = []
+        for guard in self.guards:
+            env = guard.envelope(ctx)
+            if env is None:
+                open_checks.append(guard.check)
+                continue
+            if env.stateful:
+                self._stateful.append(guard)
+            for view, lo, hi in env.bounds:
+                self._add_bounds(watched, view, lo, hi)
+            equal += [(a.tolist, b.tolist) for a, b in env.equal]
+            for read, limit in env.scalars:
+                scalars[read] = min(limit, scalars.get(read, limit))
+        merged = _merged(list(watched.values()))
+        # views that must read all zero (contact counts, fault flags): one `any()` for them
+        zero = [w for w in merged if not any(w.lo) and not any(w.hi)]
+        bounded = [w for w in merged if any(w.lo) or any(w.hi)]
+        self._zero = tuple(w.view.tolist for w in zero)
+        self._readers = tuple(w.view.tolist for w in bounded)
+        self._lo = [v for w in bounded for v in w.lo]
+        self._hi = [v for w in bounded for v in w.hi]
+        self._equal = tuple(equal)
+        self._scalars = tuple(scalars.items())
+        self._open = tuple(open_checks)
+        """Checks of the guards without an envelope: run in full every step."""
+        self._full = any(not g.settled() for g in self._stateful)
+        """Check every guard in full this step (a stateful guard's state is not at rest: a
+        duration counted before the active set changed)."""
+        self.full_checks = 0
+        """Steps on which the guards were checked in full (for tests and the bench)."""
+
+    @staticmethod
+    def _add_bounds(
+        watched: dict[tuple[int, int, int], _Watched],
+        view: np.ndarray,
+        lo: Sequence[float],
+        hi: Sequence[float],
+    ) -> None:
+        lo, hi = [float(v) for v in lo], [float(v) for v in hi]
+        if not len(lo) == len(hi) == len(view):
+            raise ValueError(f"envelope bounds of {len(lo)}/{len(hi)} values, view of {len(view)}")
+        key = _key(view)
+        known = watched.get(key)
+        if known is None:
+            watched[key] = _Watched(view, lo, hi)
+            return
+        # the same view watched by two guards: inside means inside both bounds
+        known.lo = [max(a, b) for a, b in zip(known.lo, lo, strict=True)]
+        known.hi = [min(a, b) for a, b in zip(known.hi, hi, strict=True)]
+
+    def inside(self) -> bool:
+        """Every watched value inside every envelope (NaN never is)."""
+        values: list[float] = []
+        for read in self._zero:
+            values += read()
+        if any(values):  # a NaN is true too
+            return False
+        values = []
+        for read in self._readers:
+            values += read()
+        if not (all(map(_le, self._lo, values)) and all(map(_le, values, self._hi))):
+            return False
+        for a, b in self._equal:
+            if a() != b():
+                return False
+        for reading, limit in self._scalars:
+            if not reading() <= limit:
+                return False
+        return True
+
+    def check(self, ctx: Context) -> Violation | None:
+        """The first violation of the active guards this physics step, or None."""
+        if self._full or not self.inside():
+            self.full_checks += 1
+            for full in self.checks:
+                violation = full(ctx)
+                if violation is not None:
+                    return violation
+            self._full = any(not g.settled() for g in self._stateful)
+            return None
+        for always in self._open:
+            violation = always(ctx)
+            if violation is not None:
+                return violation
+        return None
