@@ -1,0 +1,127 @@
+"""The tissue's force law, and a probe that measures it on a built world.
+
+`TissueLaw` says how hard the phantom pushes back on the tool at an indentation and speed, and
+sets the MuJoCo contact parameters that realise it; `indent` asks MuJoCo's inverse dynamics
+what force its solver applies at a given indentation and speed (bench/tissue_probe.py and the
+tests measure the curve with it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+if TYPE_CHECKING:
+    from .world import World
+
+__all__ = ["TISSUE_IMPEDANCE", "TissueLaw", "indent"]
+
+
+TISSUE_IMPEDANCE = 0.1
+"""MuJoCo constraint impedance d of tissue contacts at the surface (solimp dmin). A soft
+constraint resists acceleration like an added mass of d / ((1 - d) A), A the inverse inertia at
+the contact: at MuJoCo's default d ~ 0.9 that is ~60 kg at the Panda's tool tip and a phantom
+pressed with a few newtons rings at ~1 Hz; at 0.1 it is ~0.7 kg. A stiffening phantom raises d
+with the indentation (to ~0.28, ~2.4 kg, for the bundled tenfold stiffening)."""
+
+
+@dataclass(frozen=True)
+class TissueLaw:
+    """The phantom's force law as MuJoCo's soft contact realises it, for one tip body.
+
+    MuJoCo's impedance d(x) grows linearly (solimp power 1) from `TISSUE_IMPEDANCE` at the
+    surface to `d_max` at `depth_m`. At rest its soft contact satisfies R f = k d x with
+    R = (1 - d) / d A0 and k = S / d_max^2 (solref[0] = -S), A0 the contact's approximate inverse
+    inertia (`body_invweight0` of the tip body; the phantom is fixed): f = S x d^2 / (d_max^2
+    (1 - d) A0). The secant stiffness f / x is thus `stiffness` x g(d(x)) / g(d_min) with
+    g(d) = d^2 / (1 - d), and `d_max` solves g(d_max) = ratio g(d_min). The damping force
+    (solref[1] = -B, b = B / d_max) is B v d / (d_max (1 - d) A0): it grows as d / (1 - d).
+
+    Attributes:
+        stiffness: Secant stiffness at the surface [N/m].
+        damping: Damping at the surface [N s/m].
+        ratio: Secant stiffness at `depth_m` over `stiffness` (1: linear).
+        depth_m: Where the stiffening ends [m].
+    """
+
+    stiffness: float
+    damping: float
+    ratio: float = 1.0
+    depth_m: float = 0.008
+
+    @property
+    def d_max(self) -> float:
+        """MuJoCo impedance at `depth_m` and deeper (solimp dmax)."""
+        c = self.ratio * _g(TISSUE_IMPEDANCE)  # d^2 / (1 - d) = c: d^2 + c d - c = 0
+        return 0.5 * (-c + math.sqrt(c * c + 4.0 * c))
+
+    def impedance(self, x: float) -> float:
+        """MuJoCo impedance d at indentation `x` [m]."""
+        u = min(max(x / self.depth_m, 0.0), 1.0)
+        return TISSUE_IMPEDANCE + u * (self.d_max - TISSUE_IMPEDANCE)
+
+    def force(self, x: float, v: float = 0.0) -> float:
+        """Force on the tip [N] at indentation `x` [m], moving in at `v` [m/s] (no inertia)."""
+        d = self.impedance(x)
+        spring = self.stiffness * x * _g(d) / _g(TISSUE_IMPEDANCE)
+        damper = self.damping * v * (d / (1.0 - d)) / (TISSUE_IMPEDANCE / (1.0 - TISSUE_IMPEDANCE))
+        return spring + damper
+
+    def solref(self, inv_weight: float) -> tuple[float, float]:
+        """Direct (-S, -B) for a tip body of inverse weight `inv_weight` (A0) [1/kg]."""
+        d0, dm = TISSUE_IMPEDANCE, self.d_max
+        s = self.stiffness * dm * dm * (1.0 - d0) * inv_weight / (d0 * d0)
+        b = self.damping * dm * (1.0 - d0) * inv_weight / d0
+        return -s, -b
+
+    def solimp(self) -> list[float]:
+        """MuJoCo solimp: d from `TISSUE_IMPEDANCE` to `d_max` over `depth_m`, linearly."""
+        return [TISSUE_IMPEDANCE, self.d_max, self.depth_m, 0.5, 1.0]
+
+
+def _g(d: float) -> float:
+    return d * d / (1.0 - d)
+
+
+def indent(world: World, depth_m: float, speed_m_s: float = 0.0) -> dict[str, float]:
+    """The normal force [N] each tool geom feels from the phantom, per geom name, with the tip
+    `depth_m` into the phantom's surface and moving in at `speed_m_s` (negative: out).
+
+    The arm rests at home; the phantom is moved (for this measurement only) so that its surface
+    lies `depth_m` above the tip, and MuJoCo's inverse dynamics (`mj_inverse`, zero joint
+    acceleration) gives the contact forces its soft-contact solver applies there: the tissue's
+    force law as the simulation realises it, without the arm's dynamics. The world is reset
+    afterwards.
+    """
+    ph = world.phantom
+    if ph is None:
+        raise ValueError(f"scenario {world.scenario.name!r} has no phantom to indent")
+    m, d = world.model, world.data
+    body, geom = m.body(ph.name).id, m.geom(ph.name).id
+    saved = m.body_pos[body].copy()
+    world.reset()
+    tip = d.site_xpos[world.tcp_site].copy()
+    try:
+        m.body_pos[body] = [tip[0], tip[1], tip[2] + depth_m - ph.size[2] / 2.0]
+        jac = np.zeros((3, m.nv))
+        mujoco.mj_jacSite(m, d, jac, None, world.tcp_site)
+        d.qvel[:] = np.linalg.pinv(jac) @ np.array([0.0, 0.0, -speed_m_s])
+        d.qacc[:] = 0.0
+        mujoco.mj_inverse(m, d)
+        forces: dict[str, float] = {}
+        out = np.zeros(6)
+        for i in range(d.ncon):
+            c = d.contact[i]
+            if geom not in (c.geom1, c.geom2):
+                continue
+            other = m.geom(int(c.geom2 if c.geom1 == geom else c.geom1)).name
+            mujoco.mj_contactForce(m, d, i, out)
+            forces[other] = forces.get(other, 0.0) + float(out[0])
+        return forces
+    finally:
+        m.body_pos[body] = saved
+        world.reset()
