@@ -1,10 +1,10 @@
-"""Headless real-time factor of pick_place: simulated time / wall time, per episode.
+"""Headless real-time factor of a scenario (pick_place by default): sim time / wall time.
 
 Reports the median over seeds for (a) episodes run in one process (the batch case: robot
 model, meshes and IK model cached after the first episode) and (b) `orchestrator run` as a
 fresh process per episode (wall_time from its JSON: world build + simulation, cold caches).
 
-    python bench/realtime.py [--seeds 20] [--cli 5]
+    python bench/realtime.py [--seeds 20] [--cli 5] [--scenario surgical]
 """
 
 from __future__ import annotations
@@ -20,12 +20,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20, help="episodes run in-process")
     parser.add_argument("--cli", type=int, default=5, help="episodes run as fresh processes")
+    parser.add_argument("--scenario", default="pick_place", help="bundled name or path")
     args = parser.parse_args()
 
     from orchestrator.engine.runner import run_episode
     from orchestrator.language.load import load_scenario
 
-    loaded = load_scenario("pick_place")
+    loaded = load_scenario(args.scenario)
     run_episode(loaded, 10_000)  # warm the caches once, as a batch worker would
     rtf, cycle = [], []
     for seed in range(args.seeds):
@@ -45,7 +46,7 @@ def main() -> None:
                 "-m",
                 "orchestrator.cli",
                 "run",
-                "pick_place",
+                args.scenario,
                 "--seed",
                 str(seed),
                 "--json",
@@ -54,7 +55,7 @@ def main() -> None:
             text=True,
             check=False,
         )
-        r = json.loads(out.stdout)
+        r = json.loads(out.stdout)  # exit 3 (aborted) still prints its JSON
         cli.append(r["sim_time"] / r["wall_time"])
     if cli:
         print(
