@@ -14,6 +14,7 @@ import json
 import statistics
 import subprocess
 import sys
+import time
 
 
 def main() -> None:
@@ -28,15 +29,22 @@ def main() -> None:
 
     loaded = load_scenario(args.scenario)
     run_episode(loaded, 10_000)  # warm the caches once, as a batch worker would
-    rtf, cycle = [], []
+    rtf, cpu, cycle = [], [], []
     for seed in range(args.seeds):
+        t0 = time.process_time()
         r = run_episode(loaded, seed)
+        cpu.append(r.sim_time / (time.process_time() - t0))
         rtf.append(r.sim_time / r.wall_time)
         cycle.append(r.metrics["cycle_time"])
     print(
         f"in-process  : median RTF {statistics.median(rtf):5.1f}x  "
         f"(min {min(rtf):.1f}x, max {max(rtf):.1f}x) over {args.seeds} seeds; "
         f"median cycle_time {statistics.median(cycle):.2f} s (max {max(cycle):.2f} s)"
+    )
+    # sim time per CPU second of this process: what a shared, loaded machine cannot distort
+    print(
+        f"CPU time    : median RTF {statistics.median(cpu):5.1f}x  "
+        f"(min {min(cpu):.1f}x, max {max(cpu):.1f}x)"
     )
     cli = []
     for seed in range(args.cli):
