@@ -26,7 +26,8 @@ TISSUE_IMPEDANCE = 0.1
 constraint resists acceleration like an added mass of d / ((1 - d) A), A the inverse inertia at
 the contact: at MuJoCo's default d ~ 0.9 that is ~60 kg at the Panda's tool tip and a phantom
 pressed with a few newtons rings at ~1 Hz; at 0.1 it is ~0.7 kg. A stiffening phantom raises d
-with the indentation (~1.1 kg at 2 N, ~2.6 kg at d_max = 0.28 for the bundled tenfold stiffening)."""
+with the indentation: ~1.1 kg at 2 N and ~2.6 kg at d_max = 0.28 for the bundled tenfold
+stiffening."""
 
 
 @dataclass(frozen=True)
