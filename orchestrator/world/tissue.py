@@ -66,11 +66,14 @@ class TissueLaw:
         return TISSUE_IMPEDANCE + u * (self.d_max - TISSUE_IMPEDANCE)
 
     def force(self, x: float, v: float = 0.0) -> float:
-        """Force on the tip [N] at indentation `x` [m], moving in at `v` [m/s] (no inertia)."""
+        """Force on the tip [N] at indentation `x` [m], moving in at `v` [m/s] (out if negative;
+        no inertia). Never negative: a contact pushes, it does not pull."""
+        if x <= 0.0:
+            return 0.0
         d = self.impedance(x)
         spring = self.stiffness * x * _g(d) / _g(TISSUE_IMPEDANCE)
         damper = self.damping * v * (d / (1.0 - d)) / (TISSUE_IMPEDANCE / (1.0 - TISSUE_IMPEDANCE))
-        return spring + damper
+        return max(0.0, spring + damper)
 
     def solref(self, inv_weight: float) -> tuple[float, float]:
         """Direct (-S, -B) for a tip body of inverse weight `inv_weight` (A0) [1/kg]."""
