@@ -52,6 +52,7 @@ def test_a_linear_phantom_stays_linear():
     law = TissueLaw(stiffness=500.0, damping=20.0)
     assert law.d_max == pytest.approx(law.impedance(0.0))
     assert law.force(0.004) == pytest.approx(2.0) and law.force(0.008) == pytest.approx(4.0)
+    assert law.force(-0.001) == 0.0 and law.force(0.0001, -0.01) == 0.0  # it never pulls
 
 
 def test_the_phantom_is_damped(world):
@@ -60,6 +61,7 @@ def test_the_phantom_is_damped(world):
     for x in (0.0005, 0.001, 0.002):
         rest, loading, unloading = (_tip(world, x, v) for v in (0.0, 0.01, -0.01))
         assert loading - rest == pytest.approx(rest - unloading, rel=1e-6)
+        assert loading == pytest.approx(law.force(x, 0.01), rel=1e-6)  # the documented law
         assert loading - rest >= 0.01 * law.damping  # at least the surface's 20 N s/m
     # the damping grows with the indentation (as d / (1 - d): 1.36x from 0.5 to 2 mm)
     assert _tip(world, 0.002, 0.01) - _tip(world, 0.002) > 1.3 * (
