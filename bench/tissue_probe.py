@@ -26,7 +26,7 @@ from orchestrator.engine.runner import run_episode
 from orchestrator.language.load import load_scenario
 from orchestrator.world import World
 from orchestrator.world.phantom import tissue_law
-from orchestrator.world.tissue import indent
+from orchestrator.world.tissue_probe import indent
 
 DEPTHS_MM = [0.25, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0]
 SPEED = 0.01

@@ -11,7 +11,8 @@ from orchestrator.engine.runner import run_episode
 from orchestrator.language.load import load_scenario
 from orchestrator.world import World
 from orchestrator.world.phantom import tissue_law
-from orchestrator.world.tissue import TissueLaw, indent
+from orchestrator.world.tissue import TissueLaw
+from orchestrator.world.tissue_probe import indent
 
 TIP_RADIUS_M = 0.0025
 

@@ -1,24 +1,13 @@
-"""The tissue's force law, and a probe that measures it on a built world.
-
-`TissueLaw` says how hard the phantom pushes back on the tool at an indentation and speed, and
-sets the MuJoCo contact parameters that realise it; `indent` asks MuJoCo's inverse dynamics
-what force its solver applies at a given indentation and speed (bench/tissue_probe.py and the
-tests measure the curve with it).
-"""
+"""The tissue's force law: how hard the phantom pushes back on the tool at an indentation and
+speed, and the MuJoCo contact parameters that realise it (`world/tissue_probe.py` measures it
+on a built world)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
-import mujoco
-import numpy as np
-
-if TYPE_CHECKING:
-    from .world import World
-
-__all__ = ["TISSUE_IMPEDANCE", "TissueLaw", "indent"]
+__all__ = ["TISSUE_IMPEDANCE", "TissueLaw"]
 
 
 TISSUE_IMPEDANCE = 0.1
@@ -89,43 +78,3 @@ class TissueLaw:
 
 def _g(d: float) -> float:
     return d * d / (1.0 - d)
-
-
-def indent(world: World, depth_m: float, speed_m_s: float = 0.0) -> dict[str, float]:
-    """The normal force [N] each tool geom feels from the phantom, per geom name, with the tip
-    `depth_m` into the phantom's surface and moving in at `speed_m_s` (negative: out).
-
-    The arm rests at home; the phantom is moved (for this measurement only) so that its surface
-    lies `depth_m` above the tip, and MuJoCo's inverse dynamics (`mj_inverse`, zero joint
-    acceleration) gives the contact forces its soft-contact solver applies there: the tissue's
-    force law as the simulation realises it, without the arm's dynamics. The world is reset
-    afterwards.
-    """
-    ph = world.phantom
-    if ph is None:
-        raise ValueError(f"scenario {world.scenario.name!r} has no phantom to indent")
-    m, d = world.model, world.data
-    body, geom = m.body(ph.name).id, m.geom(ph.name).id
-    saved = m.body_pos[body].copy()
-    world.reset()
-    tip = d.site_xpos[world.tcp_site].copy()
-    try:
-        m.body_pos[body] = [tip[0], tip[1], tip[2] + depth_m - ph.size[2] / 2.0]
-        jac = np.zeros((3, m.nv))
-        mujoco.mj_jacSite(m, d, jac, None, world.tcp_site)
-        d.qvel[:] = np.linalg.pinv(jac) @ np.array([0.0, 0.0, -speed_m_s])
-        d.qacc[:] = 0.0
-        mujoco.mj_inverse(m, d)
-        forces: dict[str, float] = {}
-        out = np.zeros(6)
-        for i in range(d.ncon):
-            c = d.contact[i]
-            if geom not in (c.geom1, c.geom2):
-                continue
-            other = m.geom(int(c.geom2 if c.geom1 == geom else c.geom1)).name
-            mujoco.mj_contactForce(m, d, i, out)
-            forces[other] = forces.get(other, 0.0) + float(out[0])
-        return forces
-    finally:
-        m.body_pos[body] = saved
-        world.reset()
