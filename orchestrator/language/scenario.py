@@ -18,6 +18,7 @@ __all__ = [
     "Obstacle",
     "Perception",
     "Phantom",
+    "PhantomStiffening",
     "Physics",
     "Realism",
     "RobotRef",
@@ -149,12 +150,30 @@ class PhantomRandomize(_Strict):
         return self
 
 
+class PhantomStiffening(_Strict):
+    """How the tissue stiffens with indentation x: its secant stiffness f / x grows smoothly
+    from `stiffness_n_per_m` at the surface to `ratio` times that at `depth_m`, and stays there
+    deeper (linear beyond `depth_m`: put it below the working range). The damping grows with it
+    (less steeply). `ratio: 1` is a linear spring."""
+
+    ratio: float = Field(
+        default=1.0,
+        ge=1.0,
+        le=50.0,
+        description="Secant stiffness at `depth_m` over the stiffness at the surface.",
+    )
+    depth_m: float = Field(
+        default=0.008, ge=1e-4, le=0.1, description="Indentation where it reaches `ratio` [m]."
+    )
+
+
 class Phantom(_Strict):
     """A tissue phantom: a fixed box on the table whose surface yields like a spring.
 
     The stiffness is set through MuJoCo's solref/solimp so that the tool tip pressed into it
-    with F newtons indents it by F / stiffness metres at rest. Its frame (the `phantom` frame of
-    zones and obstacles) is the centre of its top surface, z up, turned by `yaw_deg`.
+    x metres deep pushes back with f(x) = stiffness(x) x newtons at rest: stiffness(x) is
+    `stiffness_n_per_m` near the surface and grows with `stiffening`. Its frame (the `phantom`
+    frame of zones and obstacles) is the centre of its top surface, z up, turned by `yaw_deg`.
     """
 
     name: str = "phantom"
@@ -165,10 +184,11 @@ class Phantom(_Strict):
         default=500.0,
         ge=1.0,
         le=1e6,
-        description="Nominal (registered) stiffness of the surface [N/m].",
+        description="Nominal (registered) stiffness at the surface, small indentations [N/m].",
     )
+    stiffening: PhantomStiffening = Field(default_factory=PhantomStiffening)
     damping_n_s_per_m: float = Field(
-        default=20.0, ge=0.01, le=1e5, description="Damping of the surface [N s/m]."
+        default=20.0, ge=0.01, le=1e5, description="Damping at the surface [N s/m]."
     )
     friction: Friction = 0.1
     randomize: PhantomRandomize = Field(default_factory=PhantomRandomize)

@@ -13,17 +13,18 @@ from ..robots.panda.model import WORLD_CONAFFINITY, WORLD_CONTYPE
 from ..robots.tool import TISSUE_CONAFFINITY, TISSUE_CONTYPE, Tool
 from .pose import quat_from_yaw
 from .randomization import phantom_state
+from .tissue import TissueLaw
 
 if TYPE_CHECKING:
     from ..language.scenario import Scenario, ToolSpec
 
 __all__ = [
-    "TISSUE_IMPEDANCE",
     "ZONE_CONTYPE",
     "PhantomHandle",
     "add_phantom_scene",
     "phantom_handle",
     "set_tissue_stiffness",
+    "tissue_law",
     "tool_from_spec",
 ]
 
@@ -45,13 +46,6 @@ class PhantomHandle:
     surface_pos: np.ndarray
     yaw: float
     stiffness_n_per_m: float
-
-
-TISSUE_IMPEDANCE = 0.1
-"""MuJoCo constraint impedance d of tissue contacts (solimp dmin = dmax). A soft constraint
-resists acceleration like an added mass of d / ((1 - d) A), A the inverse inertia at the
-contact: at MuJoCo's default d ~ 0.9 that is ~60 kg at the Panda's tool tip and a phantom
-pressed with a few newtons rings at ~1 Hz; at 0.1 it is ~0.7 kg."""
 
 
 ZONE_CONTYPE = 16
@@ -105,7 +99,7 @@ def add_phantom_scene(spec: mujoco.MjSpec, scenario: Scenario, seed: int) -> Non
         g.friction = [ph.friction, 0.005, 0.0001]
         g.contype, g.conaffinity = TISSUE_CONTYPE, TISSUE_CONAFFINITY
         g.priority = 1  # its solref, solimp and friction win over the other geom's
-        g.solimp = [TISSUE_IMPEDANCE, TISSUE_IMPEDANCE, 0.001, 0.5, 2.0]
+        g.solimp = tissue_law(scenario, seed).solimp()
     for box, colliding in [(z, False) for z in scene.zones] + [(o, True) for o in scene.obstacles]:
         if box.frame == "phantom":
             assert ph is not None
@@ -122,24 +116,27 @@ def add_phantom_scene(spec: mujoco.MjSpec, scenario: Scenario, seed: int) -> Non
             g.contype, g.conaffinity = ZONE_CONTYPE, ZONE_CONTYPE
 
 
+def tissue_law(scenario: Scenario, seed: int) -> TissueLaw:
+    """The phantom's true force law in episode `seed` (its stiffness drawn per seed)."""
+    ph = scenario.scene.phantom
+    assert ph is not None
+    _, _, stiffness = phantom_state(scenario, seed)
+    return TissueLaw(
+        stiffness=stiffness,
+        damping=ph.damping_n_s_per_m,
+        ratio=ph.stiffening.ratio,
+        depth_m=ph.stiffening.depth_m,
+    )
+
+
 def set_tissue_stiffness(
     model: mujoco.MjModel, scenario: Scenario, seed: int, robot: Robot
 ) -> None:
-    """Direct solref (-stiffness, -damping) of the phantom for its true stiffness [N/m].
-
-    At rest MuJoCo's soft contact satisfies R f = k d r with R = (1 - d) / d * A0 and
-    k = S / d^2 for solref[0] = -S (dmin = dmax = d), A0 the contact's approximate inverse
-    inertia (`body_invweight0` of the two bodies; the phantom is fixed). So f = S r / ((1 - d)
-    A0): S = stiffness (1 - d) A0, exact for contacts of the TCP's body (the tool tip).
-    """
+    """Direct solref (-S, -B) of the phantom for its true force law (`TissueLaw`), exact
+    for contacts of the TCP's body (the tool tip)."""
     ph = scenario.scene.phantom
     if ph is None:
         return
-    _, _, stiffness = phantom_state(scenario, seed)
     tcp_body = int(model.site_bodyid[model.site(robot.tcp_site).id])
     inv_weight = float(model.body_invweight0[tcp_body, 0])
-    scale = (1.0 - TISSUE_IMPEDANCE) * inv_weight
-    model.geom_solref[model.geom(ph.name).id] = [
-        -stiffness * scale,
-        -ph.damping_n_s_per_m * scale,
-    ]
+    model.geom_solref[model.geom(ph.name).id] = tissue_law(scenario, seed).solref(inv_weight)
