@@ -36,7 +36,7 @@ class BaseGeometry:
 
     length_m = 0.60
     width_m = 0.50
-    height_m = 0.30
+    height_m = 0.20
     """Box of the chassis [m]."""
     clearance_m = 0.02
     """Gap between the chassis and the floor [m]: the wheels are not modelled, so the chassis
@@ -45,7 +45,7 @@ class BaseGeometry:
     arm_mount_x_m = 0.12
     """The Panda's base sits this far forward of the base's centre [m]."""
     mast_x_m = -0.22
-    mast_height_m = 0.85
+    mast_height_m = 1.35
     """A thin camera mast at the back of the chassis, this tall above its top [m]."""
     speed_mps = 0.5
     yaw_rate_rad_s = 1.0
@@ -57,8 +57,9 @@ class BaseGeometry:
     travel_m = 6.0
     """Range of each planar joint about the start pose [m] (a room; the joint limits guard
     fires beyond it)."""
-    yaw_range_rad = 4.0 * math.pi
-    """Range of the yaw joint on each side [rad]: two full turns either way."""
+    yaw_range_rad = 100.0 * math.pi
+    """Range of the yaw joint on each side [rad]: 50 turns either way (a base turns without
+    end; the joint limits guard needs a finite range)."""
 
     @property
     def top_m(self) -> float:
