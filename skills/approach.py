@@ -26,6 +26,11 @@ _RUN_IN_M = 0.5
 planned path (which keeps the planning radius from every box) ends there."""
 
 
+_ARM_HALF_WIDTH_M = 0.12
+"""Half width of the corridor the arm reaches down through to the target [m] (the hand with
+open fingers is 0.2 m across)."""
+
+
 class ApproachParams(BaseMotionParams):
     target: Any = Field(
         description="What to approach: a pose (`$object_pose`, from `detect`), an object or "
@@ -56,9 +61,10 @@ class Approach(BaseMotionSkill):
     image), and the last stretch runs straight at it.
 
     Of the directions around the target (every 10 deg) whose standoff pose keeps the chassis
-    `margin_m` clear of the room's boxes, it takes the one with the shortest path from where the
-    base is. Outcomes: `reached`, `blocked` (no free standoff or no path), `timeout`. Adds to
-    `base_travel_m`; the first approach of a run sets `search_time_s` (the time until then).
+    `margin_m` clear of the room's boxes, and from which the arm reaches the target without
+    passing over anything taller than the surface it rests on, it takes the one with the
+    shortest path from where the base is. Outcomes: `reached`, `blocked` (no free standoff or
+    no path), `timeout`. Adds to `base_travel_m`; the first approach of a run sets `search_time_s` (the time until then).
     """
 
     name: ClassVar[str] = "approach"
@@ -73,7 +79,8 @@ class Approach(BaseMotionSkill):
 
     def plan(self, ctx: Context) -> list[np.ndarray] | None:
         p = self.params
-        target = np.asarray(resolve_target(ctx, p.target).pos, float)[:2]
+        target3 = np.asarray(resolve_target(ctx, p.target).pos, float)
+        target = target3[:2]
         room = base_map(ctx.scenario)
         here = base_pose(ctx)
         rect = (BASE.length_m / 2, BASE.width_m / 2)
@@ -83,7 +90,7 @@ class Approach(BaseMotionSkill):
             u = np.array([math.cos(th), math.sin(th)])
             stand = target - p.standoff_m * u
             run_in = stand - _RUN_IN_M * u
-            if not room.is_free(*run_in):
+            if not room.is_free(*run_in) or not room.reach_clear(stand, target3, _ARM_HALF_WIDTH_M):
                 continue
             steps = np.linspace(0.0, 1.0, 6)
             if not all(

@@ -92,6 +92,24 @@ class BaseMap:
                     return False
         return True
 
+    def reach_clear(self, base: np.ndarray, target: np.ndarray, half_width: float) -> bool:
+        """The arm can reach from the base at `base` (world xy [m]) down to `target` (world
+        x, y, z [m]): no box taller than the target's bottom lies in the corridor of
+        `half_width` [m] between them (the surface the target rests on is lower)."""
+        base = np.asarray(base, float)
+        tip = np.asarray(target[:2], float)
+        d = tip - base
+        n = np.array([-d[1], d[0]]) / (float(np.linalg.norm(d)) or 1.0)
+        for b in self.boxes:
+            if b.top <= target[2] - 0.01:
+                continue
+            for k in np.linspace(0.0, 1.0, 12):
+                for side in (-half_width, 0.0, half_width):
+                    x, y = base + k * d + side * n
+                    if abs(x - b.cx) < b.hx and abs(y - b.cy) < b.hy:
+                        return False
+        return True
+
     def segment_free(self, a: np.ndarray, b: np.ndarray) -> bool:
         """Every point of the straight segment a -> b (world xy [m]) is free."""
         n = max(2, int(math.ceil(float(np.linalg.norm(b - a)) / (CELL_M / 2))))
