@@ -64,7 +64,8 @@ class Approach(BaseMotionSkill):
     `margin_m` clear of the room's boxes, and from which the arm reaches the target without
     passing over anything taller than the surface it rests on, it takes the one with the
     shortest path from where the base is. Outcomes: `reached`, `blocked` (no free standoff or
-    no path), `timeout`. Adds to `base_travel_m`; the first approach of a run sets `search_time_s` (the time until then).
+    no path), `timeout`. Adds to `base_travel_m`; the first approach of a run sets
+    `search_time_s` (the time until then).
     """
 
     name: ClassVar[str] = "approach"
