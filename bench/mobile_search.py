@@ -69,9 +69,7 @@ def main() -> None:
         for r in ok
         if any("collision" in str(e) for e in r.get("metrics", {}).get("events", []))
     ]
-    print(
-        f"successes that touched a wall, furniture or another block: {len(collided)}"
-    )
+    print(f"successes that touched a wall, furniture or another block: {len(collided)}")
     for key in ("base_travel_m", "search_time_s", "cycle_time"):
         vals = [float(r["metrics"][key]) for r in ok if r["metrics"].get(key) is not None]
         if vals:
