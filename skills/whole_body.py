@@ -14,13 +14,22 @@ moves base and arm together, and the costs decide who does what:
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import mink
 import numpy as np
+from orchestrator.robots import Robot
 
-if TYPE_CHECKING:
-    from .ik import IKSolver
+
+class _Solver(Protocol):
+    """What this module sets on an `IKSolver` (named structurally: ik.py imports this)."""
+
+    robot: Robot
+    frame_task: mink.FrameTask
+    posture_task: mink.PostureTask
+    tasks: list[Any]
+    limits: list[Any]
+
 
 __all__ = ["ARM_POSTURE_COST", "BASE_DAMPING_COST", "apply_whole_body_costs"]
 
@@ -33,7 +42,7 @@ BASE_DAMPING_COST = 20.0
 correction go to the arm, decimetres to the base (tests/test_whole_body.py)."""
 
 
-def apply_whole_body_costs(ik: IKSolver, model, velocity_limit: float) -> None:
+def apply_whole_body_costs(ik: _Solver, model, velocity_limit: float) -> None:
     """Give `ik` the whole-body tasks and the base's velocity limits (in place).
 
     Args:
