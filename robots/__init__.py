@@ -3,9 +3,10 @@
 from .base import Gains, Robot
 from .controller import Controller, ControlMode
 from .exceptions import RobotError
+from .mobile import MobilePanda
 from .panda import Panda
 
-ROBOTS: dict[str, type[Robot]] = {Panda.name: Panda}
+ROBOTS: dict[str, type[Robot]] = {Panda.name: Panda, MobilePanda.name: MobilePanda}
 
 
 def get_robot(name: str) -> Robot:
@@ -21,6 +22,7 @@ __all__ = [
     "ControlMode",
     "Controller",
     "Gains",
+    "MobilePanda",
     "Panda",
     "Robot",
     "RobotError",

@@ -72,6 +72,11 @@ class Robot(abc.ABC):
     """Viscous friction of each arm joint [Nm s/rad] under `physics.realism`."""
     encoder_resolution_rad: ClassVar[float] = 0.0
     """Resolution of the joint encoders [rad] under `physics.realism` (0: exact)."""
+    base_joints: ClassVar[tuple[str, ...]] = ()
+    """The planar joints of a mobile base (x [m], y [m], yaw [rad]), the first of
+    `arm_joints`; empty for an arm fixed in the world."""
+    base_body: ClassVar[str | None] = None
+    """The chassis of a mobile base (cameras with `body: base` mount on it)."""
 
     @abc.abstractmethod
     def urdf_path(self) -> str:
@@ -84,6 +89,21 @@ class Robot(abc.ABC):
     @property
     def n_arm(self) -> int:
         return len(self.arm_joints)
+
+    @property
+    def mobile(self) -> bool:
+        """The robot drives on a base of its own (its first joints are planar)."""
+        return bool(self.base_joints)
+
+    def shoulder(self, q: np.ndarray, base_pos: np.ndarray) -> np.ndarray:
+        """World position of the arm's first pitch axis [m] at arm joint angles `q`.
+
+        Args:
+            q: Arm joint angles (`arm_joints` order). Shape (n_arm,).
+            base_pos: Where the robot's root stands in the world [m]. Shape (3,).
+        """
+        del q
+        return np.asarray(base_pos, float) + [0.0, 0.0, self.shoulder_height_m]
 
     def joint_velocity_limits(self) -> np.ndarray:
         """Speed limit of each arm joint [rad/s] (the URDF's `velocity`). Shape (n_arm,)."""

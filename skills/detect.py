@@ -70,7 +70,8 @@ class Detect(Skill):
     Metrics (over the run, against the simulator's truth): `detection_error_mm` (largest
     position error of a matched detection at or above `min_confidence`: a cut blob's centre is
     not its object's), `detection_yaw_error_deg` (largest yaw error, the same detections),
-    `misclassified` (detections of a wrong class or of no object), `perception_backend`.
+    `misclassified` (detections of a wrong class or of no object), `perception_backend`,
+    `detections` (calls that ended `found`).
     """
 
     name: ClassVar[str] = "detect"
@@ -116,6 +117,7 @@ class Detect(Skill):
             return "none"
         if p.pose_into is not None:
             ctx.blackboard[p.pose_into] = seen
+        ctx.metrics["detections"] = int(ctx.metrics.get("detections", 0)) + 1
         ctx.log(
             "skill",
             f"detect: {len(found)} detection(s) in {p.camera!r}; best {best.cls} at "

@@ -14,6 +14,7 @@ import numpy as np
 from orchestrator.robots import Robot
 
 from .joint_limiter import JointLimiter
+from .whole_body import apply_whole_body_costs
 
 __all__ = ["COMMAND_MARGIN", "IKSolver"]
 
@@ -57,6 +58,7 @@ class IKSolver:
             robot.tcp_site, "site", position_cost=1.0, orientation_cost=1.0, lm_damping=1e-6
         )
         self.posture_task = mink.PostureTask(model, cost=posture_cost)
+        self.tasks: list[mink.Task] = [self.frame_task, self.posture_task]
         self.limits = [
             mink.ConfigurationLimit(model),
             mink.VelocityLimit(model, {j: velocity_limit for j in robot.arm_joints}),
@@ -74,6 +76,8 @@ class IKSolver:
             margin * np.asarray(robot.acceleration_limits, float),
             margin * np.asarray(robot.jerk_limits, float),
         )
+        if robot.mobile:  # base + arm in one QP (skills/whole_body.py)
+            apply_whole_body_costs(self, model, velocity_limit)
 
     @property
     def q(self) -> np.ndarray:
@@ -148,7 +152,7 @@ class IKSolver:
         self.frame_task.set_target(target)
         v = mink.solve_ik(
             self.config,
-            [self.frame_task, self.posture_task],
+            self.tasks,
             dt,
             "daqp",
             damping=self.damping,

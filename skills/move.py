@@ -277,8 +277,7 @@ class Move(Skill):
 
 
 def _within_reach(ctx: Context, pos: np.ndarray) -> bool:
-    base = np.asarray(ctx.scenario.robot.base_pos)
-    shoulder = base + np.array([0.0, 0.0, ctx.robot.shoulder_height_m])
+    shoulder = ctx.robot.shoulder(ctx.q, np.asarray(ctx.scenario.robot.base_pos))
     return bool(np.linalg.norm(pos - shoulder) <= ctx.robot.reach_m and np.all(np.isfinite(pos)))
 
 

@@ -45,6 +45,9 @@ class MoveJoints(Skill):
                 f"move_joints: `to` needs {ctx.robot.n_arm} joint angles, got {goal.size}"
             )
         self.q0 = ctx.controller.q_d.copy()
+        if p.to == "home" and ctx.robot.mobile:  # the arm's home: the base stays where it is
+            goal = goal.copy()
+            goal[: len(ctx.robot.base_joints)] = self.q0[: len(ctx.robot.base_joints)]
         self.delta = goal - self.q0
         dist = float(np.max(np.abs(self.delta)))
         self.profile = Profile(dist, p.max_speed, p.max_accel)

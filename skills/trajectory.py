@@ -77,6 +77,14 @@ class Profile:
         pos, vel, _ = self._trajectory.at_time(min(max(t, 0.0), self.duration))
         return pos[0] / self.distance, vel[0] / self.distance
 
+    def state(self, t: float) -> tuple[float, float, float]:
+        """Normalized position s, ds/dt [1/s] and d2s/dt2 [1/s^2] at time `t` [s] (clamped)."""
+        if self._trajectory is None or self.distance <= 0.0:
+            return 1.0, 0.0, 0.0
+        pos, vel, acc = self._trajectory.at_time(min(max(t, 0.0), self.duration))
+        d = self.distance
+        return pos[0] / d, vel[0] / d, (acc[0] / d if t < self.duration else 0.0)
+
 
 class CartesianLine:
     """A straight line in position with a synchronized geodesic in orientation.

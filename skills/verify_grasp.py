@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 from pydantic import Field, PositiveFloat
 
+from orchestrator.world.randomization import object_poses
+
 from .base import SCENE_OBJECT, Skill, SkillParams
 from .gripper import finger_contact_forces
 
@@ -27,7 +29,9 @@ class VerifyGraspParams(SkillParams):
         default=0.02, description="Largest distance of the object's centre from the TCP [m]."
     )
     min_height_m: float = Field(
-        default=0.02, description="The object must be at least this far above the table [m]."
+        default=0.02,
+        description="The object must be at least this far above where it started (the table, "
+        "the floor) [m].",
     )
     duration_s: PositiveFloat = Field(
         default=0.05, description="How long the check must hold continuously [s]."
@@ -36,7 +40,8 @@ class VerifyGraspParams(SkillParams):
 
 class VerifyGrasp(Skill):
     """`held` if, for `duration_s`, both fingers press on the object, its centre stays within
-    `max_offset_m` of the TCP and it is off the table; `dropped` as soon as any fails."""
+    `max_offset_m` of the TCP and it is `min_height_m` above the surface it started on (the
+    table, or the floor); `dropped` as soon as any fails."""
 
     name: ClassVar[str] = "verify_grasp"
     Params: ClassVar[type[SkillParams]] = VerifyGraspParams
@@ -46,6 +51,11 @@ class VerifyGrasp(Skill):
 
     def start(self, ctx: Context) -> None:
         self.handle = ctx.object_handle(self.params.object)
+        self.rest_z = next(
+            float(pos[2])
+            for name, pos, _ in object_poses(ctx.scenario, ctx.world.seed)
+            if name == self.params.object
+        )
         self.t0 = ctx.clock
         ctx.controller.hold(ctx.controller.q_d.copy())
 
@@ -55,7 +65,7 @@ class VerifyGrasp(Skill):
         left, right = finger_contact_forces(ctx, handle.geom_id)
         pos = np.asarray(ctx.object_pose(p.object).pos)
         offset = float(np.linalg.norm(pos - ctx.tcp_pos))
-        lifted = pos[2] - handle.half_size[2] - ctx.world.table_height >= p.min_height_m
+        lifted = pos[2] - self.rest_z >= p.min_height_m
         if min(left, right) < p.min_force_n or offset > p.max_offset_m or not lifted:
             ctx.log(
                 "skill",

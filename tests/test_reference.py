@@ -86,7 +86,7 @@ def test_show_guard_and_show_scenario(cli):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (("show", "skill", "mvoe"), "unknown skill 'mvoe' (valid: check_tool, contact,"),
+        (("show", "skill", "mvoe"), "unknown skill 'mvoe' (valid: approach, check_tool, contact,"),
         (("show", "robot", "panda"), "unknown kind 'robot' (valid: skill, guard, scenario, "),
         (("list", "skils"), "unknown list 'skils' (valid: scenarios, machines, skills,"),
     ],

@@ -10,6 +10,7 @@ import numpy as np
 from ..exceptions import OrchestratorError
 from ..language.scenario import SuccessCheck
 from ..skills.targets import resolve_target
+from ..world.randomization import object_poses
 from .context import Context
 
 __all__ = ["errors", "evaluate"]
@@ -67,6 +68,8 @@ def _check(ctx: Context, c: SuccessCheck) -> tuple[bool, str]:
         if problems:
             return False, "; ".join(problems)
         return True, f"{c.object} {xy_err * 1000:.1f} mm from {where}, tilted {tilt:.1f} deg"
+    if c.kind == "held":
+        return _held(ctx, c, pose.pos)
     # gripper_clear: opened wider than the object, and no finger within min_distance of it
     need = 2.0 * float(max(handle.half_size)) + 2.0 * c.min_distance_m
     fromto = np.zeros(6)
@@ -82,6 +85,26 @@ def _check(ctx: Context, c: SuccessCheck) -> tuple[bool, str]:
     if ctx.gripper_width < need:
         return False, f"gripper open {ctx.gripper_width * 1000:.1f} mm < {need * 1000:.1f} mm"
     return True, gap
+
+
+def _held(ctx: Context, c: SuccessCheck, pos) -> tuple[bool, str]:
+    """Both fingers touch the object, lifted `min_lift_m` above its seeded start."""
+    assert c.object is not None
+    start = next(p for name, p, _ in object_poses(ctx.scenario, ctx.world.seed) if name == c.object)
+    lift = float(pos[2] - start[2])
+    geom = ctx.world.objects[c.object].geom_id
+    d, m = ctx.data, ctx.model
+    touching = set()
+    for i in range(d.ncon):
+        g1, g2 = int(d.contact[i].geom1), int(d.contact[i].geom2)
+        if geom in (g1, g2):
+            other = g2 if g1 == geom else g1
+            if other in ctx.world.finger_geoms:
+                touching.add(int(m.geom_bodyid[other]))
+    what = f"{c.object} {lift * 1000:.0f} mm above its start, {len(touching)} finger(s) on it"
+    if len(touching) < 2 or lift < c.min_lift_m:
+        return False, f"{what} (need 2 and min_lift_m {c.min_lift_m * 1000:g} mm)"
+    return True, what
 
 
 def _traced(m: dict, c: SuccessCheck) -> tuple[bool, str]:

@@ -78,12 +78,37 @@ class Table(_Strict):
     friction: Friction = Field(default=1.0, description="Sliding friction coefficient.")
 
 
+class Spot(_Strict):
+    """A place an object may start at: a region of a surface (a table top, the floor)."""
+
+    xy: XY = Field(description="Centre of the region [m].")
+    height: float = Field(
+        default=0.0, ge=0.0, le=3.0, description="Height of the surface it rests on [m] (0: floor)."
+    )
+    x: Range = Field(default_factory=lambda: [0.0, 0.0], description="Offsets in x [m].")
+    y: Range = Field(default_factory=lambda: [0.0, 0.0], description="Offsets in y [m].")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Spot:
+        for name in ("x", "y"):
+            lo, hi = getattr(self, name)
+            if lo > hi:
+                raise ValueError(f"{name}: lower bound {lo} is above upper bound {hi}")
+        return self
+
+
 class Randomize(_Strict):
     """Uniform per-seed offsets added to an object's nominal pose."""
 
     x: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
     y: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
     yaw_deg: AngleRange = Field(default_factory=lambda: [0.0, 0.0], description="[deg]")
+    spots: list[Spot] = Field(
+        default_factory=list,
+        max_length=64,
+        description="Places the object may start at, one drawn per seed (each equally likely), "
+        "then offset within it; instead of `xy` + `x`, `y` and the table. Empty: on the table.",
+    )
 
     @model_validator(mode="after")
     def _ordered(self) -> Randomize:
@@ -387,17 +412,18 @@ class Physics(_Strict):
 class SuccessCheck(_Strict):
     """A named success criterion, evaluated once at the end of the run.
 
-    `object_at`: the object rests on the table within `xy_tol_m` of the target and is upright
-    within `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and
-    its fingers are at least `min_distance_m` from it. `trace`: a contact trace ran to the end
-    of its path on the real surface — measured every physics step against the true path (not
-    the registered one): cross-track error within `cross_track_max_mm` at every step, the tip
-    within `end_tol_mm` of the true path's end along it, the true normal force within
-    `force_rms_max_n` RMS of the target and never above `force_peak_max_n`. A failed check
-    says by how much in the result's `success_detail`.
+        `object_at`: the object rests on the table within `xy_tol_m` of the target and is upright
+        within `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and
+        its fingers are at least `min_distance_m` from it. `held`: both fingers touch the object and
+    it is at least `min_lift_m` above where it started. `trace`: a contact trace ran to the end
+        of its path on the real surface — measured every physics step against the true path (not
+        the registered one): cross-track error within `cross_track_max_mm` at every step, the tip
+        within `end_tol_mm` of the true path's end along it, the true normal force within
+        `force_rms_max_n` RMS of the target and never above `force_peak_max_n`. A failed check
+        says by how much in the result's `success_detail`.
     """
 
-    kind: Literal["object_at", "gripper_clear", "trace"]
+    kind: Literal["object_at", "gripper_clear", "held", "trace"]
     object: str | None = Field(
         default=None, description="`object_at`, `gripper_clear`: the scene object judged."
     )
@@ -412,6 +438,9 @@ class SuccessCheck(_Strict):
     )
     min_distance_m: float = Field(
         default=0.01, ge=0.0, le=10.0, description="`gripper_clear`: finger clearance [m]."
+    )
+    min_lift_m: float = Field(
+        default=0.05, ge=0.0, le=3.0, description="`held`: lifted at least this high [m]."
     )
     cross_track_max_mm: PositiveFloat = Field(
         default=1.0,

@@ -23,10 +23,14 @@ def object_poses(scenario: Scenario, seed: int) -> list[tuple[str, np.ndarray, n
     top = scenario.scene.table.height
     for obj in scenario.scene.objects:
         r = obj.randomize
-        dx = rng.uniform(r.x[0], r.x[1])
-        dy = rng.uniform(r.y[0], r.y[1])
+        # a draw for the spot only when there are spots: other scenarios keep their poses
+        spot = r.spots[int(rng.integers(len(r.spots)))] if r.spots else None
+        xr, yr = (spot.x, spot.y) if spot is not None else (r.x, r.y)
+        dx = rng.uniform(xr[0], xr[1])
+        dy = rng.uniform(yr[0], yr[1])
         dyaw = rng.uniform(r.yaw_deg[0], r.yaw_deg[1])
-        pos = np.array([obj.xy[0] + dx, obj.xy[1] + dy, top + obj.size[2] / 2.0])
+        x0, y0, z0 = (*spot.xy, spot.height) if spot is not None else (*obj.xy, top)
+        pos = np.array([x0 + dx, y0 + dy, z0 + obj.size[2] / 2.0])
         quat = quat_from_yaw(math.radians(obj.yaw_deg + dyaw))
         out.append((obj.name, pos, quat))
     return out

@@ -24,7 +24,16 @@ stays under 1 mm (bench/physical_honesty.py)."""
 def add_scene(spec: mujoco.MjSpec, scenario: Scenario, seed: int) -> None:
     scene = scenario.scene
     wb = spec.worldbody
-    floor = wb.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2.0, 2.0, 0.05])
+    # the floor reaches past every fixed box (a room's walls)
+    extent = max(
+        [2.0]
+        + [
+            abs(c) + s / 2
+            for o in scene.obstacles
+            for c, s in zip(o.center[:2], o.size[:2], strict=True)
+        ]
+    )
+    floor = wb.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[extent, extent, 0.05])
     floor.rgba = [0.55, 0.58, 0.62, 1.0]
     floor.contype, floor.conaffinity = WORLD_CONTYPE, WORLD_CONAFFINITY
     light = wb.add_light(name="sun", pos=[0.5, 0.0, 2.0], dir=[0.0, 0.0, -1.0])

@@ -116,11 +116,9 @@ class Panda(Robot):
         return str(panda_urdf_path())
 
     def build_spec(self) -> mujoco.MjSpec:
-        urdf = panda_urdf_path()
-        mesh_dir = urdf.parent.parent / "meshes" / "collision"
-        text = urdf.read_text()
-        spec = mujoco.MjSpec.from_string(text)
-        spec.modelname = "panda"
+        mesh_dir = panda_urdf_path().parent.parent / "meshes" / "collision"
+        spec = mujoco.MjSpec.from_string(Path(self.urdf_path()).read_text())
+        spec.modelname = self.name
         # The URDF parser already left out the <visual> meshes (MuJoCo cannot read the DAE
         # files); discarding visual geoms at compile time would also drop the scene's
         # collision-free geoms (place pads, zones), so keep them.
@@ -137,17 +135,22 @@ class Panda(Robot):
             joint.frictionloss = 0.0
         for jname in self.arm_joints:
             joint = spec.joint(jname)
-            joint.armature = self.armature
+            joint.armature = self.joint_armature(jname)
         self._add_actuators(spec)  # arm motors first: ctrl[:n_arm] are the arm torques
         self._add_gripper(spec)
         self._add_sites_and_sensors(spec)
         add_self_collision_proxies(spec, self.name, self.self_collision_bodies, self.home)
         return spec
 
+    def joint_armature(self, joint: str) -> float:
+        """Rotor inertia of arm joint `joint` in the plant [kg m^2] (the controller has none)."""
+        del joint
+        return self.armature
+
     def _add_actuators(self, spec: mujoco.MjSpec) -> None:
         for jname in self.arm_joints:
             joint = spec.joint(jname)
-            effort = _urdf_effort(jname)
+            effort = _urdf_efforts(self.urdf_path())[jname]
             act = spec.add_actuator(name=jname.replace("joint", "motor"), target=jname)
             act.trntype = mujoco.mjtTrn.mjTRN_JOINT
             act.ctrllimited = True
@@ -200,17 +203,14 @@ class Panda(Robot):
 
 
 @functools.cache
-def _urdf_efforts() -> dict[str, float]:
+def _urdf_efforts(urdf: str) -> dict[str, float]:
+    """Effort limit of each joint of the URDF at `urdf` [Nm or N]."""
     import xml.etree.ElementTree as ET
 
-    root = ET.parse(panda_urdf_path()).getroot()
+    root = ET.parse(urdf).getroot()
     out: dict[str, float] = {}
     for joint in root.iter("joint"):
         limit = joint.find("limit")
         if limit is not None and "effort" in limit.attrib:
             out[joint.attrib["name"]] = float(limit.attrib["effort"])
     return out
-
-
-def _urdf_effort(joint: str) -> float:
-    return _urdf_efforts()[joint]
