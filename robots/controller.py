@@ -24,7 +24,8 @@ class ControlMode(enum.Enum):
     JOINT = "joint"
     """Joint impedance to (q_d, qd_d) with inverse-dynamics feed-forward:
     tau = Kp (q_d - q) + Kd (qd_d - qd) + M(q) qdd_d + C(q, qd) qd + g(q).
-    Between setpoints, q_d advances along qd_d every physics step."""
+    Between setpoints, (q_d, qd_d) advance along qdd_d every physics step (exactly, for the
+    constant acceleration a setpoint holds until the next)."""
     CARTESIAN = "cartesian"
     """Cartesian impedance: tau = J^T (K e - D xdot) + g(q) + nullspace posture term.
     Meanwhile q_d follows the measured joints, so that `hold(q_d)` or a joint move starting
@@ -197,8 +198,9 @@ class Controller:
             self._qdd_full[:n] = self.qdd_d
             ff = pin.rnea(self.model, self.data, q, qd, self._qdd_full)[:n]
             tau = self.kp * (self.q_d - q[:n]) + self.kd * (self.qd_d - qd[:n]) + ff
-            # the setpoint moves on between control ticks (no 100 Hz staircase)
-            self.q_d += self.qd_d * self.dt
+            # the setpoint moves on between control ticks (no 100 Hz staircase), exactly
+            # along the tick's constant acceleration: it arrives where the next tick starts
+            self.q_d += (self.qd_d + 0.5 * self.dt * self.qdd_d) * self.dt
             self.qd_d += self.qdd_d * self.dt
         np.minimum(tau, self.effort_limit, out=self.tau)
         np.maximum(self.tau, self._lo, out=self.tau)

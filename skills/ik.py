@@ -98,12 +98,18 @@ class IKSolver:
         self.limiter.reset(q_arm, self.velocity, self.acceleration)
         self._error = None
 
-    def restart_from(self, q_arm: np.ndarray) -> None:
-        """Restart the limited command at rest from `q_arm` [rad] (where a pause held the
-        arm). The IK's own reference keeps its place on the path: the command catches up with
-        it within the robot's limits, so a resumed motion continues on the path it was on."""
-        self.limiter.reset(q_arm)
-        self.velocity[:] = 0.0
+    def restart_from(self, q_arm: np.ndarray, qd_arm: np.ndarray | None = None) -> None:
+        """Restart the limited command from the controller's setpoint: angles `q_arm` [rad]
+        moving at `qd_arm` [rad/s] (at rest by default).
+
+        The IK's own reference keeps its place: the command catches up with it within the
+        robot's limits. A move starts its command here from where the controller's setpoint
+        is (not from the measured joints, which sag away from it under a load the
+        controller's model lacks): the setpoint, and with it the torque, stay continuous
+        where one motion hands over to the next. A pause restarts it here at rest, so a
+        resumed motion continues on the path it was on."""
+        self.limiter.reset(q_arm, qd_arm)
+        self.velocity[:] = self.limiter.velocity
         self.acceleration[:] = 0.0
 
     def tcp_pose(self) -> tuple[np.ndarray, np.ndarray]:
@@ -124,16 +130,18 @@ class IKSolver:
         """One control tick towards the world pose (`pos` [m], `rot` a 3x3 matrix or an SO3).
 
         Returns:
-            The new joint angles [rad]; `velocity` and `acceleration` hold the joint velocity
-            and acceleration there (within the robot's limits, jerk-limited).
+            The joint angles [rad] the command starts the tick from; `velocity` holds its
+            joint velocity there and `acceleration` the constant joint acceleration over the
+            tick (within the robot's limits, jerk-limited): what the controller integrates
+            until the next tick, where it arrives at `command`.
         """
         q_ref = self.config.q[: self.n].copy()
         v = self.reference_step(pos, rot, self.dt)
         lim = self.limiter
         lim.step(q_ref, v)  # the reference at the start of the tick and the velocity it moves on
-        self.velocity[:] = lim.velocity
+        self.velocity[:] = lim.start_velocity
         self.acceleration[:] = lim.acceleration
-        return self.command
+        return lim.start_position
 
     def reference_step(self, pos: np.ndarray, rot: np.ndarray | mink.SO3, dt: float) -> np.ndarray:
         """Advance the IK's own reference by `dt` [s] towards the world pose, without the
@@ -166,5 +174,6 @@ class IKSolver:
 
     @property
     def command(self) -> np.ndarray:
-        """The limited joint command [rad]: what the controller is sent. Shape (n,)."""
+        """The limited joint command now [rad] (where the last tick's segment ends): where
+        the controller's setpoint is at the next tick. Shape (n,)."""
         return self.limiter.position

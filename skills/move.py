@@ -173,6 +173,8 @@ class Move(Skill):
         if self.reachable and isinstance(self.line, BlendedPath):
             fit_path_to_joints(ctx.ik, self.line, ctx.q)
         self.stretch = feasible_time_scale(ctx.ik, self.line, ctx.q) if self.reachable else 1.0
+        # the command starts from the controller's setpoint, not the measured (sagging) joints
+        ctx.ik.restart_from(ctx.controller.q_d, ctx.controller.qd_d)
         self.duration = self.line.duration * self.stretch
         self.corr_pos = np.zeros(3)
         self.corr_rot = np.zeros(3)
