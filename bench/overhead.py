@@ -241,6 +241,7 @@ class HandWritten:
         if vias:
             fit_path_to_joints(ik, path, q0)  # type: ignore[arg-type]
         stretch = feasible_time_scale(ik, path, q0)
+        ik.restart_from(ctrl.q_d, ctrl.qd_d)  # the command continues from the setpoint
         duration = path.duration * stretch
         tol_rad = math.radians(tol_deg)
         last = self.tcp_pos.copy()

@@ -37,7 +37,12 @@ class StepProbe:
         self.tlim = w.arm_effort_limit
         self.fingers, self.robot = w.finger_geoms, w.robot_geoms
         self.objects = {h.geom_id for h in w.objects.values()}
+        self.alim = np.asarray(ctx.robot.acceleration_limits, float)
+        self.dt = ctx.dt_physics
+        self.prev_v = ctx.data.qvel[self.dof].copy()
         self.speed = 0.0
+        self.accel = 0.0
+        self.accel_at = ""
         self.torque = 0.0
         self.saturated_outside_contact = 0
         self.last_contact_t = -math.inf
@@ -52,7 +57,14 @@ class StepProbe:
 
     def on_step(self, ctx) -> None:
         d = ctx.data
-        self.speed = max(self.speed, float(np.max(np.abs(d.qvel[self.dof]) / self.vlim)))
+        v = d.qvel[self.dof]
+        self.speed = max(self.speed, float(np.max(np.abs(v) / self.vlim)))
+        # the arm's measured acceleration over this step, against the datasheet
+        accel = np.abs(v - self.prev_v) / (self.dt * self.alim)
+        self.prev_v = v.copy()
+        if accel.max() > self.accel:
+            self.accel = float(accel.max())
+            self.accel_at = f"{self.executor.leaf} joint {int(accel.argmax()) + 1} t={d.time:.3f}"
         grip = 0.0
         for i in range(d.ncon):
             c = d.contact[i]
@@ -93,6 +105,10 @@ def test_pick_place_stays_within_the_pandas_limits_at_every_physics_step(pick_ru
     for result, probe in pick_runs:
         assert result.outcome == "succeeded"
         assert probe.speed <= 1.0, f"seed {result.seed}: joint speed {probe.speed:.2f}x limit"
+        assert probe.accel <= 1.0, (
+            f"seed {result.seed}: joint acceleration {probe.accel:.2f}x the datasheet limit"
+            f" at {probe.accel_at}"
+        )
         assert probe.saturated_outside_contact == 0
         assert probe.torque < SATURATED
         assert probe.pen_m <= 0.001, f"fingers {probe.pen_m * 1000:.2f} mm into the cube"
@@ -160,6 +176,11 @@ def test_surgical_figures_are_measured_against_the_true_incision(surgical_run):
     assert m["true_cross_track_rms_mm"] > 5 * m["path_deviation_rms_mm"]
     assert 0.3 < m["along_track_lag_mean_mm"] < 3.0
     assert m["true_cross_track_max_mm"] <= 1.0
+
+
+def test_surgical_arm_stays_within_the_pandas_acceleration_limits(surgical_run):
+    _, probe = surgical_run
+    assert probe.accel <= 1.0, f"joint acceleration {probe.accel:.2f}x limit at {probe.accel_at}"
 
 
 def test_a_misregistered_phantom_fails_the_surgical_success_check():
