@@ -47,7 +47,7 @@ class VerifyGrasp(Skill):
     def start(self, ctx: Context) -> None:
         self.handle = ctx.object_handle(self.params.object)
         self.t0 = ctx.clock
-        ctx.controller.hold(ctx.controller.q_d.copy())
+        ctx.controller.hold_setpoint()
 
     def step(self, ctx: Context) -> str | None:
         p = self.params
