@@ -70,7 +70,7 @@ class SafetyStop:
         q, qd = ctx.encoders.safety_channel()
         n = ctx.robot.n_arm
         if gentle and float(np.max(np.abs(qd[:n]))) < self.config.rest_speed_rad_s:
-            ctx.controller.hold(ctx.controller.q_d.copy())  # already still: keep its setpoint
+            ctx.controller.hold_setpoint()  # already still: keep its setpoint (brought to rest)
         else:
             # a normal stop within the limits the commands keep to (the arm overshoots a
             # profile at the datasheet limit by ~20 %); an abort at the safety stop's own
