@@ -241,3 +241,24 @@ def test_ik_holds_the_arms_posture_round_a_closed_path():
     drift = float(np.max(np.abs(ik.q - q0)))
     assert worst_tcp < 1e-4, f"TCP {worst_tcp * 1000:.2f} mm off a corner"
     assert drift < 1e-3, f"the joints drifted {drift:.3f} rad round a closed path"
+
+
+def test_ik_commands_stay_within_the_pandas_limits_whatever_the_target():
+    """A target 45 cm away in one tick (a jump no move makes, a planner might): the IK wants
+    far more than the arm may do; the command it sends stays within the Panda's velocity and
+    acceleration limits, continuous from tick to tick, and still gets there."""
+    robot = Panda()
+    ik = IKSolver(robot, robot_only_model(robot), 0.01, np.zeros(3))
+    ik.reset(np.array(robot.home))
+    p0, rot = ik.tcp_pose()
+    goal = p0 + np.array([0.0, 0.4, -0.2])
+    vlim = robot.joint_velocity_limits()
+    alim = np.asarray(robot.acceleration_limits, float)
+    end_v = ik.velocity.copy()
+    for _ in range(300):
+        ik.step(goal, rot)
+        assert np.all(np.abs(ik.velocity) <= vlim), f"joint speed {ik.velocity.round(2)}"
+        assert np.all(np.abs(ik.acceleration) <= alim), f"accel {ik.acceleration.round(1)}"
+        np.testing.assert_allclose(ik.velocity, end_v, atol=1e-12)  # no jump between ticks
+        end_v = ik.limiter.velocity.copy()
+    assert float(np.linalg.norm(ik.tcp_pose()[0] - goal)) < 1e-3
