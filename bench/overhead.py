@@ -62,8 +62,6 @@ RELEASE_M = 0.031
 """Each finger's opening at the place [m] (OPEN's `opening_m`)."""
 AT_REST_MPS = 0.005
 """TCP speed below which a move counts as at rest [m/s] (skills/move.py)."""
-CAUGHT_UP_RAD = 0.01
-"""Limited command this close to the IK's solution: hold the solution [rad] (skills/move.py)."""
 GRIP_CONTACT_M = 0.002
 """A closing finger this far behind its setpoint is blocked: squeeze [m] (engine/context.py)."""
 SETTLE_S = 0.2
@@ -269,6 +267,7 @@ class HandWritten:
         if vias:
             fit_path_to_joints(ik, path, q0)  # type: ignore[arg-type]
         stretch = feasible_time_scale(ik, path, q0)
+        ik.restart_from(ctrl.q_d, ctrl.qd_d)  # the command continues from the setpoint
         duration = path.duration * stretch
         tol_rad = math.radians(tol_deg)
         corr_pos, corr_rot = np.zeros(3), np.zeros(3)
@@ -320,17 +319,14 @@ class HandWritten:
                 stalled = 0
             if outcome is None and elapsed > duration + settle_s:
                 outcome = "unreachable" if not converged else "timeout"
-        if float(np.max(np.abs(ik.q - ik.command))) <= CAUGHT_UP_RAD:
-            ctrl.hold(ik.q)
-        else:
-            ctrl.hold(ik.command)
+        ctrl.hold_setpoint()  # no jump of the setpoint or its velocity
         return outcome
 
     def close(self) -> bool:
         """Close until the fingers stop and squeeze; True if both press with >= 5 N on the
         cube and it lies between them."""
         ctrl = self.ctrl
-        ctrl.hold(ctrl.q_d.copy())
+        ctrl.hold_setpoint()
         self.grip_target = 0.0
         t0, still = self.t, 0
         while True:
@@ -344,12 +340,12 @@ class HandWritten:
         rel = self.tcp_rot.T @ (self.cube_pose[:3] - self.tcp_pos)
         half = float(max(self.cube.half_size))
         between = abs(rel[0]) < half + 0.01 and abs(rel[2]) < half + 0.02
-        ctrl.hold(ctrl.q_d.copy())
+        ctrl.hold_setpoint()
         return min(left, right) >= 5.0 and between
 
     def verify(self) -> bool:
         """For 50 ms: both fingers press, the cube is within 2 cm of the TCP, off the table."""
-        self.ctrl.hold(self.ctrl.q_d.copy())
+        self.ctrl.hold_setpoint()
         t0 = self.t
         table, half_z = self.world.table_height, self.cube.half_size[2]
         while True:
@@ -373,7 +369,7 @@ class HandWritten:
         """Open each finger to `opening` [m]; False if they are not there within 1 s."""
         ctrl = self.ctrl
         opening = min(opening, self.world.robot.gripper_open_m)
-        ctrl.hold(ctrl.q_d.copy())
+        ctrl.hold_setpoint()
         self.grip_target = opening
         t0 = self.t
         while True:
@@ -384,14 +380,14 @@ class HandWritten:
             if self.t - t0 > 1.0:
                 ok = False
                 break
-        ctrl.hold(ctrl.q_d.copy())
+        ctrl.hold_setpoint()
         return ok
 
     def stop_and_settle(self) -> None:
         """Brake the arm to rest at its acceleration limits, hold, let 0.2 s pass."""
         ctrl, cfg, d = self.ctrl, self.stop_cfg, self.data
         if float(np.max(np.abs(self.arm_qd))) < cfg.rest_speed_rad_s:
-            ctrl.hold(ctrl.q_d.copy())
+            ctrl.hold_setpoint()
         else:
             ctrl.brake(self.q_all, self.qd_all, self.world.robot.acceleration_limits)
         t0 = self.t

@@ -15,7 +15,13 @@ import pinocchio as pin
 
 from .base import Robot
 
-__all__ = ["CartesianGains", "ControlMode", "Controller"]
+__all__ = ["REST_DECEL_FRACTION", "CartesianGains", "ControlMode", "Controller"]
+
+REST_DECEL_FRACTION = 0.5
+"""Fraction of the robot's acceleration limits a moving setpoint is brought to rest with. The
+deceleration starts as a step: at 85 % of the limits (what the IK's commands may use) the arm
+overshot it to 105-108 % on joint 3 (pick_place, 20 seeds); a stop from the typical 0.2 rad/s
+that ends a motion takes 40 ms at half the limits."""
 
 
 class ControlMode(enum.Enum):
@@ -24,7 +30,8 @@ class ControlMode(enum.Enum):
     JOINT = "joint"
     """Joint impedance to (q_d, qd_d) with inverse-dynamics feed-forward:
     tau = Kp (q_d - q) + Kd (qd_d - qd) + M(q) qdd_d + C(q, qd) qd + g(q).
-    Between setpoints, q_d advances along qd_d every physics step."""
+    Between setpoints, (q_d, qd_d) advance along qdd_d every physics step (exactly, for the
+    constant acceleration a setpoint holds until the next)."""
     CARTESIAN = "cartesian"
     """Cartesian impedance: tau = J^T (K e - D xdot) + g(q) + nullspace posture term.
     Meanwhile q_d follows the measured joints, so that `hold(q_d)` or a joint move starting
@@ -102,6 +109,9 @@ class Controller:
         """Time left on the braking profile [s] (0 once it has reached zero velocity)."""
         self._v_ref = np.zeros(self.n)
         self._decel = np.zeros(self.n)
+        self._rest_left_s = 0.0
+        self.rest_decel = REST_DECEL_FRACTION * np.asarray(robot.acceleration_limits, float)
+        """Deceleration with which `hold_setpoint` brings a moving setpoint to rest [rad/s^2]."""
 
     # -- setpoints ----------------------------------------------------------------------
     def set_joint_target(
@@ -113,6 +123,7 @@ class Controller:
         """Track joint angles `q_d` [rad], velocity `qd_d` [rad/s], acceleration `qdd_d`
         [rad/s^2]. Shape (n,) each; omitted derivatives are zero."""
         self.mode = ControlMode.JOINT
+        self._rest_left_s = 0.0
         self.q_d[:] = q_d
         self.qd_d[:] = 0.0 if qd_d is None else qd_d
         self.qdd_d[:] = 0.0 if qdd_d is None else qdd_d
@@ -123,6 +134,41 @@ class Controller:
         self.q_d[:] = q
         self.qd_d[:] = 0.0
         self.qdd_d[:] = 0.0
+        self._rest_left_s = 0.0
+
+    def hold_setpoint(self) -> None:
+        """Hold the setpoint where it is; if it still moves, where it comes to rest
+        (`come_to_rest` at `rest_decel`). What a skill that keeps the arm still calls."""
+        if self.mode is ControlMode.JOINT and self._rest_left_s > 0.0:
+            return  # already coming to rest
+        if self.mode is ControlMode.JOINT:
+            self.come_to_rest(self.q_d, self.qd_d, self.rest_decel)
+        else:
+            self.hold(self.q_d)
+
+    def come_to_rest(self, q: np.ndarray, qd: np.ndarray, max_decel: np.ndarray | float) -> float:
+        """Hold a setpoint that is still moving: from `q` [rad] at `qd` [rad/s] it decelerates
+        to rest (all joints together, the slowest at `max_decel` [rad/s^2], scalar or shape
+        (n,)), tracked by the joint impedance, then HOLD where it stopped.
+
+        `hold` at a setpoint that was moving steps its velocity to zero: the damping term
+        kicks the arm (a joint at 0.15 rad/s measured 5x its datasheet acceleration for a
+        step). This ends a motion as the arm can follow it.
+
+        Returns:
+            The time to rest [s] (0: already at rest, held at once).
+        """
+        n = self.n
+        v0 = np.asarray(qd[:n], dtype=float)
+        a_max = np.broadcast_to(np.asarray(max_decel, dtype=float), (n,))
+        steps = int(np.ceil(float(np.max(np.abs(v0) / a_max)) / self.dt - 1e-9))
+        if steps <= 0:
+            self.hold(np.asarray(q[:n], dtype=float))
+            return 0.0
+        duration = steps * self.dt
+        self.set_joint_target(np.asarray(q[:n], dtype=float), v0, -v0 / duration)
+        self._rest_left_s = duration
+        return duration
 
     def brake(self, q: np.ndarray, qd: np.ndarray, max_decel: np.ndarray | float) -> float:
         """Start a controlled stop from the measured state, then hold where it ends.
@@ -148,6 +194,7 @@ class Controller:
             self.brake_left_s = 0.0
             return 0.0
         self.mode = ControlMode.BRAKE
+        self._rest_left_s = 0.0
         self.q_d[:] = q[:n]
         self.qd_d[:] = v0
         self.qdd_d[:] = -v0 / duration
@@ -197,9 +244,14 @@ class Controller:
             self._qdd_full[:n] = self.qdd_d
             ff = pin.rnea(self.model, self.data, q, qd, self._qdd_full)[:n]
             tau = self.kp * (self.q_d - q[:n]) + self.kd * (self.qd_d - qd[:n]) + ff
-            # the setpoint moves on between control ticks (no 100 Hz staircase)
-            self.q_d += self.qd_d * self.dt
+            # the setpoint moves on between control ticks (no 100 Hz staircase), exactly
+            # along the tick's constant acceleration: it arrives where the next tick starts
+            self.q_d += (self.qd_d + 0.5 * self.dt * self.qdd_d) * self.dt
             self.qd_d += self.qdd_d * self.dt
+            if self._rest_left_s > 0.0:  # coming to rest (come_to_rest): hold once there
+                self._rest_left_s -= self.dt
+                if self._rest_left_s <= 1e-9:
+                    self.hold(self.q_d)
         np.minimum(tau, self.effort_limit, out=self.tau)
         np.maximum(self.tau, self._lo, out=self.tau)
         return self.tau

@@ -50,7 +50,7 @@ class Grasp(Skill):
         self.handle = ctx.object_handle(self.params.object)
         self.t0 = ctx.clock
         self.still_ticks = 0
-        ctx.controller.hold(ctx.controller.q_d.copy())
+        ctx.controller.hold_setpoint()
         ctx.set_gripper(0.0)
 
     def step(self, ctx: Context) -> str | None:
@@ -73,7 +73,7 @@ class Grasp(Skill):
         return "grasped" if held else "missed"
 
     def stop(self, ctx: Context) -> None:
-        ctx.controller.hold(ctx.controller.q_d.copy())
+        ctx.controller.hold_setpoint()
 
 
 def _between_fingers(ctx: Context, name: str) -> bool:

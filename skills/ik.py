@@ -14,13 +14,26 @@ import numpy as np
 from orchestrator.robots import Robot
 
 from .joint_limiter import JointLimiter
+from .posture import NullspacePostureTask
 from .whole_body import apply_whole_body_costs
 
-__all__ = ["COMMAND_MARGIN", "IKSolver"]
+__all__ = ["COMMAND_MARGIN", "POSTURE_COST", "POSTURE_TIME_CONSTANT_S", "IKSolver"]
 
 COMMAND_MARGIN = 0.85
 """Fraction of the robot's joint limits the commands may use: the rest is for tracking (the
 arm follows a command with a small overshoot), so the measured motion stays within them."""
+
+POSTURE_COST = 1.0
+"""Weight of the nullspace posture task [1/rad], as the frame task's (1 per m and per rad): in
+the nullspace it competes with nothing but the QP's damping (1e-2), so it holds the redundancy
+(three rounds of a 20 cm square: 0.40 rad of drift without it, < 1e-4 rad with it,
+tests/test_physical_honesty.py)."""
+POSTURE_TIME_CONSTANT_S = 0.2
+"""Time constant of the posture's return [s] (the task's gain is dt / this per IK step)."""
+POSTURE_RAMP_S = 0.3
+"""After `reset` the posture's gain rises from 0 over this long [s] (smoothstep): a move that
+starts away from the posture (the previous one ended before its redundancy had settled) starts
+its joint motion smoothly rather than with a step of the joints' velocity demand."""
 
 
 class IKSolver:
@@ -35,8 +48,11 @@ class IKSolver:
         dt: Control period in [s].
         base_pos: Position of the robot base in the world [m]; targets are given in the world.
         velocity_limit: Joint speed limit used by the IK in [rad/s] (capped by the robot's).
-        posture_cost: Weight of the posture task that keeps the arm near its seed.
+        posture_cost: Weight of the posture task (`NullspacePostureTask`) [1/rad]: the
+            arm's redundancy held at `posture` without costing the TCP task accuracy.
         damping: Levenberg-Marquardt damping of the QP.
+        posture: The arm's preferred joint angles [rad], shape (n,): the robot's home if
+            None (as the Cartesian impedance's nullspace posture). `set_posture` changes it.
     """
 
     def __init__(
@@ -46,8 +62,9 @@ class IKSolver:
         dt: float,
         base_pos: np.ndarray,
         velocity_limit: float = 2.0,
-        posture_cost: float = 1e-3,
+        posture_cost: float = POSTURE_COST,
         damping: float = 1e-2,
+        posture: np.ndarray | None = None,
     ) -> None:
         self.robot = robot
         self.dt = dt
@@ -57,8 +74,11 @@ class IKSolver:
         self.frame_task = mink.FrameTask(
             robot.tcp_site, "site", position_cost=1.0, orientation_cost=1.0, lm_damping=1e-6
         )
-        self.posture_task = mink.PostureTask(model, cost=posture_cost)
+        self.posture_task: mink.Task = NullspacePostureTask(model, self.frame_task, posture_cost)
         self.tasks: list[mink.Task] = [self.frame_task, self.posture_task]
+        self.posture_follows_reset = False
+        """Re-anchor the posture at the joints of every `reset` (the whole-body solver's
+        arm posture, skills/whole_body.py) instead of holding `set_posture`'s."""
         self.limits = [
             mink.ConfigurationLimit(model),
             mink.VelocityLimit(model, {j: velocity_limit for j in robot.arm_joints}),
@@ -69,6 +89,7 @@ class IKSolver:
         self.reference_velocity = np.zeros(self.n)
         """The IK's own joint velocity on the last `step` (before the limiter) [rad/s]."""
         self._error: np.ndarray | None = np.zeros(6)
+        self._since_reset = 0.0
         margin = COMMAND_MARGIN
         self.limiter = JointLimiter(
             dt,
@@ -78,6 +99,7 @@ class IKSolver:
         )
         if robot.mobile:  # base + arm in one QP (skills/whole_body.py)
             apply_whole_body_costs(self, model, velocity_limit)
+        self.set_posture(robot.home if posture is None else posture)
 
     @property
     def q(self) -> np.ndarray:
@@ -91,23 +113,38 @@ class IKSolver:
         qdd_arm: np.ndarray | None = None,
     ) -> None:
         """Seed the solver with the arm's state (angles [rad], and the velocity [rad/s] and
-        acceleration [rad/s^2] it is moving with, zero by default); the posture task holds
-        this posture."""
+        acceleration [rad/s^2] it is moving with, zero by default). The posture it holds
+        stays (`set_posture`): re-anchored at every move's start, the redundancy would drift
+        from move to move."""
         q = self.config.q.copy()
         q[: self.n] = q_arm
         self.config.update(q)
-        self.posture_task.set_target(q)
         self.velocity[:] = 0.0 if qd_arm is None else qd_arm
         self.acceleration[:] = 0.0 if qdd_arm is None else qdd_arm
         self.limiter.reset(q_arm, self.velocity, self.acceleration)
         self._error = None
+        self._since_reset = 0.0
+        if self.posture_follows_reset:
+            self.posture_task.set_target(q)
 
-    def restart_from(self, q_arm: np.ndarray) -> None:
-        """Restart the limited command at rest from `q_arm` [rad] (where a pause held the
-        arm). The IK's own reference keeps its place on the path: the command catches up with
-        it within the robot's limits, so a resumed motion continues on the path it was on."""
-        self.limiter.reset(q_arm)
-        self.velocity[:] = 0.0
+    def set_posture(self, q_arm: np.ndarray) -> None:
+        """Hold the arm's redundancy at the joint angles `q_arm` [rad] (shape (n,))."""
+        q = self.config.q.copy()
+        q[: self.n] = q_arm
+        self.posture_task.set_target(q)
+
+    def restart_from(self, q_arm: np.ndarray, qd_arm: np.ndarray | None = None) -> None:
+        """Restart the limited command from the controller's setpoint: angles `q_arm` [rad]
+        moving at `qd_arm` [rad/s] (at rest by default).
+
+        The IK's own reference keeps its place: the command catches up with it within the
+        robot's limits. A move starts its command here from where the controller's setpoint
+        is (not from the measured joints, which sag away from it under a load the
+        controller's model lacks): the setpoint, and with it the torque, stay continuous
+        where one motion hands over to the next. A pause restarts it here at rest, so a
+        resumed motion continues on the path it was on."""
+        self.limiter.reset(q_arm, qd_arm)
+        self.velocity[:] = self.limiter.velocity
         self.acceleration[:] = 0.0
 
     def tcp_pose(self) -> tuple[np.ndarray, np.ndarray]:
@@ -128,16 +165,18 @@ class IKSolver:
         """One control tick towards the world pose (`pos` [m], `rot` a 3x3 matrix or an SO3).
 
         Returns:
-            The new joint angles [rad]; `velocity` and `acceleration` hold the joint velocity
-            and acceleration there (within the robot's limits, jerk-limited).
+            The joint angles [rad] the command starts the tick from; `velocity` holds its
+            joint velocity there and `acceleration` the constant joint acceleration over the
+            tick (within the robot's limits, jerk-limited): what the controller integrates
+            until the next tick, where it arrives at `command`.
         """
         q_ref = self.config.q[: self.n].copy()
         v = self.reference_step(pos, rot, self.dt)
         lim = self.limiter
         lim.step(q_ref, v)  # the reference at the start of the tick and the velocity it moves on
-        self.velocity[:] = lim.velocity
+        self.velocity[:] = lim.start_velocity
         self.acceleration[:] = lim.acceleration
-        return self.command
+        return lim.start_position
 
     def reference_step(self, pos: np.ndarray, rot: np.ndarray | mink.SO3, dt: float) -> np.ndarray:
         """Advance the IK's own reference by `dt` [s] towards the world pose, without the
@@ -150,6 +189,12 @@ class IKSolver:
         so3 = rot if isinstance(rot, mink.SO3) else mink.SO3.from_matrix(rot)
         target = mink.SE3.from_rotation_and_translation(so3, np.asarray(pos) - self.base_pos)
         self.frame_task.set_target(target)
+        # the posture error decays with a time constant, whatever the step, once ramped in
+        self._since_reset += dt
+        ramp = min(1.0, self._since_reset / POSTURE_RAMP_S)
+        smooth = ramp * ramp * (3.0 - 2.0 * ramp)
+        if isinstance(self.posture_task, NullspacePostureTask):
+            self.posture_task.gain = min(1.0, dt / POSTURE_TIME_CONSTANT_S) * smooth
         v = mink.solve_ik(
             self.config,
             self.tasks,
@@ -170,5 +215,6 @@ class IKSolver:
 
     @property
     def command(self) -> np.ndarray:
-        """The limited joint command [rad]: what the controller is sent. Shape (n,)."""
+        """The limited joint command now [rad] (where the last tick's segment ends): where
+        the controller's setpoint is at the next tick. Shape (n,)."""
         return self.limiter.position

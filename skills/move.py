@@ -24,8 +24,6 @@ __all__ = ["Move"]
 
 _AT_REST_MPS = 0.005
 """TCP speed below which the arm counts as at rest [m/s]."""
-_CAUGHT_UP_RAD = 0.01
-"""The limited joint command is this close to the IK's solution: hold the solution [rad]."""
 _SETTLE_GAIN = 8.0
 """Integral gain of the settling correction [1/s]: the IK target moves by this fraction of the
 measured TCP error per second once the line has ended (see `Move.step`)."""
@@ -173,6 +171,8 @@ class Move(Skill):
         if self.reachable and isinstance(self.line, BlendedPath):
             fit_path_to_joints(ctx.ik, self.line, ctx.q)
         self.stretch = feasible_time_scale(ctx.ik, self.line, ctx.q) if self.reachable else 1.0
+        # the command starts from the controller's setpoint, not the measured (sagging) joints
+        ctx.ik.restart_from(ctx.controller.q_d, ctx.controller.qd_d)
         self.duration = self.line.duration * self.stretch
         self.corr_pos = np.zeros(3)
         self.corr_rot = np.zeros(3)
@@ -238,15 +238,14 @@ class Move(Skill):
         return pos + self.corr_pos, mink.SO3.exp(self.corr_rot) @ rot
 
     def stop(self, ctx: Context) -> None:
-        # Hold the IK's solution (where the arm is meant to be) once the limited command has
-        # caught up with it; if the move was cut short, hold where the command is, not jump.
-        ik = ctx.ik
+        # Hold where the command is, bringing it to rest if it still moves (a move that does
+        # not stop at its target, the arm's posture still settling): never a jump of the
+        # setpoint or of its velocity, which the arm would follow with a kick.
+        ctrl = ctx.controller
         if not self.reachable:
-            ctx.controller.hold(ctx.q)
-        elif float(np.max(np.abs(ik.q - ik.command))) <= _CAUGHT_UP_RAD:
-            ctx.controller.hold(ik.q)
+            ctrl.hold(ctx.q)
         else:
-            ctx.controller.hold(ik.command)
+            ctrl.hold_setpoint()
         ctx.ik_target = None
 
     def explain(self, ctx: Context) -> str | None:

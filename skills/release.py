@@ -35,7 +35,7 @@ class Release(Skill):
             self.params.opening_m or ctx.robot.gripper_open_m, ctx.robot.gripper_open_m
         )
         self.t0 = ctx.clock
-        ctx.controller.hold(ctx.controller.q_d.copy())
+        ctx.controller.hold_setpoint()
         ctx.set_gripper(self.opening)
 
     def step(self, ctx: Context) -> str | None:
@@ -46,4 +46,4 @@ class Release(Skill):
         return None
 
     def stop(self, ctx: Context) -> None:
-        ctx.controller.hold(ctx.controller.q_d.copy())
+        ctx.controller.hold_setpoint()

@@ -57,7 +57,7 @@ class VerifyGrasp(Skill):
             if name == self.params.object
         )
         self.t0 = ctx.clock
-        ctx.controller.hold(ctx.controller.q_d.copy())
+        ctx.controller.hold_setpoint()
 
     def step(self, ctx: Context) -> str | None:
         p = self.params

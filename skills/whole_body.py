@@ -26,9 +26,10 @@ class _Solver(Protocol):
 
     robot: Robot
     frame_task: mink.FrameTask
-    posture_task: mink.PostureTask
+    posture_task: Any
     tasks: list[Any]
     limits: list[Any]
+    posture_follows_reset: bool
 
 
 __all__ = ["ARM_POSTURE_COST", "BASE_DAMPING_COST", "apply_whole_body_costs"]
@@ -58,6 +59,7 @@ def apply_whole_body_costs(ik: _Solver, model, velocity_limit: float) -> None:
     damping = np.zeros(model.nv)
     damping[:nb] = BASE_DAMPING_COST
     ik.tasks = [ik.frame_task, ik.posture_task, mink.DampingTask(model, damping)]
+    ik.posture_follows_reset = True  # the arm's posture is where each motion starts
     limits = robot.joint_velocity_limits()
     caps = np.concatenate([limits[:nb], np.minimum(limits[nb:], velocity_limit)])
     speeds = {j: float(v) for j, v in zip(robot.arm_joints, caps, strict=True)}

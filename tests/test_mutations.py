@@ -26,19 +26,8 @@ TARGETS = [
 finger penetration, wrist force, the true incision, the SAFE_HOLD force decay)."""
 
 
-POSTURE_BLIND = pytest.mark.xfail(
-    strict=True,
-    reason="the IK's posture cost (1e-3) barely holds the posture: round a 20 cm square three"
-    " times and the joints drift 0.19 rad with it, 0.21 rad without it, so no flow behaves"
-    " differently without it; a posture bound needs a stronger posture task first",
-)
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "mutant",
-    [pytest.param(m, marks=POSTURE_BLIND) if m == "posture_0" else m for m in sorted(MUTANTS)],
-)
+@pytest.mark.parametrize("mutant", sorted(MUTANTS))
 def test_the_suite_fails_for_each_mutant(mutant):
     env = {**os.environ, "ORCH_MUTANT": mutant}
     cmd = [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider"]

@@ -12,12 +12,15 @@ import math
 import mujoco
 import numpy as np
 import pytest
-from orchestrator.robots import Controller
+from orchestrator.robots import Controller, Panda
+from orchestrator.skills.ik import IKSolver
+from orchestrator.skills.trajectory import CartesianLine
 
 from orchestrator.engine.context import Context
 from orchestrator.engine.runner import run_episode
 from orchestrator.language.load import load_scenario
 from orchestrator.world import World
+from orchestrator.world.world import robot_only_model
 
 SATURATED = 0.999
 HAND_GRIP_N = 20.0
@@ -37,7 +40,12 @@ class StepProbe:
         self.tlim = w.arm_effort_limit
         self.fingers, self.robot = w.finger_geoms, w.robot_geoms
         self.objects = {h.geom_id for h in w.objects.values()}
+        self.alim = np.asarray(ctx.robot.acceleration_limits, float)
+        self.dt = ctx.dt_physics
+        self.prev_v = ctx.data.qvel[self.dof].copy()
         self.speed = 0.0
+        self.accel = 0.0
+        self.accel_at = ""
         self.torque = 0.0
         self.saturated_outside_contact = 0
         self.last_contact_t = -math.inf
@@ -52,7 +60,14 @@ class StepProbe:
 
     def on_step(self, ctx) -> None:
         d = ctx.data
-        self.speed = max(self.speed, float(np.max(np.abs(d.qvel[self.dof]) / self.vlim)))
+        v = d.qvel[self.dof]
+        self.speed = max(self.speed, float(np.max(np.abs(v) / self.vlim)))
+        # the arm's measured acceleration over this step, against the datasheet
+        accel = np.abs(v - self.prev_v) / (self.dt * self.alim)
+        self.prev_v = v.copy()
+        if accel.max() > self.accel:
+            self.accel = float(accel.max())
+            self.accel_at = f"{self.executor.leaf} joint {int(accel.argmax()) + 1} t={d.time:.3f}"
         grip = 0.0
         for i in range(d.ncon):
             c = d.contact[i]
@@ -93,6 +108,10 @@ def test_pick_place_stays_within_the_pandas_limits_at_every_physics_step(pick_ru
     for result, probe in pick_runs:
         assert result.outcome == "succeeded"
         assert probe.speed <= 1.0, f"seed {result.seed}: joint speed {probe.speed:.2f}x limit"
+        assert probe.accel <= 1.0, (
+            f"seed {result.seed}: joint acceleration {probe.accel:.2f}x the datasheet limit"
+            f" at {probe.accel_at}"
+        )
         assert probe.saturated_outside_contact == 0
         assert probe.torque < SATURATED
         assert probe.pen_m <= 0.001, f"fingers {probe.pen_m * 1000:.2f} mm into the cube"
@@ -162,6 +181,11 @@ def test_surgical_figures_are_measured_against_the_true_incision(surgical_run):
     assert m["true_cross_track_max_mm"] <= 1.0
 
 
+def test_surgical_arm_stays_within_the_pandas_acceleration_limits(surgical_run):
+    _, probe = surgical_run
+    assert probe.accel <= 1.0, f"joint acceleration {probe.accel:.2f}x limit at {probe.accel_at}"
+
+
 def test_a_misregistered_phantom_fails_the_surgical_success_check():
     # perception reports everything 1.5 mm off in y: the registered line is traced well, the
     # real incision is missed — only the ground truth sees it
@@ -194,3 +218,47 @@ def test_a_force_ceiling_watches_the_safety_response_itself():
     assert moves[-1] == ("SAFE_HOLD.BACK_OUT", "SAFE_STOP")
     assert result.final_state == "SAFE_STOP"
     assert result.metrics["rest_speed_rad_s"] < 0.01
+
+
+def test_ik_holds_the_arms_posture_round_a_closed_path():
+    """Three rounds of a 20 cm square, each side a move of its own (the IK re-seeded at the
+    corner it reached, as `move` does): the TCP returns to its start, and so must the joints.
+    Without a posture the 7th joint's freedom drifts (0.40 rad); the nullspace posture task
+    holds it to < 1e-3 rad, at no cost to the TCP's accuracy."""
+    robot = Panda()
+    ik = IKSolver(robot, robot_only_model(robot), 0.01, np.zeros(3))
+    q0 = np.array(robot.home)
+    ik.reset(q0)
+    p0, rot = ik.tcp_pose()
+    corners = [p0 + np.array(c) for c in ([0, 0, 0], [0.2, 0, 0], [0.2, 0.2, 0], [0, 0.2, 0])]
+    worst_tcp = 0.0
+    for k in range(12):
+        ik.reset(ik.q.copy())
+        line = CartesianLine(corners[k % 4], rot, corners[(k + 1) % 4], rot, 0.5, 2.0, 2.0, 8.0)
+        for i in range(int(np.ceil(line.duration / 0.01)) + 30):
+            ik.step(*line.sample_so3((i + 1) * 0.01))
+        worst_tcp = max(worst_tcp, float(np.linalg.norm(ik.tcp_pose()[0] - corners[(k + 1) % 4])))
+    drift = float(np.max(np.abs(ik.q - q0)))
+    assert worst_tcp < 1e-4, f"TCP {worst_tcp * 1000:.2f} mm off a corner"
+    assert drift < 1e-3, f"the joints drifted {drift:.3f} rad round a closed path"
+
+
+def test_ik_commands_stay_within_the_pandas_limits_whatever_the_target():
+    """A target 45 cm away in one tick (a jump no move makes, a planner might): the IK wants
+    far more than the arm may do; the command it sends stays within the Panda's velocity and
+    acceleration limits, continuous from tick to tick, and still gets there."""
+    robot = Panda()
+    ik = IKSolver(robot, robot_only_model(robot), 0.01, np.zeros(3))
+    ik.reset(np.array(robot.home))
+    p0, rot = ik.tcp_pose()
+    goal = p0 + np.array([0.0, 0.4, -0.2])
+    vlim = robot.joint_velocity_limits()
+    alim = np.asarray(robot.acceleration_limits, float)
+    end_v = ik.velocity.copy()
+    for _ in range(300):
+        ik.step(goal, rot)
+        assert np.all(np.abs(ik.velocity) <= vlim), f"joint speed {ik.velocity.round(2)}"
+        assert np.all(np.abs(ik.acceleration) <= alim), f"accel {ik.acceleration.round(1)}"
+        np.testing.assert_allclose(ik.velocity, end_v, atol=1e-12)  # no jump between ticks
+        end_v = ik.limiter.velocity.copy()
+    assert float(np.linalg.norm(ik.tcp_pose()[0] - goal)) < 1e-3

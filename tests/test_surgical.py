@@ -131,7 +131,12 @@ def test_complication_stops_the_arm_in_150_ms_then_holds_and_backs_out(complicat
     assert result.outcome == "aborted"
     i = next(i for i, t in enumerate(result.transitions) if t["trigger"] == "abort")
     abort, stopped = result.transitions[i], result.transitions[i + 1]
-    assert abort["from"] == "EXECUTE.TRACE" and abort["to"] == "SAFE_STOP"  # the stop first
+    # the nodule trips the 5 N guard while tracing, or just after TRACE's own 4 N check
+    # (filtered) ended it and ABANDON began backing off: which comes first depends on the
+    # millisecond the tip meets the nodule (on main the CLI run abandons first, this test's
+    # run, whose observer reads the noisy sensor, did not); either way the stop comes first
+    assert abort["from"] in ("EXECUTE.TRACE", "EXECUTE.ABANDON"), abort
+    assert abort["to"] == "SAFE_STOP"
     assert stopped["from"] == "SAFE_STOP" and stopped["to"] == "SAFE_HOLD.STOP"
     assert stopped["trigger"] == "stopped" and stopped["t"] - abort["t"] <= 0.15
     t_v = abort["t"]

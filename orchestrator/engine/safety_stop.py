@@ -70,9 +70,11 @@ class SafetyStop:
         q, qd = ctx.encoders.safety_channel()
         n = ctx.robot.n_arm
         if gentle and float(np.max(np.abs(qd[:n]))) < self.config.rest_speed_rad_s:
-            ctx.controller.hold(ctx.controller.q_d.copy())  # already still: keep its setpoint
+            ctx.controller.hold_setpoint()  # already still: keep its setpoint (brought to rest)
         else:
-            decel = ctx.robot.acceleration_limits if gentle else self.config.max_decel_rad_s2
+            # a normal stop within the limits the commands keep to (the arm overshoots a
+            # profile at the datasheet limit by ~20 %); an abort at the safety stop's own
+            decel = ctx.controller.rest_decel if gentle else self.config.max_decel_rad_s2
             ctx.controller.brake(q, qd, decel)
         # a motor that does not deliver what it is commanded cannot brake its joint: its
         # holding brake does, from the start
