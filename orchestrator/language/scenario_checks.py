@@ -40,6 +40,7 @@ def check_scene_names(
     objects = [o.name for o in scenario.scene.objects]
     names = {
         "object": ("scene object", objects),
+        "gripped_object": ("scene object", [*objects, "*"]),
         "target": ("object or marker", objects + [m.name for m in scenario.scene.markers]),
         "zone": ("no-go zone", [z.name for z in getattr(scenario.scene, "zones", [])]),
         "body": ("scene body", scene_bodies(scenario)),

@@ -1,0 +1,137 @@
+"""Parcels of a sorting cell, drawn per seed: class, size, mass and pose in the pick area.
+
+`Scenario.for_seed` turns them into ordinary scene objects (`parcel_00`, `parcel_01`, ...), so
+everything that knows objects — the MuJoCo scene, contacts, perception's truth, the recording —
+knows the parcels. Draws come from their own random stream of the seed.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..exceptions import ConfigError
+from .diagnostics import Diagnostic
+
+if TYPE_CHECKING:
+    from .sorting_scene import Parcels
+
+__all__ = ["LAYOUT_TRIES", "PLACE_TRIES", "draw_parcels", "parcel_name"]
+
+PLACE_TRIES = 400
+"""Poses tried per parcel before the layout starts over."""
+
+LAYOUT_TRIES = 20
+"""Layouts started before the area counts as full (a crowded one can leave no room late)."""
+
+_TOUCH_GAP_M = 0.0005
+"""Gap left between parcels placed touching: contact at rest, never interpenetrating [m]."""
+
+
+def parcel_name(i: int, count: int) -> str:
+    """`parcel_07`: zero-padded so names sort in placement order."""
+    return f"parcel_{i:0{max(2, len(str(count - 1)))}d}"
+
+
+def _corners(cx: float, cy: float, yaw: float, hx: float, hy: float) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
+    return local @ np.array([[c, s], [-s, c]]) + [cx, cy]
+
+
+def _gap(a: np.ndarray, b: np.ndarray) -> float:
+    """Separation of two convex polygons along their edge normals (negative: they overlap)."""
+    best = -math.inf
+    for poly in (a, b):
+        for i in range(len(poly)):
+            edge = poly[(i + 1) % len(poly)] - poly[i]
+            n = np.array([-edge[1], edge[0]]) / float(np.hypot(*edge))
+            pa, pb = a @ n, b @ n
+            best = max(best, float(pb.min() - pa.max()), float(pa.min() - pb.max()))
+    return best
+
+
+_Drawn = tuple[str, list[float], float, float, float, float]
+
+
+def _draw(p: Parcels, rng: np.random.Generator) -> list[_Drawn]:
+    """`(class, size [m], mass [kg], x [m], y [m], yaw [rad])` per parcel."""
+    for _ in range(LAYOUT_TRIES - 1):
+        out = _layout(p, rng)
+        if len(out) == p.count:
+            return out
+    out = _layout(p, rng)
+    if len(out) < p.count:
+        (sx, sy) = p.area_size_xy
+        raise ConfigError(
+            [
+                Diagnostic(
+                    "<scene>",
+                    0,
+                    0,
+                    "scene.parcels.count",
+                    f"cannot place {p.count} parcels in the pick area {sx:g} x {sy:g} m with "
+                    f"gap_m {p.gap_m:g} (at most {len(out)} in {LAYOUT_TRIES} layouts): use "
+                    "fewer parcels or a larger area",
+                )
+            ]
+        )
+    return out
+
+
+def _layout(p: Parcels, rng: np.random.Generator) -> list[_Drawn]:
+    """One try at placing every parcel; stops at the first that finds no room."""
+    classes = list(p.classes)
+    (ax, ay), (sx, sy) = p.area_center_xy, p.area_size_xy
+    lo, hi = np.array([ax - sx / 2, ay - sy / 2]), np.array([ax + sx / 2, ay + sy / 2])
+    placed: list[tuple[np.ndarray, tuple[float, float, float, float, float]]] = []
+    out: list[_Drawn] = []
+    for _ in range(p.count):
+        cls = classes[int(rng.integers(len(classes)))]
+        size = [
+            float(rng.uniform(*p.length_m)),
+            float(rng.uniform(*p.width_m)),
+            float(rng.uniform(*p.height_m)),
+        ]
+        mass = float(rng.uniform(*p.mass_kg))
+        hx, hy = size[0] / 2, size[1] / 2
+        for _ in range(PLACE_TRIES):
+            touch = bool(placed) and rng.random() < p.touching
+            partner = int(rng.integers(len(placed))) if touch else -1
+            if touch:  # end to end with a parcel already there, along its long side
+                if out[partner][0] == cls:
+                    continue  # one colour end to end would look like one long parcel
+                _, (ox, oy, oyaw, ohx, _) = placed[partner]
+                side = 1.0 if rng.random() < 0.5 else -1.0
+                d = side * (ohx + hx + _TOUCH_GAP_M)
+                x, y, yaw = ox + d * math.cos(oyaw), oy + d * math.sin(oyaw), oyaw
+            else:
+                x, y = (float(v) for v in rng.uniform(lo, hi))
+                yaw = float(rng.uniform(-math.pi / 2, math.pi / 2))
+            poly = _corners(x, y, yaw, hx, hy)
+            if (poly < lo).any() or (poly > hi).any():
+                continue
+            # the partner it touches: no overlap; every other one: gap_m clear (for fingers)
+            if all(
+                _gap(poly, other) >= (1e-6 if j == partner else p.gap_m - 1e-9)
+                for j, (other, _) in enumerate(placed)
+            ):
+                placed.append((poly, (x, y, yaw, hx, hy)))
+                out.append((cls, size, mass, x, y, yaw))
+                break
+        else:
+            return out
+    return out
+
+
+def draw_parcels(p: Parcels, seed: int) -> list[tuple[str, _Drawn]]:
+    """`(name, (class, size [m], mass [kg], x [m], y [m], yaw [rad]))` of each parcel of `p`
+    for `seed`, from the seed's own stream for parcels.
+
+    Raises:
+        ConfigError: The parcels do not fit in the pick area.
+    """
+    rng = np.random.default_rng([seed, 0x9A4C])
+    return [(parcel_name(i, p.count), d) for i, d in enumerate(_draw(p, rng))]
