@@ -102,10 +102,9 @@ class NextTask(Skill):
             return None
         memory = ctx.blackboard.get(p.state)
         state = new_schedule() if not memory else _copy(memory)
-        rejected = [r["pos"] for r in state["rejected"]]
-        items = [x for x in (self._candidate(x) for x in p.items) if x is not None]
-        items = [x for x in items if not any(_near(x[1], r, p.match_radius_m) for r in rejected)]
+        items = self._unrejected(state, [x for x in map(self._candidate, p.items) if x])
         chosen = self._retry(ctx, state, items)
+        items = self._unrejected(state, items)  # without one the retry has just rejected
         if chosen is None and state["started"] >= p.max_tasks:
             ctx.log("skill", f"next_task: max_tasks {p.max_tasks} reached")
             ctx.blackboard[p.state] = state
@@ -141,6 +140,13 @@ class NextTask(Skill):
         except (KeyError, TypeError, ValueError) as exc:
             raise SkillError(f"item {item!r} has no pose in {p.pose_field!r}: {exc}") from None
         return item, [float(v) for v in pose.pos]
+
+    def _unrejected(
+        self, state: dict, items: list[tuple[dict, list[float]]]
+    ) -> list[tuple[dict, list[float]]]:
+        rejected = [r["pos"] for r in state["rejected"]]
+        r = self.params.match_radius_m
+        return [x for x in items if not any(_near(x[1], pos, r) for pos in rejected)]
 
     def _retry(
         self, ctx: Context, state: dict, items: list[tuple[dict, list[float]]]

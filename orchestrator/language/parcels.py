@@ -35,22 +35,35 @@ def parcel_name(i: int, count: int) -> str:
     return f"parcel_{i:0{max(2, len(str(count - 1)))}d}"
 
 
-def _corners(cx: float, cy: float, yaw: float, hx: float, hy: float) -> np.ndarray:
+_Box = tuple[float, float, float, float, float]
+"""`(x, y, yaw, half length, half width)` of a parcel's footprint [m, rad]."""
+
+
+def _corners(b: _Box) -> list[tuple[float, float]]:
+    x, y, yaw, hx, hy = b
     c, s = math.cos(yaw), math.sin(yaw)
-    local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
-    return local @ np.array([[c, s], [-s, c]]) + [cx, cy]
+    return [
+        (x + u * c - v * s, y + u * s + v * c)
+        for u, v in ((hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy))
+    ]
 
 
-def _gap(a: np.ndarray, b: np.ndarray) -> float:
-    """Separation of two convex polygons along their edge normals (negative: they overlap)."""
-    best = -math.inf
-    for poly in (a, b):
-        for i in range(len(poly)):
-            edge = poly[(i + 1) % len(poly)] - poly[i]
-            n = np.array([-edge[1], edge[0]]) / float(np.hypot(*edge))
-            pa, pb = a @ n, b @ n
-            best = max(best, float(pb.min() - pa.max()), float(pa.min() - pb.max()))
-    return best
+def _gap(a: _Box, b: _Box, need: float) -> bool:
+    """The footprints are at least `need` apart [m] (separated along one of their edge
+    normals by that much; `need` 0: they do not overlap)."""
+    if (
+        math.hypot(a[0] - b[0], a[1] - b[1])
+        > math.hypot(a[3], a[4]) + math.hypot(b[3], b[4]) + need
+    ):
+        return True  # the enclosing circles are apart: no projection needed
+    pa, pb = _corners(a), _corners(b)
+    for yaw in (a[2], b[2]):
+        for nx, ny in ((math.cos(yaw), math.sin(yaw)), (-math.sin(yaw), math.cos(yaw))):
+            da = [px * nx + py * ny for px, py in pa]
+            db = [px * nx + py * ny for px, py in pb]
+            if min(db) - max(da) >= need or min(da) - max(db) >= need:
+                return True
+    return False
 
 
 _Drawn = tuple[str, list[float], float, float, float, float]
@@ -85,8 +98,8 @@ def _layout(p: Parcels, rng: np.random.Generator) -> list[_Drawn]:
     """One try at placing every parcel; stops at the first that finds no room."""
     classes = list(p.classes)
     (ax, ay), (sx, sy) = p.area_center_xy, p.area_size_xy
-    lo, hi = np.array([ax - sx / 2, ay - sy / 2]), np.array([ax + sx / 2, ay + sy / 2])
-    placed: list[tuple[np.ndarray, tuple[float, float, float, float, float]]] = []
+    lo, hi = (ax - sx / 2, ay - sy / 2), (ax + sx / 2, ay + sy / 2)
+    placed: list[_Box] = []
     out: list[_Drawn] = []
     for _ in range(p.count):
         cls = classes[int(rng.integers(len(classes)))]
@@ -103,22 +116,22 @@ def _layout(p: Parcels, rng: np.random.Generator) -> list[_Drawn]:
             if touch:  # end to end with a parcel already there, along its long side
                 if out[partner][0] == cls:
                     continue  # one colour end to end would look like one long parcel
-                _, (ox, oy, oyaw, ohx, _) = placed[partner]
+                ox, oy, oyaw, ohx, _ = placed[partner]
                 side = 1.0 if rng.random() < 0.5 else -1.0
                 d = side * (ohx + hx + _TOUCH_GAP_M)
                 x, y, yaw = ox + d * math.cos(oyaw), oy + d * math.sin(oyaw), oyaw
             else:
                 x, y = (float(v) for v in rng.uniform(lo, hi))
                 yaw = float(rng.uniform(-math.pi / 2, math.pi / 2))
-            poly = _corners(x, y, yaw, hx, hy)
-            if (poly < lo).any() or (poly > hi).any():
+            box = (x, y, yaw, hx, hy)
+            if any(not (lo[0] <= cx <= hi[0] and lo[1] <= cy <= hi[1]) for cx, cy in _corners(box)):
                 continue
             # the partner it touches: no overlap; every other one: gap_m clear (for fingers)
             if all(
-                _gap(poly, other) >= (1e-6 if j == partner else p.gap_m - 1e-9)
-                for j, (other, _) in enumerate(placed)
+                _gap(box, other, 1e-6 if j == partner else p.gap_m - 1e-9)
+                for j, other in enumerate(placed)
             ):
-                placed.append((poly, (x, y, yaw, hx, hy)))
+                placed.append(box)
                 out.append((cls, size, mass, x, y, yaw))
                 break
         else:
