@@ -74,7 +74,7 @@ class NextTask(Skill):
     still there (re-centred on it), else the first item by `priority`, nearest first.
 
     The scheduler's memory lives on the blackboard under `state` (a dict): tasks `started`
-    and `done`, the `open` task (`{task, class, pose, attempts}`) and the `rejected` items.
+    and `done`, the `open` task (`{task, class, pos, attempts}`) and the `rejected` items.
     `end_task` closes a task; a task still open when `next_task` runs again has failed: it is
     tried again on the nearest item within `match_radius_m` (its `attempts` counted), or,
     after `max_attempts`, rejected — its item is ignored from then on — or, when no item is
