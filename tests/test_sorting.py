@@ -262,3 +262,16 @@ def test_the_batch_summary_adds_up_parcels_over_episodes():
     lo, hi = s.sort_rate_ci95
     assert lo < 21 / 24 < hi
     assert s.parcels_per_hour == pytest.approx(21 / 90 * 3600, abs=0.1)
+
+
+def test_the_recording_shows_the_task_log_as_it_grows(tmp_path):
+    from .test_recording import record
+
+    rec = record(load_scenario("sorting", ["parcels=2"]), 3, tmp_path / "sorting.rrd")
+    rows = rec.temporal["/events/task"]
+    texts = [t for row in rec.column("/events/task", "TextLog:text") for t in row]
+    assert len(rows) >= 4  # begin and end of each task, then each parcel's verdict
+    times = [r["sim_time"].total_seconds() for r in rows]
+    assert times == sorted(times) and times[0] < times[-1]
+    assert any("task 1: parcel_" in t for t in texts)
+    assert sum(1 for t in texts if t.endswith(": sorted")) == 2, texts
