@@ -10,6 +10,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from orchestrator.skills import get_skill
 
 from orchestrator.batch.summary import summarize
 from orchestrator.engine.blackboard import Blackboard
@@ -17,7 +18,6 @@ from orchestrator.engine.runner import run_episode
 from orchestrator.exceptions import ConfigError
 from orchestrator.language.load import load_scenario
 from orchestrator.language.parcels import _gap, draw_parcels
-from orchestrator.skills import get_skill
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -252,7 +252,8 @@ def test_the_batch_summary_adds_up_parcels_over_episodes():
         return {"seed": seed, "outcome": outcome, "sim_time": 30.0, "metrics": m}
 
     lines = [line(0, "succeeded", 8), line(1, "succeeded", 7, rejected=1),
-             line(2, "failed", 6, dropped=1, missorted=1), {"seed": 3, "outcome": "error"}]  # fmt: skip
+             line(2, "failed", 6, dropped=1, missorted=1),
+             {"seed": 3, "outcome": "error"}]  # fmt: skip
     s = summarize(lines, scenario="sorting", scenario_ref="sorting", overrides=[], seed_base=0,
                   backend="local", workers=1, wall_time_s=1.0, episodes_run=4,
                   results=Path("r"), rrd_dir=None).sorting  # fmt: skip

@@ -104,11 +104,11 @@ def _layout(p: Parcels, rng: np.random.Generator) -> list[_Drawn]:
     for _ in range(p.count):
         cls = classes[int(rng.integers(len(classes)))]
         size = [
-            float(rng.uniform(*p.length_m)),
-            float(rng.uniform(*p.width_m)),
-            float(rng.uniform(*p.height_m)),
+            float(rng.uniform(p.length_m[0], p.length_m[1])),
+            float(rng.uniform(p.width_m[0], p.width_m[1])),
+            float(rng.uniform(p.height_m[0], p.height_m[1])),
         ]
-        mass = float(rng.uniform(*p.mass_kg))
+        mass = float(rng.uniform(p.mass_kg[0], p.mass_kg[1]))
         hx, hy = size[0] / 2, size[1] / 2
         for _ in range(PLACE_TRIES):
             touch = bool(placed) and rng.random() < p.touching
