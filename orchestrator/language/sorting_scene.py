@@ -48,11 +48,14 @@ class Parcels(_Strict):
         "by that colour (`perception.classes`).",
     )
     length_m: _LenRange = Field(
-        default_factory=lambda: [0.055, 0.07], description="Long side, drawn uniformly [m]."
+        default_factory=lambda: [0.06, 0.07], description="Long side, drawn uniformly [m]."
     )
     width_m: _LenRange = Field(
-        default_factory=lambda: [0.04, 0.05],
-        description="Short side, drawn uniformly [m]; the gripper closes across it.",
+        default_factory=lambda: [0.04, 0.045],
+        description="Short side, drawn uniformly [m]; the gripper closes across it. At least "
+        "1.5 cm shorter than the long side by default: a near-square top face (5.5 x 4.9 cm) "
+        "let perception report the wrong side as the long one, and the fingers closed onto the "
+        "neighbour touching its end.",
     )
     height_m: _LenRange = Field(
         default_factory=lambda: [0.04, 0.06], description="Height, drawn uniformly [m]."
