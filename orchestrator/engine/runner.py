@@ -274,6 +274,8 @@ def run_episode(
     metrics.update(ctx.metrics)
     if tasks is not None:
         metrics.update(task_metrics(tasks, executor.final_t or ctx.t))
+        if ctx.tasks.ghost_tasks:  # detections the scheduler served that were no parcel
+            metrics["tasks_without_parcel"] = ctx.tasks.ghost_tasks
     if not diverged:
         metrics.update(errors(ctx, scn.success))
     abort_stop = executor.stop
