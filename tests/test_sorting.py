@@ -131,6 +131,10 @@ def test_lookup_branches_on_a_value_through_a_table():
     assert _run("lookup", ctx, table=table, key="B", into="bin") == "found"
     assert ctx.blackboard["bin"] == "bin_B"
     assert _run("lookup", ctx, table=table, key="C", into="bin") == "missing"
+    spots = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+    assert _run("lookup", ctx, table=spots, key=4, wrap=True, into="spot") == "found"
+    assert ctx.blackboard["spot"] == [0, 1, 0]  # taking turns: 4 mod 3
+    assert _run("lookup", ctx, table=spots, key=4, into="spot") == "missing"
 
 
 @pytest.fixture(scope="module")
