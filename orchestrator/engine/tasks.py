@@ -15,14 +15,32 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 from ..perception.truth import MATCH_RADIUS_M
 
 if TYPE_CHECKING:
-    from .context import Context
+    from ..language.scenario import Scenario
+    from ..world.pose import Pose
+    from ..world.world import World
+
+
+class Context(Protocol):
+    """What the task log reads of the running episode (the engine's `Context` has it; named
+    here so that context.py, which holds a TaskLog, and this module import no cycle)."""
+
+    world: World
+    scenario: Scenario
+
+    @property
+    def t(self) -> float: ...
+
+    def log(self, kind: str, message: str, level: str = "INFO", **data: Any) -> None: ...
+
+    def object_pose(self, name: str) -> Pose: ...
+
 
 __all__ = ["OUTCOMES", "TaskEntry", "TaskLog", "metrics"]
 
