@@ -10,10 +10,13 @@ from pydantic import BaseModel, ConfigDict
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
 
-__all__ = ["SCENE_OBJECT", "SCENE_TARGET", "Skill", "SkillParams"]
+__all__ = ["GRIPPED_OBJECT", "SCENE_OBJECT", "SCENE_TARGET", "Skill", "SkillParams"]
 
 SCENE_OBJECT = {"scene_ref": "object"}
 """`json_schema_extra` of a parameter naming a scene object: checked against the scenario."""
+GRIPPED_OBJECT = {"scene_ref": "gripped_object"}
+"""`json_schema_extra` of a parameter naming the object a gripper holds: a scene object, or
+`*` for whichever one the fingers press on (parcels drawn per seed have no name to give)."""
 SCENE_TARGET = {"scene_ref": "target"}
 """`json_schema_extra` of a parameter that, when it is a name, names an object or a marker."""
 

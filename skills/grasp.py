@@ -7,8 +7,8 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 from pydantic import Field, PositiveFloat
 
-from .base import SCENE_OBJECT, Skill, SkillParams
-from .gripper import finger_contact_forces
+from .base import GRIPPED_OBJECT, Skill, SkillParams
+from .gripper import ANY_OBJECT, finger_contact_forces, gripped_object
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -22,7 +22,8 @@ _STILL_MPS = 0.005
 
 class GraspParams(SkillParams):
     object: str = Field(
-        description="Name of the scene object to grasp.", json_schema_extra=SCENE_OBJECT
+        description="Name of the scene object to grasp (`*`: whichever the fingers close on).",
+        json_schema_extra=GRIPPED_OBJECT,
     )
     min_force_n: PositiveFloat = Field(
         default=5.0, description="Normal force each finger must press with for `grasped` [N]."
@@ -47,7 +48,8 @@ class Grasp(Skill):
     params: GraspParams
 
     def start(self, ctx: Context) -> None:
-        self.handle = ctx.object_handle(self.params.object)
+        if self.params.object != ANY_OBJECT:
+            ctx.object_handle(self.params.object)  # an unknown name stops the run here
         self.t0 = ctx.clock
         self.still_ticks = 0
         ctx.controller.hold_setpoint()
@@ -61,9 +63,12 @@ class Grasp(Skill):
         closed = self.still_ticks >= 3 and ctx.gripper_commanded  # stopped, and squeezing
         if elapsed < p.settle_s or (not closed and elapsed < p.close_timeout_s):
             return None
-        handle = self.handle
-        left, right = finger_contact_forces(ctx, handle.geom_id)
-        between = _between_fingers(ctx, p.object)
+        name = gripped_object(ctx, p.object)
+        if name is None:
+            ctx.log("skill", f"grasp: width {ctx.gripper_width * 1000:.1f} mm, no object in it")
+            return "missed"
+        left, right = finger_contact_forces(ctx, ctx.object_handle(name).geom_id)
+        between = _between_fingers(ctx, name)
         held = min(left, right) >= p.min_force_n and between
         ctx.log(
             "skill",

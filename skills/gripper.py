@@ -10,7 +10,10 @@ import numpy as np
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
 
-__all__ = ["finger_contact_forces"]
+__all__ = ["ANY_OBJECT", "finger_contact_forces", "gripped_object"]
+
+ANY_OBJECT = "*"
+"""`object: "*"`: whichever scene object the fingers press on."""
 
 
 def finger_contact_forces(ctx: Context, object_geom: int) -> tuple[float, float]:
@@ -31,3 +34,16 @@ def finger_contact_forces(ctx: Context, object_geom: int) -> tuple[float, float]
         mujoco.mj_contactForce(m, d, i, wrench)
         out[0 if body == left else 1] += abs(float(wrench[0]))
     return out[0], out[1]
+
+
+def gripped_object(ctx: Context, name: str) -> str | None:
+    """`name`, or for `ANY_OBJECT` the scene object both fingers press on hardest (the weaker
+    finger's force decides; None when no object touches both)."""
+    if name != ANY_OBJECT:
+        return name
+    best, best_force = None, 0.0
+    for obj, handle in ctx.world.objects.items():
+        left, right = finger_contact_forces(ctx, handle.geom_id)
+        if min(left, right) > best_force:
+            best, best_force = obj, min(left, right)
+    return best

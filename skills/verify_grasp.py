@@ -9,8 +9,8 @@ from pydantic import Field, PositiveFloat
 
 from orchestrator.world.randomization import object_poses
 
-from .base import SCENE_OBJECT, Skill, SkillParams
-from .gripper import finger_contact_forces
+from .base import GRIPPED_OBJECT, Skill, SkillParams
+from .gripper import ANY_OBJECT, finger_contact_forces, gripped_object
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -20,7 +20,8 @@ __all__ = ["VerifyGrasp"]
 
 class VerifyGraspParams(SkillParams):
     object: str = Field(
-        description="Name of the scene object that should be held.", json_schema_extra=SCENE_OBJECT
+        description="Name of the scene object that should be held (`*`: any one).",
+        json_schema_extra=GRIPPED_OBJECT,
     )
     min_force_n: PositiveFloat = Field(
         default=5.0, description="Normal force each finger must still press with [N]."
@@ -50,22 +51,26 @@ class VerifyGrasp(Skill):
     params: VerifyGraspParams
 
     def start(self, ctx: Context) -> None:
-        self.handle = ctx.object_handle(self.params.object)
-        self.rest_z = next(
-            float(pos[2])
-            for name, pos, _ in object_poses(ctx.scenario, ctx.world.seed)
-            if name == self.params.object
-        )
+        if self.params.object != ANY_OBJECT:
+            ctx.object_handle(self.params.object)  # an unknown name stops the run here
+        # the lift is measured from where each object started (a table, a shelf, the floor)
+        self.rest_z = {
+            name: float(pos[2]) for name, pos, _ in object_poses(ctx.scenario, ctx.world.seed)
+        }
         self.t0 = ctx.clock
         ctx.controller.hold_setpoint()
 
     def step(self, ctx: Context) -> str | None:
         p = self.params
-        handle = self.handle
+        name = gripped_object(ctx, p.object)
+        if name is None:
+            ctx.log("skill", "verify_grasp: not held (no object between the fingers)")
+            return "dropped"
+        handle = ctx.object_handle(name)
         left, right = finger_contact_forces(ctx, handle.geom_id)
-        pos = np.asarray(ctx.object_pose(p.object).pos)
+        pos = np.asarray(ctx.object_pose(name).pos)
         offset = float(np.linalg.norm(pos - ctx.tcp_pos))
-        lifted = pos[2] - self.rest_z >= p.min_height_m
+        lifted = pos[2] - self.rest_z[name] >= p.min_height_m
         if min(left, right) < p.min_force_n or offset > p.max_offset_m or not lifted:
             ctx.log(
                 "skill",

@@ -13,7 +13,14 @@ from pydantic import BaseModel, Field
 from .stats import percentile, wilson_interval
 from .task import ERROR
 
-__all__ = ["SUMMARY", "BatchSummary", "CycleTimeStats", "rerun_command", "summarize"]
+__all__ = [
+    "SUMMARY",
+    "BatchSummary",
+    "CycleTimeStats",
+    "SortingStats",
+    "rerun_command",
+    "summarize",
+]
 
 SUMMARY = "summary.json"
 
@@ -27,6 +34,40 @@ class CycleTimeStats(BaseModel):
     mean: float
     min: float
     max: float
+
+
+class SortingStats(BaseModel):
+    """Parcels over the episodes of a sorting batch (each episode's task log counts)."""
+
+    parcels: int = Field(description="Parcels in the episodes that ran (errors excluded).")
+    sorted: int
+    missorted: int
+    dropped: int
+    rejected: int
+    unsorted: int
+    sort_rate: float = Field(description="sorted / parcels.")
+    sort_rate_ci95: tuple[float, float] = Field(description="95 % Wilson score interval.")
+    parcels_per_hour: float = Field(
+        description="Sorted parcels per simulated hour: all sorted over all simulated time."
+    )
+
+
+def _sorting(lines: list[dict[str, Any]]) -> SortingStats | None:
+    with_parcels = [ln for ln in lines if "parcels" in ln.get("metrics", {})]
+    if not with_parcels:
+        return None
+    total = {
+        k: sum(int(ln["metrics"].get(k, 0)) for ln in with_parcels)
+        for k in ("parcels", "sorted", "missorted", "dropped", "rejected", "unsorted")
+    }
+    n, ok = total["parcels"], total["sorted"]
+    sim = sum(float(ln.get("sim_time", 0.0)) for ln in with_parcels)
+    return SortingStats(
+        **total,
+        sort_rate=round(ok / n, 6) if n else 0.0,
+        sort_rate_ci95=tuple(round(v, 6) for v in wilson_interval(ok, n)),  # type: ignore[arg-type]
+        parcels_per_hour=round(ok / sim * 3600.0, 1) if sim > 0 else 0.0,
+    )
 
 
 class BatchSummary(BaseModel):
@@ -54,6 +95,9 @@ class BatchSummary(BaseModel):
     failing_seeds: list[int] = Field(description="Seeds that did not succeed, in order.")
     rerun_command: str | None = Field(description="Re-runs the first failing seed alone.")
     results: str = Field(description="Path of results.jsonl.")
+    sorting: SortingStats | None = Field(
+        default=None, description="Parcel counts of a batch whose scenario has parcels."
+    )
 
     def to_json_dict(self) -> dict[str, Any]:
         """The summary as plain JSON types (what summary.json holds)."""
@@ -152,6 +196,7 @@ def summarize(
         failing_seeds=failing,
         rerun_command=command,
         results=str(results),
+        sorting=_sorting(lines),
     )
 
 

@@ -17,6 +17,7 @@ from ..world.realism import WristForceNoise
 from ..world.sensors import JointEncoders, PerceptionFaults, WristForceFault
 from ..world.world import as_index
 from .blackboard import Blackboard
+from .tasks import TaskLog
 
 if TYPE_CHECKING:
     import mujoco
@@ -95,6 +96,8 @@ class Context:
         """`world.wrist_bias_world` as floats (only `zero_wrist_force` changes it)."""
         self._true_weight: tuple[float, ...] = (0.0, 0.0, 0.0)
         self.metrics: dict[str, Any] = {}
+        self.tasks = TaskLog()
+        """The task log the task skills (`next_task`, `end_task`) report to."""
         """Figures skills add to the result's `metrics` (e.g. force RMS error of a trace)."""
         self.ik: Any = None
         """The IK solver motion skills share (`orchestrator.skills.ik.IKSolver`)."""

@@ -33,10 +33,18 @@ class RunResult(BaseModel):
         default_factory=dict,
         description="Per success check, what it measured against its limit (why it failed).",
     )
+    tasks: list[dict[str, Any]] | None = Field(
+        default=None,
+        description="The task log of a run with parcels: one entry per parcel (engine/tasks.py)"
+        "; absent otherwise.",
+    )
 
     @property
     def exit_code(self) -> int:
         return EXIT_CODES[self.outcome]
 
     def to_json_dict(self) -> dict[str, Any]:
-        return self.model_dump(mode="json")
+        out = self.model_dump(mode="json")
+        if out["tasks"] is None:
+            del out["tasks"]  # runs without parcels print what they always printed
+        return out

@@ -27,6 +27,7 @@ from .faults import FaultInjector
 from .result import RunResult
 from .safety_stop import SafetyStop
 from .success import errors, evaluate
+from .tasks import metrics as task_metrics
 from .trace_truth import TraceTruth
 
 __all__ = ["WALL_GRACE_S", "Observer", "WallTimeExceeded", "make_context", "run_episode"]
@@ -254,6 +255,7 @@ def run_episode(
     outcome = executor.outcome or "failed"
     final_state = executor.final_state
     ctx.metrics.update(trace_truth.figures())  # before the success checks that read them
+    tasks = ctx.tasks.finalize(ctx) if world.parcel_classes and not diverged else None
     judged = (
         evaluate(ctx, scn.success)
         if not diverged
@@ -270,6 +272,10 @@ def run_episode(
         "control_ticks": ctx.tick,
     }
     metrics.update(ctx.metrics)
+    if tasks is not None:
+        metrics.update(task_metrics(tasks, executor.final_t or ctx.t))
+        if ctx.tasks.ghost_tasks:  # detections the scheduler served that were no parcel
+            metrics["tasks_without_parcel"] = ctx.tasks.ghost_tasks
     if not diverged:
         metrics.update(errors(ctx, scn.success))
     abort_stop = executor.stop
@@ -308,6 +314,7 @@ def run_episode(
         success=success,
         retries=executor.retries,
         success_detail={name: text for name, (_, text) in judged.items()},
+        tasks=None if tasks is None else [e.to_dict() for e in tasks],
     )
     for obs in observers:
         obs.on_end(ctx, executor, result)

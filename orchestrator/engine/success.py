@@ -40,6 +40,8 @@ def errors(ctx: Context, checks: dict[str, SuccessCheck]) -> dict[str, float]:
 def _check(ctx: Context, c: SuccessCheck) -> tuple[bool, str]:
     if c.kind == "trace":
         return _traced(ctx.metrics, c)
+    if c.kind == "parcels_sorted":
+        return _sorted(ctx)
     assert c.object is not None
     pose = ctx.object_pose(c.object)
     handle = ctx.world.objects[c.object]
@@ -123,3 +125,20 @@ def _traced(m: dict, c: SuccessCheck) -> tuple[bool, str]:
     if over:
         return False, "; ".join(over)
     return True, ", ".join(f"{key} {m[key]:g}" for key, _, _ in figures)
+
+
+def _sorted(ctx: Context) -> tuple[bool, str]:
+    """Every parcel sorted or rejected with a reason (the task log's verdicts)."""
+    entries = [ctx.tasks.entries[p] for p in ctx.world.parcel_classes if p in ctx.tasks.entries]
+    if not ctx.world.parcel_classes:
+        return False, "the scene has no parcels (scene.parcels)"
+    bad = [e for e in entries if e.outcome not in ("sorted", "rejected")]
+    counts = ", ".join(
+        f"{n} {o}"
+        for o in ("sorted", "rejected", "missorted", "dropped", "unsorted")
+        if (n := sum(1 for e in entries if e.outcome == o))
+    )
+    if bad or len(entries) < len(ctx.world.parcel_classes):
+        worst = "; ".join(f"{e.id} ({e.true_class}) {e.outcome}" for e in bad[:5])
+        return False, f"{counts}: {worst}"
+    return True, counts

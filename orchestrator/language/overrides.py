@@ -43,7 +43,16 @@ def parse_override(text: str) -> Override | Diagnostic:
 
 
 def apply_override(data: dict, ov: Override, blackboard_keys: set[str]) -> Diagnostic | None:
-    """Apply `ov` to the raw scenario mapping `data` in place."""
+    """Apply `ov` to the raw scenario mapping `data` in place. `parcels=N` is short for
+    `scene.parcels.count=N`."""
+    scene = data.get("scene")
+    if (
+        ov.path == ("parcels",)
+        and isinstance(scene, dict)
+        and isinstance(scene.get("parcels"), dict)
+    ):
+        scene["parcels"]["count"] = ov.value
+        return None
     if len(ov.path) == 1 and ov.path[0] not in data and ov.path[0] not in _SCENARIO_KEYS:
         key = ov.path[0]
         if key not in blackboard_keys:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validator
@@ -9,7 +10,9 @@ from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validato
 from .events import ScheduledEvent
 from .faults import Fault
 from .machine import GuardRef
+from .parcels import draw_parcels
 from .perception import CameraSpec, Perception
+from .sorting_scene import Bin, Parcels, bin_walls
 
 __all__ = [
     "CameraSpec",
@@ -265,6 +268,32 @@ class SceneSpec(_Strict):
     phantom: Phantom | None = Field(default=None, description="A compliant tissue phantom.")
     zones: list[Zone] = Field(default_factory=list, description="No-go zones.")
     obstacles: list[Obstacle] = Field(default_factory=list, description="Fixed rigid boxes.")
+    parcels: Parcels | None = Field(
+        default=None, description="Random parcels in a pick area (drawn per seed)."
+    )
+    bins: list[Bin] = Field(
+        default_factory=list,
+        description="Bins with walls, each a marker (its floor) and four obstacles (its walls).",
+    )
+
+    @model_validator(mode="after")
+    def _bin_parts(self) -> SceneSpec:
+        """Each bin becomes a marker (its floor, named like it) and four wall obstacles; a
+        scenario validated again (dumped and reloaded) keeps the parts it already has."""
+        have = {m.name for m in self.markers} | {o.name for o in self.obstacles}
+        for b in self.bins:
+            if b.name not in have:
+                self.markers.append(
+                    Marker(
+                        name=b.name, xy=b.xy, size_xy=[2 * h for h in b.inner_half()], rgba=b.rgba
+                    )
+                )
+            for name, center, size in bin_walls(b, self.table.height):
+                if name not in have:
+                    self.obstacles.append(
+                        Obstacle(name=name, size=size, center=center, rgba=b.rgba)
+                    )
+        return self
 
     @model_validator(mode="after")
     def _unique_names(self) -> SceneSpec:
@@ -412,18 +441,20 @@ class Physics(_Strict):
 class SuccessCheck(_Strict):
     """A named success criterion, evaluated once at the end of the run.
 
-        `object_at`: the object rests on the table within `xy_tol_m` of the target and is upright
-        within `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and
-        its fingers are at least `min_distance_m` from it. `held`: both fingers touch the object and
+    `object_at`: the object rests on the table within `xy_tol_m` of the target and is upright
+    within `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and
+    its fingers are at least `min_distance_m` from it. `held`: both fingers touch the object and
     it is at least `min_lift_m` above where it started. `trace`: a contact trace ran to the end
-        of its path on the real surface — measured every physics step against the true path (not
-        the registered one): cross-track error within `cross_track_max_mm` at every step, the tip
-        within `end_tol_mm` of the true path's end along it, the true normal force within
-        `force_rms_max_n` RMS of the target and never above `force_peak_max_n`. A failed check
-        says by how much in the result's `success_detail`.
+    of its path on the real surface — measured every physics step against the true path (not
+    the registered one): cross-track error within `cross_track_max_mm` at every step, the tip
+    within `end_tol_mm` of the true path's end along it, the true normal force within
+    `force_rms_max_n` RMS of the target and never above `force_peak_max_n`. `parcels_sorted`:
+    every parcel of `scene.parcels` ended in the bin of its class or was rejected by the flow
+    with a reason (the task log's verdicts: none missorted, dropped or left unsorted). A failed
+    check says by how much in the result's `success_detail`.
     """
 
-    kind: Literal["object_at", "gripper_clear", "held", "trace"]
+    kind: Literal["object_at", "gripper_clear", "held", "trace", "parcels_sorted"]
     object: str | None = Field(
         default=None, description="`object_at`, `gripper_clear`: the scene object judged."
     )
@@ -461,7 +492,7 @@ class SuccessCheck(_Strict):
     def _target(self) -> SuccessCheck:
         if self.kind == "object_at" and self.target is None:
             raise ValueError("`object_at` needs a `target` (a marker name, [x, y, z] or $key)")
-        if self.kind != "trace" and self.object is None:
+        if self.kind in ("object_at", "gripper_clear") and self.object is None:
             raise ValueError(f"`{self.kind}` needs an `object` (a scene object name)")
         return self
 
@@ -540,3 +571,27 @@ class Scenario(_Strict):
         default_factory=list,
         description="Events sent into the run at simulated times (see docs/live.md).",
     )
+
+    def for_seed(self, seed: int) -> tuple[Scenario, dict[str, str]]:
+        """This scenario with what is drawn per seed as scene objects (the parcels of
+        `scene.parcels`), and the class of each parcel by name."""
+        p = self.scene.parcels
+        if p is None or p.count == 0:
+            return self, {}
+        objects = list(self.scene.objects)
+        classes: dict[str, str] = {}
+        for name, (cls, size, mass, x, y, yaw) in draw_parcels(p, seed):
+            objects.append(
+                ObjectSpec(
+                    name=name,
+                    size=size,
+                    mass=mass,
+                    xy=[x, y],
+                    yaw_deg=math.degrees(yaw),
+                    friction=p.friction,
+                    rgba=list(p.classes[cls]),
+                )
+            )
+            classes[name] = cls
+        scene = self.scene.model_copy(update={"objects": objects})
+        return self.model_copy(update={"scene": scene}), classes

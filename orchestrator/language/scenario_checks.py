@@ -13,11 +13,20 @@ from ..skills import SKILLS, skill_names
 from .diagnostics import Diagnostic
 from .loading import MachineNode, initial_values
 from .machine import guard_entries
+from .parcels import parcel_name
 from .refs import parse_ref
 from .scenario import Scenario
 from .yamlio import SourceMap
 
 __all__ = ["goal_keys", "check_faults", "check_scenario_refs", "check_scene_names", "scene_bodies"]
+
+
+def object_names(scenario: Scenario) -> list[str]:
+    """The free objects' names: those of `scene.objects`, then the parcels' (`parcel_00`...;
+    drawn per seed, named before)."""
+    p = scenario.scene.parcels
+    parcels = [parcel_name(i, p.count) for i in range(p.count)] if p is not None else []
+    return [o.name for o in scenario.scene.objects] + parcels
 
 
 def scene_bodies(scenario: Scenario) -> list[str]:
@@ -26,7 +35,7 @@ def scene_bodies(scenario: Scenario) -> list[str]:
     out = ["world", "table"]
     if scenario.scene.phantom is not None:
         out.append(scenario.scene.phantom.name)
-    return out + [o.name for o in scenario.scene.objects]
+    return out + object_names(scenario)
 
 
 def check_scene_names(
@@ -37,9 +46,10 @@ def check_scene_names(
     """
 
     skill_names()  # discover the skills
-    objects = [o.name for o in scenario.scene.objects]
+    objects = object_names(scenario)
     names = {
         "object": ("scene object", objects),
+        "gripped_object": ("scene object", [*objects, "*"]),
         "target": ("object or marker", objects + [m.name for m in scenario.scene.markers]),
         "zone": ("no-go zone", [z.name for z in getattr(scenario.scene, "zones", [])]),
         "body": ("scene body", scene_bodies(scenario)),
@@ -139,7 +149,7 @@ def check_scenario_refs(
     """Success checks name existing objects and markers (or, with `$key`, a blackboard key of
     the machine, `keys`); the robot is a registered one."""
     out = []
-    objects = [o.name for o in scenario.scene.objects]
+    objects = object_names(scenario)
     markers = [m.name for m in scenario.scene.markers]
     for name, check in scenario.success.items():
         if check.object is not None and check.object not in objects:
@@ -182,7 +192,7 @@ def check_faults(
     """Faults name states of the machine, objects of the scene and joints of the robot."""
     out = []
     states = {path for path, _, _ in machine.walk()}
-    objects = [o.name for o in scenario.scene.objects]
+    objects = object_names(scenario)
     for i, fault in enumerate(scenario.faults):
         at = ("faults", i)
         if fault.on_enter is not None and fault.on_enter not in states:

@@ -446,9 +446,14 @@ def _check_params(
     return out
 
 
-_RANGE_MESSAGES = ("Input should be greater than", "Input should be less than")
-"""How pydantic's range errors read: a `$key` of the right type is
-checked against the parameter's range when the state starts, with its value."""
+_RANGE_MESSAGES = (
+    "Input should be greater than",
+    "Input should be less than",
+    "should have at least",
+    "should have at most",
+)
+"""How pydantic's range and length errors read: a `$key` of the right type is
+checked against the parameter's range (a list's length) when the state starts, with its value."""
 
 
 def _contains_none(value: Any) -> bool:

@@ -73,6 +73,8 @@ class World:
     ) -> None:
         self.scenario = scenario
         self.seed = seed
+        self.parcel_classes: dict[str, str] = {}
+        """Parcel name -> its true class, for the parcels of `scene.parcels`."""
         self.robot = robot
         self.model = model
         self.data = mujoco.MjData(model)
@@ -155,7 +157,9 @@ class World:
 
     @classmethod
     def build(cls, scenario: Scenario, seed: int) -> World:
-        """Assemble robot + table + objects + markers with MjSpec and compile them."""
+        """Assemble robot + table + objects + markers with MjSpec and compile them (the
+        scenario's parcels, drawn for `seed`, become objects)."""
+        scenario, parcel_classes = scenario.for_seed(seed)
         robot = get_robot(scenario.robot.name)
         if scenario.tool is not None:
             robot = mount_tool(robot, tool_from_spec(scenario.tool))
@@ -188,6 +192,7 @@ class World:
         object_geoms = [model.body(o.name).geomadr[0] for o in scenario.scene.objects]
         randomize_appearance(model, scenario, seed, [int(g) for g in object_geoms])
         world = cls(scenario, seed, robot, model, sensors)
+        world.parcel_classes = parcel_classes
         apply_joint_friction(model, robot, world.arm_dof, scenario.physics.realism)
         return world
 

@@ -1,0 +1,125 @@
+"""Scene keys of sorting cells: a pick area of random parcels (`scene.parcels`) and bins
+with walls (`scene.bins`) a released parcel falls into."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+__all__ = ["Bin", "Parcels", "bin_walls"]
+
+_Len = Annotated[float, Field(ge=0.01, le=0.5, description="[m]")]
+_LenRange = Annotated[list[_Len], Field(min_length=2, max_length=2)]
+_Mass = Annotated[float, Field(ge=0.001, le=3.0, description="[kg]")]
+_Coord = Annotated[float, Field(ge=-10.0, le=10.0)]
+_XY = Annotated[list[_Coord], Field(min_length=2, max_length=2)]
+_Size2 = Annotated[
+    list[Annotated[float, Field(ge=0.02, le=5.0)]], Field(min_length=2, max_length=2)
+]
+_Unit = Annotated[float, Field(ge=0.0, le=1.0)]
+_RGBA = Annotated[list[_Unit], Field(min_length=4, max_length=4)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", populate_by_name=True, allow_inf_nan=False)
+
+
+def _ordered(name: str, pair: list[float]) -> None:
+    if pair[0] > pair[1]:
+        raise ValueError(f"{name} {pair}: the first bound must not exceed the second")
+
+
+class Parcels(_Strict):
+    """Parcels at random poses in a pick area, drawn per seed: class (uniformly among
+    `classes`), size, mass, pose; a fraction `touching` is placed against a parcel of another class
+    already there (end to end along their long sides, where no finger goes); every other pair
+    stays at least `gap_m` apart.
+
+    `--set parcels=N` sets `count`.
+    """
+
+    count: int = Field(default=8, ge=0, le=10_000, description="How many parcels.")
+    area_center_xy: _XY = Field(description="Centre of the pick area on the table [m].")
+    area_size_xy: _Size2 = Field(description="Extent of the pick area [m].")
+    classes: dict[str, _RGBA] = Field(
+        min_length=1,
+        description="Class -> colour (RGBA, 0..1) of its parcels; perception names the class "
+        "by that colour (`perception.classes`).",
+    )
+    length_m: _LenRange = Field(
+        default_factory=lambda: [0.06, 0.07], description="Long side, drawn uniformly [m]."
+    )
+    width_m: _LenRange = Field(
+        default_factory=lambda: [0.04, 0.045],
+        description="Short side, drawn uniformly [m]; the gripper closes across it. At least "
+        "1.5 cm shorter than the long side by default: a near-square top face (5.5 x 4.9 cm) "
+        "let perception report the wrong side as the long one, and the fingers closed onto the "
+        "neighbour touching its end.",
+    )
+    height_m: _LenRange = Field(
+        default_factory=lambda: [0.04, 0.06], description="Height, drawn uniformly [m]."
+    )
+    mass_kg: Annotated[list[_Mass], Field(min_length=2, max_length=2)] = Field(
+        default_factory=lambda: [0.05, 0.4], description="Mass, drawn uniformly [kg]."
+    )
+    touching: _Unit = Field(
+        default=0.25, description="Probability that a parcel is placed touching another one."
+    )
+    gap_m: float = Field(
+        default=0.03,
+        ge=0.0,
+        le=0.5,
+        description="Least distance between parcels that do not touch [m] (room for fingers).",
+    )
+    friction: float = Field(default=0.8, ge=0.01, le=5.0, description="Sliding friction.")
+
+    @model_validator(mode="after")
+    def _ranges(self) -> Parcels:
+        for name in ("length_m", "width_m", "height_m", "mass_kg"):
+            _ordered(name, getattr(self, name))
+        if self.width_m[1] > self.length_m[0]:
+            raise ValueError(
+                f"width_m {self.width_m} must stay below length_m {self.length_m}: the long "
+                "side is what perception reports as the parcel's heading"
+            )
+        return self
+
+
+class Bin(_Strict):
+    """A box with walls standing on the table, open at the top, for the parcels of one class.
+    Its floor is a marker of the same name (a `move` target: the centre of the floor)."""
+
+    name: str = Field(description="Its name as a target (`move`'s `target: bin_A`).")
+    class_: str = Field(alias="class", description="The parcel class it is meant for.")
+    xy: _XY = Field(description="Centre on the table [m].")
+    size_xy: _Size2 = Field(default_factory=lambda: [0.17, 0.17], description="Outer size [m].")
+    wall_height_m: float = Field(default=0.07, ge=0.005, le=1.0, description="[m]")
+    wall_thickness_m: float = Field(default=0.01, ge=0.002, le=0.1, description="[m]")
+    rgba: _RGBA = Field(default_factory=lambda: [0.45, 0.45, 0.48, 1.0])
+
+    @model_validator(mode="after")
+    def _walls(self) -> Bin:
+        if min(self.size_xy) <= 2 * self.wall_thickness_m + 0.01:
+            raise ValueError(
+                f"size_xy {self.size_xy} leaves no room inside walls "
+                f"{self.wall_thickness_m} m thick"
+            )
+        return self
+
+    def inner_half(self) -> tuple[float, float]:
+        """Half extents of the floor inside the walls [m]."""
+        t = self.wall_thickness_m
+        return self.size_xy[0] / 2 - t, self.size_xy[1] / 2 - t
+
+
+def bin_walls(b: Bin, table_height: float) -> list[tuple[str, list[float], list[float]]]:
+    """The four walls of `b`: `(name, centre [m], full size [m])` each."""
+    (sx, sy), t, h = b.size_xy, b.wall_thickness_m, b.wall_height_m
+    x, y, z = b.xy[0], b.xy[1], table_height + h / 2
+    return [
+        (f"{b.name}_wall_xn", [x - sx / 2 + t / 2, y, z], [t, sy, h]),
+        (f"{b.name}_wall_xp", [x + sx / 2 - t / 2, y, z], [t, sy, h]),
+        (f"{b.name}_wall_yn", [x, y - sy / 2 + t / 2, z], [sx - 2 * t, t, h]),
+        (f"{b.name}_wall_yp", [x, y + sy / 2 - t / 2, z], [sx - 2 * t, t, h]),
+    ]
