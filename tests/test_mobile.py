@@ -120,3 +120,12 @@ def test_target_moved_during_the_approach_goes_back_to_searching_and_succeeds():
     assert any(s.startswith("SEARCHING") for s in visits[first_grasp:]), visits
     assert result.outcome == "succeeded", (result.reason, result.success_detail)
     assert result.success["cube_lifted"]
+
+
+def test_a_block_seen_20_deg_off_from_afar_is_still_grasped():
+    # Seed 18: the look from the viewing distance reads the block's yaw 20 deg off; with the
+    # grasp machine's 30 mm pre-shape a finger landed on the block's top (110 N, aborted).
+    result = run_episode(load_scenario("mobile_search"), 18)
+    assert result.metrics["detection_yaw_error_deg"] > 15.0  # the case this test is about
+    assert result.outcome == "succeeded", (result.reason, result.success_detail)
+    assert result.metrics["max_wrist_force_n"] < 20.0
