@@ -28,7 +28,10 @@ from .scene import add_scene
 if TYPE_CHECKING:
     from ..language.scenario import Scenario
 
-__all__ = ["ObjectHandle", "World", "as_index", "robot_only_model"]
+__all__ = ["SLEEP", "ObjectHandle", "World", "as_index", "robot_only_model"]
+
+SLEEP = int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+"""MuJoCo's enable flag of island sleeping, set on every world."""
 
 
 @dataclass(frozen=True)
@@ -171,6 +174,12 @@ class World:
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
         spec.option.impratio = 10.0
+        # Free objects at rest sleep (MuJoCo's island sleeping): a resting block costs its
+        # collisions and contact rows every step until something touches or pushes it (a
+        # contact with an awake body, a velocity, an applied force wakes it). The robot never
+        # sleeps (its trees are actuated). Measured: mj_step 168 -> 82 us on sorting, 110 -> 62
+        # us on mobile_search (docs/architecture.md).
+        spec.option.enableflags |= SLEEP
         spec.body(robot.root_body).pos = scenario.robot.base_pos
         add_scene(spec, scenario, seed)
         add_phantom_scene(spec, scenario, seed)
