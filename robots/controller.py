@@ -94,11 +94,21 @@ class Controller:
         self.effort_limit = np.asarray(self.model.effortLimit[: self.n], dtype=float).copy()
         self.tcp_id = self.model.getFrameId(robot.tcp_frame)
         self.mode = ControlMode.HOLD
-        self.q_d = np.array(robot.home, dtype=float)
-        self.qd_d = np.zeros(self.n)
-        self.qdd_d = np.zeros(self.n)
-        self.dt = dt
+        self._setpoint = np.zeros((2, self.n))
+        """(q_d, qd_d) as the rows of one array: the setpoint advances with one call."""
+        self.q_d = self._setpoint[0]
+        self.q_d[:] = robot.home
+        self.qd_d = self._setpoint[1]
         self._qdd_full = np.zeros(self.model.nv)
+        self.qdd_d = self._qdd_full[: self.n]
+        """A view of the acceleration RNEA is given (its fingers' part stays zero)."""
+        self.dt = dt
+        self._advance = np.array([[0.5 * dt], [1.0]])
+        """Factors on qdd_d of the setpoint's advance (q_d by its half-step term, qd_d by it)."""
+        self._step = np.zeros((2, self.n))
+        self._dt = np.array(dt)
+        self._err = np.zeros(self.n)
+        self._derr = np.zeros(self.n)
         self.pos_d = np.zeros(3)
         self.rot_d = np.eye(3)
         self.cart = CartesianGains.critically_damped(500.0, 30.0)
@@ -231,27 +241,41 @@ class Controller:
             Arm torques in [Nm], clamped to the effort limits. Shape (n,).
         """
         n = self.n
-        if self.mode is ControlMode.CARTESIAN:
-            g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
-            tau = self._cartesian(q, qd) + g
-            self.q_d[:] = q[:n]
-        elif self.mode is ControlMode.HOLD:
-            g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
-            tau = self.kp * (self.q_d - q[:n]) - self.kd * qd[:n] + g
-        elif self.mode is ControlMode.BRAKE:
-            tau = self._brake(q, qd)
-        else:
-            self._qdd_full[:n] = self.qdd_d
+        tau = self._err
+        # Each numpy call on these short vectors costs ~1 us, a fresh array or a Python float
+        # operand more: the same operations in the same order, into buffers, on 0-d scalars.
+        if self.mode is ControlMode.JOINT:
             ff = pin.rnea(self.model, self.data, q, qd, self._qdd_full)[:n]
-            tau = self.kp * (self.q_d - q[:n]) + self.kd * (self.qd_d - qd[:n]) + ff
+            np.subtract(self.q_d, q[:n], out=tau)
+            np.multiply(self.kp, tau, out=tau)
+            derr = np.subtract(self.qd_d, qd[:n], out=self._derr)
+            np.multiply(self.kd, derr, out=derr)
+            np.add(tau, derr, out=tau)
+            np.add(tau, ff, out=tau)
             # the setpoint moves on between control ticks (no 100 Hz staircase), exactly
-            # along the tick's constant acceleration: it arrives where the next tick starts
-            self.q_d += (self.qd_d + 0.5 * self.dt * self.qdd_d) * self.dt
-            self.qd_d += self.qdd_d * self.dt
+            # along the tick's constant acceleration: it arrives where the next tick starts.
+            # Rows: q_d += (qd_d + dt/2 qdd_d) dt, qd_d += qdd_d dt.
+            step = np.multiply(self._advance, self.qdd_d, out=self._step)
+            np.add(self.qd_d, step[0], out=step[0])
+            np.multiply(step, self._dt, out=step)
+            np.add(self._setpoint, step, out=self._setpoint)
             if self._rest_left_s > 0.0:  # coming to rest (come_to_rest): hold once there
                 self._rest_left_s -= self.dt
                 if self._rest_left_s <= 1e-9:
                     self.hold(self.q_d)
+        elif self.mode is ControlMode.HOLD:
+            g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
+            np.subtract(self.q_d, q[:n], out=tau)
+            np.multiply(self.kp, tau, out=tau)
+            derr = np.multiply(self.kd, qd[:n], out=self._derr)
+            np.subtract(tau, derr, out=tau)
+            np.add(tau, g, out=tau)
+        elif self.mode is ControlMode.CARTESIAN:
+            g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
+            tau = self._cartesian(q, qd) + g
+            self.q_d[:] = q[:n]
+        else:
+            tau = self._brake(q, qd)
         np.minimum(tau, self.effort_limit, out=self.tau)
         np.maximum(self.tau, self._lo, out=self.tau)
         return self.tau
@@ -272,7 +296,6 @@ class Controller:
         self.qd_d[:] = np.where(same, np.sign(ref) * mag, 0.0)
         slowing = same & (np.abs(v) > np.abs(ref))
         self.qdd_d[:] = np.where(slowing, -np.sign(ref) * self._decel, 0.0)
-        self._qdd_full[:n] = self.qdd_d
         ff = pin.rnea(self.model, self.data, q, qd, self._qdd_full)[:n]
         tau = self.kd * (self.qd_d - v) + ff
         self.q_d[:] = q[:n]
