@@ -53,6 +53,8 @@ class BaseMap:
     def __init__(self, boxes: list[Box2D], origin: tuple[float, float]) -> None:
         self.boxes = boxes
         self.origin = origin
+        self._rects = [(float(b.cx), float(b.cy), float(b.hx), float(b.hy)) for b in boxes]
+        """Each box's centre and half sizes as plain floats (the queries' inner loops)."""
         xs = [b.cx - b.hx for b in boxes] + [b.cx + b.hx for b in boxes] or [-2.0, 2.0]
         ys = [b.cy - b.hy for b in boxes] + [b.cy + b.hy for b in boxes] or [-2.0, 2.0]
         self.x0, self.y0 = min(xs), min(ys)
@@ -68,11 +70,17 @@ class BaseMap:
 
     def clearance(self, x: float, y: float) -> float:
         """Distance from the point (world [m]) to the nearest box [m] (negative inside)."""
+        # plain floats: a numpy scalar costs several times as much per operation, same values
+        x, y = float(x), float(y)
         best = math.inf
-        for b in self.boxes:
-            dx, dy = abs(x - b.cx) - b.hx, abs(y - b.cy) - b.hy
-            out = math.hypot(max(dx, 0.0), max(dy, 0.0))
-            best = min(best, out if out > 0 else max(dx, dy))
+        for cx, cy, hx, hy in self._rects:
+            dx, dy = abs(x - cx) - hx, abs(y - cy) - hy
+            if dx > 0.0 or dy > 0.0:
+                d = math.hypot(dx if dx > 0.0 else 0.0, dy if dy > 0.0 else 0.0)
+            else:
+                d = dx if dx >= dy else dy  # inside: the (negative) distance to the nearest side
+            if d < best:  # noqa: PLR1730 (cheaper than min() in this loop)
+                best = d
         return best
 
     def is_free(self, x: float, y: float) -> bool:
@@ -84,8 +92,10 @@ class BaseMap:
         grown by `margin` [m], touches no box (tested on points along its outline)."""
         hl, hw = rect[0] + margin, rect[1] + margin
         c, s = math.cos(yaw), math.sin(yaw)
-        for u in np.linspace(-hl, hl, 9):
-            for v in np.linspace(-hw, hw, 7):
+        x, y = float(x), float(y)
+        us, vs = np.linspace(-hl, hl, 9).tolist(), np.linspace(-hw, hw, 7).tolist()
+        for u in us:
+            for v in vs:
                 if abs(u) < hl - 1e-9 and abs(v) < hw - 1e-9:
                     continue  # inside the outline: a box this small is not in a room
                 if self.clearance(x + c * u - s * v, y + s * u + c * v) <= 0.0:
@@ -97,17 +107,21 @@ class BaseMap:
         x, y, z [m]): no box taller than the target's bottom lies in the corridor of
         `half_width` [m] between them (the surface the target rests on is lower)."""
         base = np.asarray(base, float)
-        tip = np.asarray(target[:2], float)
-        d = tip - base
+        d = np.asarray(target[:2], float) - base
         n = np.array([-d[1], d[0]]) / (float(np.linalg.norm(d)) or 1.0)
-        for b in self.boxes:
+        # the corridor's sample points, as plain floats (the same sums numpy would do)
+        (bx, by), (dx, dy), (nx, ny) = base.tolist(), d.tolist(), n.tolist()
+        points = [
+            (bx + k * dx + side * nx, by + k * dy + side * ny)
+            for k in np.linspace(0.0, 1.0, 12).tolist()
+            for side in (-half_width, 0.0, half_width)
+        ]
+        for b, (cx, cy, hx, hy) in zip(self.boxes, self._rects, strict=True):
             if b.top <= target[2] - 0.01:
                 continue
-            for k in np.linspace(0.0, 1.0, 12):
-                for side in (-half_width, 0.0, half_width):
-                    x, y = base + k * d + side * n
-                    if abs(x - b.cx) < b.hx and abs(y - b.cy) < b.hy:
-                        return False
+            for x, y in points:
+                if abs(x - cx) < hx and abs(y - cy) < hy:
+                    return False
         return True
 
     def segment_free(self, a: np.ndarray, b: np.ndarray) -> bool:
