@@ -87,23 +87,33 @@ class BaseMotion:
         """The last pose in joint coordinates (x, y relative to the root; yaw unwrapped)."""
         self.duration = sum(p.duration for _, _, p in self.segments)
         self.path_m = sum(float(np.hypot(d[0], d[1])) for _, d, _ in self.segments)
+        self._floats = [(a.tolist(), d.tolist()) for a, d, _ in self.segments]
+        """Each segment's start and delta as floats: the setpoint is three sums per tick."""
+        self._q = self.q_hold.copy()
+        self._qd = np.zeros_like(self.q_hold)
+        self._qdd = np.zeros_like(self.q_hold)
+        """The setpoint sent every tick (the controller copies it): the arm's part is q_hold."""
 
     def command(self, ctx: Context, t: float) -> bool:
         """Send the controller the setpoint at `t` [s] from the start; True once it is over."""
-        q, qd, qdd = self.q_hold.copy(), np.zeros_like(self.q_hold), np.zeros_like(self.q_hold)
+        q, qd, qdd = self._q, self._qd, self._qdd
         elapsed = 0.0
-        for start, delta, profile in self.segments:
-            if t < elapsed + profile.duration or profile is self.segments[-1][2]:
+        last = self.segments[-1][2] if self.segments else None
+        for (_, _, profile), (start, delta) in zip(self.segments, self._floats, strict=True):
+            if t < elapsed + profile.duration or profile is last:
                 s, sd, sdd = profile.state(t - elapsed)
                 if profile.duration <= 0.0:
                     s, sd, sdd = 1.0, 0.0, 0.0
-                q[:3] = start + s * delta
-                qd[:3] = sd * delta
-                qdd[:3] = sdd * delta
+                for i in range(3):  # floats: the same products and sums numpy would do
+                    q[i] = start[i] + s * delta[i]
+                    qd[i] = sd * delta[i]
+                    qdd[i] = sdd * delta[i]
                 break
             elapsed += profile.duration
         else:
             q[:3] = self.goal
+            qd[:3] = 0.0
+            qdd[:3] = 0.0
         ctx.controller.set_joint_target(q, qd, qdd)
         return t >= self.duration
 
