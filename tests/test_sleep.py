@@ -71,3 +71,16 @@ def test_a_body_landing_on_a_sleeping_block_wakes_it_and_their_contact_is_comput
     assert touched, "the falling block passed through the sleeping one"
     top = d.xpos[above.body_id, 2] - d.xpos[below.body_id, 2]
     assert top == pytest.approx(0.05, abs=0.005)  # it rests on it, one block higher
+
+
+def test_physics_sleep_false_keeps_every_block_awake():
+    world = World.build(load_scenario("mobile_search", ["physics.sleep=false"]).scenario, 1)
+    _settle(world, 500)
+    assert not any(_asleep(world, name) for name in world.objects)
+    assert not world.model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_SLEEP
+
+
+def test_a_bad_physics_sleep_value_is_a_located_error(cli):
+    res = cli("run", "mobile_search", "--set", "physics.sleep=sometimes")
+    assert res.exit_code == 2
+    assert "physics.sleep" in res.stderr and "Traceback" not in res.stderr

@@ -427,6 +427,12 @@ class Physics(_Strict):
         default_factory=Realism,
         description="Joint friction, sensor noise and drift, encoder quantization, model mismatch.",
     )
+    sleep: bool = Field(
+        default=True,
+        description="Free objects at rest sleep (MuJoCo island sleeping) until a contact with "
+        "a moving body, a velocity or a force wakes them: the step skips their collisions. "
+        "Turn off for objects moved only by static or mocap bodies (they would not wake).",
+    )
 
     @model_validator(mode="after")
     def _tick_fits_steps(self) -> Physics:

@@ -177,9 +177,10 @@ class World:
         # Free objects at rest sleep (MuJoCo's island sleeping): a resting block costs its
         # collisions and contact rows every step until something touches or pushes it (a
         # contact with an awake body, a velocity, an applied force wakes it). The robot never
-        # sleeps (its trees are actuated). Measured: mj_step 168 -> 82 us on sorting, 110 -> 62
-        # us on mobile_search (docs/architecture.md).
-        spec.option.enableflags |= SLEEP
+        # sleeps (its trees are actuated). Measured: mj_step 173 -> 80 us a step on sorting,
+        # 117 -> 75 us on mobile_search (docs/architecture.md, docs/performance.md).
+        if scenario.physics.sleep:
+            spec.option.enableflags |= SLEEP
         spec.body(robot.root_body).pos = scenario.robot.base_pos
         add_scene(spec, scenario, seed)
         add_phantom_scene(spec, scenario, seed)
