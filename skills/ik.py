@@ -13,6 +13,7 @@ import mink
 import numpy as np
 from orchestrator.robots import Robot
 
+from .ik_qp import IKProblem
 from .joint_limiter import JointLimiter
 from .posture import NullspacePostureTask
 from .whole_body import apply_whole_body_costs
@@ -84,6 +85,8 @@ class IKSolver:
             mink.VelocityLimit(model, {j: velocity_limit for j in robot.arm_joints}),
         ]
         self.damping = damping
+        self._problem: IKProblem | None = None
+        self._problem_key: tuple | None = None
         self.velocity = np.zeros(self.n)
         self.acceleration = np.zeros(self.n)
         self.reference_velocity = np.zeros(self.n)
@@ -195,18 +198,28 @@ class IKSolver:
         smooth = ramp * ramp * (3.0 - 2.0 * ramp)
         if isinstance(self.posture_task, NullspacePostureTask):
             self.posture_task.gain = min(1.0, dt / POSTURE_TIME_CONSTANT_S) * smooth
-        v = mink.solve_ik(
-            self.config,
-            self.tasks,
-            dt,
-            "daqp",
-            damping=self.damping,
-            limits=self.limits,
-        )
+        v = self._solve(dt)
         self.config.integrate_inplace(v, dt)  # the IK's own reference, open loop
         self.reference_velocity = v[: self.n]
         self._error = None
         return self.reference_velocity
+
+    def _solve(self, dt: float) -> np.ndarray:
+        """mink's IK velocity over `dt` [s]: assembled in place (`IKProblem`, the same bits)
+        for the tasks and limits this solver builds, by `mink.solve_ik` for any others."""
+        key = (tuple(map(id, self.tasks)), tuple(map(id, self.limits)), self.damping)
+        if key != self._problem_key:
+            self._problem_key = key
+            self._problem = (
+                IKProblem(self.config, self.tasks, self.limits, self.damping)
+                if IKProblem.supports(self.tasks, self.limits)
+                else None
+            )
+        if self._problem is not None:
+            return self._problem.solve(dt)
+        return mink.solve_ik(
+            self.config, self.tasks, dt, "daqp", damping=self.damping, limits=self.limits
+        )
 
     @property
     def lag(self) -> float:

@@ -60,8 +60,12 @@ class NullspacePostureTask(mink.Task):
 
     def projector(self, configuration: mink.Configuration) -> np.ndarray:
         """N = I - J⁺J of the frame task at `configuration`. Shape (nv, nv)."""
-        jac = self.frame_task.compute_jacobian(configuration)
-        return self._eye - np.linalg.pinv(jac, rcond=_RCOND) @ jac
+        return self.projector_from(self.frame_task.compute_jacobian(configuration))
+
+    def projector_from(self, jacobian: np.ndarray) -> np.ndarray:
+        """N = I - J⁺J of the frame task's Jacobian `jacobian` (shape (6, nv)), when the
+        caller has it already (skills/ik_qp.py). Shape (nv, nv)."""
+        return self._eye - np.linalg.pinv(jacobian, rcond=_RCOND) @ jacobian
 
     def raw_error(self, configuration: mink.Configuration) -> np.ndarray:
         """The joint posture error q ⊖ q* [rad], unprojected. Shape (nv,)."""
