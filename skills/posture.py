@@ -64,7 +64,29 @@ class NullspacePostureTask(mink.Task):
 
     def projector_from(self, jacobian: np.ndarray) -> np.ndarray:
         """N = I - J⁺J of the frame task's Jacobian `jacobian` (shape (6, nv)), when the
-        caller has it already (skills/ik_qp.py). Shape (nv, nv)."""
+        caller has it already (skills/ik_qp.py). Shape (nv, nv).
+
+        Where J has full row rank with every singular value above `_RCOND` of the largest,
+        J⁺J = Jᵀ(JJᵀ)⁻¹J: a 6x6 inverse instead of an SVD (a quarter of the time). The
+        inverse's trace proves that case cheaply: λ_min(JJᵀ) >= 1 / tr((JJᵀ)⁻¹) and
+        λ_max(JJᵀ) <= tr(JJᵀ), so 1 / tr((JJᵀ)⁻¹) >= _RCOND² tr(JJᵀ) means no singular value
+        is below the cut (98.5 % of uniformly random Panda configurations; the two agree to
+        6e-12 there, tests/test_posture.py). Otherwise (near a singularity, where the bound
+        is conservative by at most 36x) the pseudo-inverse with its cut does it, as before.
+        """
+        gram = jacobian @ jacobian.T
+        try:
+            inverse = np.linalg.inv(gram)
+        except np.linalg.LinAlgError:  # exactly singular
+            return self.pinv_projector(jacobian)
+        # a positive diagonal: not the inverse of a numerically indefinite (singular) gram
+        if inverse.trace() * gram.trace() * _RCOND**2 <= 1.0 and inverse.diagonal().min() > 0.0:
+            return self._eye - jacobian.T @ (inverse @ jacobian)
+        return self.pinv_projector(jacobian)
+
+    def pinv_projector(self, jacobian: np.ndarray) -> np.ndarray:
+        """N = I - J⁺J by the SVD pseudo-inverse, singular values below `_RCOND` of the
+        largest cut (the reference for `projector_from`). Shape (nv, nv)."""
         return self._eye - np.linalg.pinv(jacobian, rcond=_RCOND) @ jacobian
 
     def raw_error(self, configuration: mink.Configuration) -> np.ndarray:
