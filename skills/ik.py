@@ -10,6 +10,7 @@ one tick). A feasible reference passes through unchanged.
 from __future__ import annotations
 
 import mink
+import mujoco
 import numpy as np
 from orchestrator.robots import Robot
 
@@ -85,6 +86,9 @@ class IKSolver:
             mink.VelocityLimit(model, {j: velocity_limit for j in robot.arm_joints}),
         ]
         self.damping = damping
+        self._model = model
+        self._target = mink.SE3.identity().copy()
+        """The frame task's target, rewritten in place by `reference_step`."""
         self._problem: IKProblem | None = None
         self._problem_key: tuple | None = None
         self.velocity = np.zeros(self.n)
@@ -189,9 +193,15 @@ class IKSolver:
             The reference's arm joint velocity over the step [rad/s] (also in
             `reference_velocity`). Shape (n,).
         """
-        so3 = rot if isinstance(rot, mink.SO3) else mink.SO3.from_matrix(rot)
-        target = mink.SE3.from_rotation_and_translation(so3, np.asarray(pos) - self.base_pos)
-        self.frame_task.set_target(target)
+        # the target written in place (what SE3.from_rotation_and_translation + set_target
+        # would build and copy): the frame task holds this solver's own SE3
+        target = self._target.wxyz_xyz
+        if isinstance(rot, mink.SO3):
+            target[:4] = rot.wxyz
+        else:
+            mujoco.mju_mat2Quat(target[:4], np.ascontiguousarray(rot, dtype=float).ravel())
+        np.subtract(pos, self.base_pos, out=target[4:])
+        self.frame_task.transform_target_to_world = self._target
         # the posture error decays with a time constant, whatever the step, once ramped in
         self._since_reset += dt
         ramp = min(1.0, self._since_reset / POSTURE_RAMP_S)
@@ -199,7 +209,12 @@ class IKSolver:
         if isinstance(self.posture_task, NullspacePostureTask):
             self.posture_task.gain = min(1.0, dt / POSTURE_TIME_CONSTANT_S) * smooth
         v = self._solve(dt)
-        self.config.integrate_inplace(v, dt)  # the IK's own reference, open loop
+        # the IK's own reference, open loop (integrate_inplace without the constraint
+        # assembly of `Configuration.update`: no task here reads the equality constraints)
+        data = self.config.data
+        mujoco.mj_integratePos(self._model, data.qpos, v, dt)
+        mujoco.mj_kinematics(self._model, data)
+        mujoco.mj_comPos(self._model, data)
         self.reference_velocity = v[: self.n]
         self._error = None
         return self.reference_velocity

@@ -76,6 +76,11 @@ class IKProblem:
         """The stacked cost-weighted task Jacobians. Shape (rows, nv)."""
         self._e = np.empty(start)
         """The stacked cost-weighted task errors. Shape (rows,)."""
+        self._plan = [
+            (_kind(task), task, self._e[rows], self._W[rows])
+            for task, rows in zip(self.tasks, self.rows, strict=True)
+        ]
+        """Per task: its kind, itself, and its views of the stacked rows."""
         self._diff = np.empty(nv)
         self._dq_max = np.empty(nv)
         self._dq_min = np.empty(nv)
@@ -99,7 +104,9 @@ class IKProblem:
             if isinstance(task, mink.PostureTask) and task._v_ids is not None:
                 return False  # floating-base columns zeroed: not assembled here
             if isinstance(task, NullspacePostureTask) and (
-                task.frame_task not in frames or tasks.index(task.frame_task) > tasks.index(task)
+                len(frames) != 1
+                or task.frame_task is not frames[0]
+                or tasks.index(frames[0]) > tasks.index(task)
             ):
                 return False  # its projector needs its frame task's Jacobian first
         for limit in limits:
@@ -135,22 +142,20 @@ class IKProblem:
         config = self.configuration
         W, e = self._W, self._e
         mu_total = 0.0
-        frame_jacobian: dict[int, np.ndarray] = {}
-        for task, rows in zip(self.tasks, self.rows, strict=True):
-            cost = task.cost
-            if isinstance(task, mink.FrameTask):
+        frame_jacobian = None
+        for kind, task, e_rows, w_rows in self._plan:
+            if kind is _FRAME:
                 error, jacobian = task._error_and_jacobian(config)
-                frame_jacobian[id(task)] = jacobian
-            elif isinstance(task, NullspacePostureTask):
-                jacobian = task.projector_from(frame_jacobian[id(task.frame_task)])
+                frame_jacobian = jacobian
+            elif kind is _NULLSPACE:  # its frame task comes first (`supports`)
+                jacobian = task.projector_from(frame_jacobian)
                 error = jacobian @ task.raw_error(config)
             else:  # PostureTask, DampingTask: J = I, e = q - q* (DampingTask: 0)
                 jacobian = self._eye
                 error = self._posture_error(task)
-            np.multiply(cost, -task.gain * error, out=e[rows])
-            np.multiply(cost[:, None], jacobian, out=W[rows])
-            weighted = e[rows]
-            mu_total += task.lm_damping * float(weighted @ weighted)
+            np.multiply(task.cost, -task.gain * error, out=e_rows)
+            np.multiply(task.cost[:, None], jacobian, out=w_rows)
+            mu_total += task.lm_damping * float(e_rows @ e_rows)
         H = W.T @ W
         c = -(e @ W)
         H.flat[:: self.model.nv + 1] += self.damping + mu_total
@@ -158,7 +163,7 @@ class IKProblem:
 
     def _posture_error(self, task: mink.PostureTask) -> np.ndarray:
         """A mink posture (or damping) task's error, without its allocations."""
-        if isinstance(task, mink.DampingTask):
+        if type(task) is mink.DampingTask:
             self._diff[:] = 0.0
             return self._diff
         if task.target_q is None:
@@ -175,13 +180,28 @@ class IKProblem:
         at = 0
         for limit in self.limits:
             n = len(limit.indices)
-            if isinstance(limit, mink.ConfigurationLimit):
+            upper, lower = h[at : at + n], h[at + n : at + 2 * n]
+            if type(limit) is mink.ConfigurationLimit:  # gain (q_max - q), gain (q - q_min)
                 mujoco.mj_differentiatePos(self.model, self._dq_max, 1.0, qpos, limit.upper)
                 mujoco.mj_differentiatePos(self.model, self._dq_min, 1.0, limit.lower, qpos)
-                h[at : at + n] = limit.gain * self._dq_max[limit.indices]
-                h[at + n : at + 2 * n] = limit.gain * self._dq_min[limit.indices]
-            else:
-                h[at : at + n] = dt * limit.limit
-                h[at + n : at + 2 * n] = dt * limit.limit
+                np.take(self._dq_max, limit.indices, out=upper)
+                upper *= limit.gain
+                np.take(self._dq_min, limit.indices, out=lower)
+                lower *= limit.gain
+            else:  # VelocityLimit: dt v_max both ways
+                np.multiply(dt, limit.limit, out=upper)
+                lower[:] = upper
             at += 2 * n
         return h
+
+
+_FRAME, _NULLSPACE, _POSTURE = "frame", "nullspace", "posture"
+
+
+def _kind(task: mink.Task) -> str:
+    """How `IKProblem` assembles `task`'s rows."""
+    if isinstance(task, mink.FrameTask):
+        return _FRAME
+    if isinstance(task, NullspacePostureTask):
+        return _NULLSPACE
+    return _POSTURE
