@@ -10,9 +10,11 @@ one tick). A feasible reference passes through unchanged.
 from __future__ import annotations
 
 import mink
+import mujoco
 import numpy as np
 from orchestrator.robots import Robot
 
+from .ik_qp import IKProblem
 from .joint_limiter import JointLimiter
 from .posture import NullspacePostureTask
 from .whole_body import apply_whole_body_costs
@@ -84,6 +86,11 @@ class IKSolver:
             mink.VelocityLimit(model, {j: velocity_limit for j in robot.arm_joints}),
         ]
         self.damping = damping
+        self._model = model
+        self._target = mink.SE3.identity().copy()
+        """The frame task's target, rewritten in place by `reference_step`."""
+        self._problem: IKProblem | None = None
+        self._problem_key: tuple | None = None
         self.velocity = np.zeros(self.n)
         self.acceleration = np.zeros(self.n)
         self.reference_velocity = np.zeros(self.n)
@@ -186,27 +193,48 @@ class IKSolver:
             The reference's arm joint velocity over the step [rad/s] (also in
             `reference_velocity`). Shape (n,).
         """
-        so3 = rot if isinstance(rot, mink.SO3) else mink.SO3.from_matrix(rot)
-        target = mink.SE3.from_rotation_and_translation(so3, np.asarray(pos) - self.base_pos)
-        self.frame_task.set_target(target)
+        # the target written in place (what SE3.from_rotation_and_translation + set_target
+        # would build and copy): the frame task holds this solver's own SE3
+        target = self._target.wxyz_xyz
+        if isinstance(rot, mink.SO3):
+            target[:4] = rot.wxyz
+        else:
+            mujoco.mju_mat2Quat(target[:4], np.ascontiguousarray(rot, dtype=float).ravel())
+        np.subtract(pos, self.base_pos, out=target[4:])
+        self.frame_task.transform_target_to_world = self._target
         # the posture error decays with a time constant, whatever the step, once ramped in
         self._since_reset += dt
         ramp = min(1.0, self._since_reset / POSTURE_RAMP_S)
         smooth = ramp * ramp * (3.0 - 2.0 * ramp)
         if isinstance(self.posture_task, NullspacePostureTask):
             self.posture_task.gain = min(1.0, dt / POSTURE_TIME_CONSTANT_S) * smooth
-        v = mink.solve_ik(
-            self.config,
-            self.tasks,
-            dt,
-            "daqp",
-            damping=self.damping,
-            limits=self.limits,
-        )
-        self.config.integrate_inplace(v, dt)  # the IK's own reference, open loop
+        v = self._solve(dt)
+        # the IK's own reference, open loop (integrate_inplace without the constraint
+        # assembly of `Configuration.update`: no task here reads the equality constraints)
+        data = self.config.data
+        mujoco.mj_integratePos(self._model, data.qpos, v, dt)
+        mujoco.mj_kinematics(self._model, data)
+        mujoco.mj_comPos(self._model, data)
         self.reference_velocity = v[: self.n]
         self._error = None
         return self.reference_velocity
+
+    def _solve(self, dt: float) -> np.ndarray:
+        """mink's IK velocity over `dt` [s]: assembled in place (`IKProblem`, the same bits)
+        for the tasks and limits this solver builds, by `mink.solve_ik` for any others."""
+        key = (tuple(map(id, self.tasks)), tuple(map(id, self.limits)), self.damping)
+        if key != self._problem_key:
+            self._problem_key = key
+            self._problem = (
+                IKProblem(self.config, self.tasks, self.limits, self.damping)
+                if IKProblem.supports(self.tasks, self.limits)
+                else None
+            )
+        if self._problem is not None:
+            return self._problem.solve(dt)
+        return mink.solve_ik(
+            self.config, self.tasks, dt, "daqp", damping=self.damping, limits=self.limits
+        )
 
     @property
     def lag(self) -> float:

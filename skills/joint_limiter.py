@@ -45,8 +45,8 @@ class JointLimiter:
         gain: float = 20.0,
     ) -> None:
         self.dt = dt
-        self.v_max, self.a_max, self.j_max = v_max, a_max, j_max
         self.gain = gain
+        self.v_max, self.a_max, self.j_max = v_max, a_max, j_max
         n = len(v_max)
         self.position = np.zeros(n)
         """Commanded joint angles now, at the end of the last tick [rad]. Shape (n,)."""
@@ -61,6 +61,40 @@ class JointLimiter:
         self.limited_ticks = 0
         """Ticks on which a limit changed the command."""
         self._v_ref = np.zeros(n)
+        # scratch arrays: `step` allocates nothing (it runs every control tick)
+        self._err, self._tmp, self._v_want = np.empty(n), np.empty(n), np.empty(n)
+        self._a, self._v = np.empty(n), np.empty(n)
+
+    @property
+    def v_max(self) -> np.ndarray:
+        """Velocity limits [rad/s]. Shape (n,)."""
+        return self._v_max
+
+    @v_max.setter
+    def v_max(self, value: np.ndarray) -> None:
+        self._v_max = np.asarray(value, float)
+        self._neg_v_max = -self._v_max
+
+    @property
+    def a_max(self) -> np.ndarray:
+        """Acceleration limits [rad/s^2]. Shape (n,)."""
+        return self._a_max
+
+    @a_max.setter
+    def a_max(self, value: np.ndarray) -> None:
+        self._a_max = np.asarray(value, float)
+        self._neg_a_max = -self._a_max
+        self._brake_gain = 1.6 * self._a_max
+
+    @property
+    def j_max(self) -> np.ndarray:
+        """Jerk limits [rad/s^3]. Shape (n,)."""
+        return self._j_max
+
+    @j_max.setter
+    def j_max(self, value: np.ndarray) -> None:
+        self._j_max = np.asarray(value, float)
+        self._j_lim = self._j_max * self.dt
 
     def reset(
         self, q: np.ndarray, qd: np.ndarray | None = None, qdd: np.ndarray | None = None
@@ -81,23 +115,45 @@ class JointLimiter:
         advances `position` and `velocity` to its end.
         """
         dt = self.dt
+        err, tmp, v_want, a, v = self._err, self._tmp, self._v_want, self._a, self._v
         # the lag behind the reference as the command follows it, half a tick late
-        err = q_ref - 0.5 * dt * self._v_ref - self.position
+        np.multiply(0.5 * dt, self._v_ref, out=err)
+        np.subtract(q_ref, err, out=err)
+        err -= self.position
         # Make up the lag linearly when it is small, and no faster than the joint can brake
         # from when it is large (the square-root law): a lag never turns into an overshoot.
-        brake = np.sqrt(1.6 * self.a_max * np.abs(err))
-        v_want = v_ref + np.sign(err) * np.minimum(self.gain * np.abs(err), brake)
-        a_want = (v_want - self.velocity) / dt
-        j_lim = self.j_max * dt
-        a = np.clip(a_want, self.acceleration - j_lim, self.acceleration + j_lim)
-        a = np.clip(a, -self.a_max, self.a_max)
-        v = np.clip(self.velocity + a * dt, -self.v_max, self.v_max)
-        a = (v - self.velocity) / dt
-        if not np.array_equal(v, v_want):
+        # (In place, operation for operation what the expressions in the comments compute.)
+        np.abs(err, out=tmp)  # brake = sqrt(1.6 a_max |err|)
+        np.multiply(self._brake_gain, tmp, out=v_want)
+        np.sqrt(v_want, out=v_want)
+        tmp *= self.gain  # v_want = v_ref + sign(err) min(gain |err|, brake)
+        np.minimum(tmp, v_want, out=v_want)
+        np.sign(err, out=tmp)
+        v_want *= tmp
+        np.add(v_ref, v_want, out=v_want)
+        np.subtract(v_want, self.velocity, out=a)  # a_want = (v_want - velocity) / dt
+        a /= dt
+        # a = clip(a_want, acceleration -+ j_max dt), then clip(a, -+a_max)
+        np.subtract(self.acceleration, self._j_lim, out=tmp)
+        np.maximum(a, tmp, out=a)
+        np.add(self.acceleration, self._j_lim, out=tmp)
+        np.minimum(a, tmp, out=a)
+        np.maximum(a, self._neg_a_max, out=a)
+        np.minimum(a, self._a_max, out=a)
+        np.multiply(a, dt, out=v)  # v = clip(velocity + a dt, -+v_max)
+        np.add(self.velocity, v, out=v)
+        np.maximum(v, self._neg_v_max, out=v)
+        np.minimum(v, self._v_max, out=v)
+        np.subtract(v, self.velocity, out=a)  # a = (v - velocity) / dt
+        a /= dt
+        if not (v == v_want).all():
             self.limited_ticks += 1
         self.start_position[:] = self.position
         self.start_velocity[:] = self.velocity
-        self.position += 0.5 * (self.velocity + v) * dt
+        np.add(self.velocity, v, out=tmp)  # position += 0.5 (velocity + v) dt
+        tmp *= 0.5
+        tmp *= dt
+        self.position += tmp
         self.velocity[:] = v
         self.acceleration[:] = a
         self._v_ref[:] = v_ref

@@ -1,0 +1,207 @@
+"""The IK's quadratic program, assembled in place: mink's `solve_ik`, without its allocations.
+
+`mink.solve_ik` rebuilds the whole QP on every call: a fresh residual and Jacobian per task,
+the frame Jacobian computed twice (once for the TCP task, once again for the nullspace
+posture's projector), `vstack`s of the task rows and of the limits' (constant) inequality
+matrices, a `qpsolvers.Problem` with its checks, and `configuration.check_limits`, which with
+`safety_break=False` only writes debug log lines. At the 100 Hz control rate plus the dry runs
+of `time_scaling.py`, that assembly cost more than the QP solve itself.
+
+`IKProblem` does the same arithmetic, operation for operation, into arrays it allocates once:
+the same H, c, G and h reach the same `daqp.solve` call, so the velocity it returns is mink's,
+bit for bit (tests/test_ik_qp.py holds it to `np.array_equal` against `mink.solve_ik`). It
+knows the tasks and limits `IKSolver` builds (`FrameTask`, `NullspacePostureTask`,
+`PostureTask`, `DampingTask`; `ConfigurationLimit` without ball joints, `VelocityLimit`);
+`IKProblem.supports` says whether a task list is one of those, and the solver falls back to
+`mink.solve_ik` when it is not.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from ctypes import c_int
+
+import daqp
+import mink
+import mujoco
+import numpy as np
+
+from .posture import NullspacePostureTask
+
+__all__ = ["IKProblem"]
+
+_NO_LOWER = -1e30
+"""What qpsolvers' DAQP interface passes as the lower bound of a one-sided inequality."""
+
+
+class IKProblem:
+    """The differential-IK QP of fixed tasks and limits, solved with DAQP.
+
+    Args:
+        configuration: The solver's configuration (its model and data are read each call).
+        tasks: The tasks, in mink's order (the order of the stacked residual rows).
+        limits: The limits, in mink's order (the order of the stacked inequality rows).
+        damping: Global Levenberg-Marquardt damping added to H's diagonal.
+
+    Raises:
+        ValueError: A task or limit this assembly does not know (check `supports` first).
+    """
+
+    def __init__(
+        self,
+        configuration: mink.Configuration,
+        tasks: Sequence[mink.Task],
+        limits: Sequence[mink.Limit],
+        damping: float,
+    ) -> None:
+        if not self.supports(tasks, limits):
+            raise ValueError(
+                f"IKProblem assembles FrameTask, NullspacePostureTask, PostureTask, "
+                f"DampingTask with ConfigurationLimit and VelocityLimit; got "
+                f"{[type(t).__name__ for t in tasks]} and {[type(x).__name__ for x in limits]}"
+            )
+        self.configuration = configuration
+        self.model = configuration.model
+        self.tasks = list(tasks)
+        self.limits = list(limits)
+        self.damping = damping
+        nv = self.model.nv
+        self.rows: list[slice] = []
+        start = 0
+        for task in self.tasks:
+            k = 6 if isinstance(task, mink.FrameTask) else nv
+            self.rows.append(slice(start, start + k))
+            start += k
+        self._W = np.empty((start, nv))
+        """The stacked cost-weighted task Jacobians. Shape (rows, nv)."""
+        self._e = np.empty(start)
+        """The stacked cost-weighted task errors. Shape (rows,)."""
+        self._plan = [
+            (_kind(task), task, self._e[rows], self._W[rows])
+            for task, rows in zip(self.tasks, self.rows, strict=True)
+        ]
+        """Per task: its kind, itself, and its views of the stacked rows."""
+        self._diff = np.empty(nv)
+        self._dq_max = np.empty(nv)
+        self._dq_min = np.empty(nv)
+        self._eye = np.eye(nv)
+        blocks = [np.vstack([lim.projection_matrix, -lim.projection_matrix]) for lim in limits]
+        self.G = np.vstack(blocks) if blocks else None
+        """The limits' inequality matrix (constant: the limits are boxes). Shape (m, nv)."""
+        m = 0 if self.G is None else self.G.shape[0]
+        self._h = np.empty(m)
+        self._lower = np.full(m, _NO_LOWER)
+        self._sense = np.zeros(m, dtype=c_int)
+
+    @staticmethod
+    def supports(tasks: Sequence[mink.Task], limits: Sequence[mink.Limit]) -> bool:
+        """Whether `IKProblem` can assemble these tasks and limits (else use mink.solve_ik)."""
+        known_task = (mink.FrameTask, NullspacePostureTask, mink.PostureTask)
+        frames = [t for t in tasks if isinstance(t, mink.FrameTask)]
+        for task in tasks:
+            if type(task) not in (*known_task, mink.DampingTask):
+                return False
+            if isinstance(task, mink.PostureTask) and task._v_ids is not None:
+                return False  # floating-base columns zeroed: not assembled here
+            if isinstance(task, NullspacePostureTask) and (
+                len(frames) != 1
+                or task.frame_task is not frames[0]
+                or tasks.index(frames[0]) > tasks.index(task)
+            ):
+                return False  # its projector needs its frame task's Jacobian first
+        for limit in limits:
+            if type(limit) is mink.ConfigurationLimit:
+                if limit.projection_matrix is None or len(limit._ball_qposadr) > 0:
+                    return False
+            elif type(limit) is not mink.VelocityLimit or limit.projection_matrix is None:
+                return False
+        return True
+
+    def solve(self, dt: float) -> np.ndarray:
+        """The tangent velocity [rad/s or m/s] over `dt` [s] that `mink.solve_ik(configuration,
+        tasks, dt, "daqp", damping=damping, limits=limits)` returns. Shape (nv,).
+
+        Raises:
+            mink.NoSolutionFound: DAQP found no solution.
+        """
+        H, c = self._objective()
+        h = self._inequalities(dt)
+        if self.G is None:
+            x, _, exitflag, _ = daqp.solve(
+                H, c, np.zeros((0, c.size)), np.zeros(0), np.full(0, _NO_LOWER), self._sense
+            )
+        else:
+            x, _, exitflag, _ = daqp.solve(H, c, self.G, h, self._lower, self._sense)
+        if exitflag <= 0:
+            raise mink.NoSolutionFound("daqp")
+        v: np.ndarray = x / dt
+        return v
+
+    def _objective(self) -> tuple[np.ndarray, np.ndarray]:
+        """H and c of mink's `_compute_qp_objective`, the same operations in place."""
+        config = self.configuration
+        W, e = self._W, self._e
+        mu_total = 0.0
+        frame_jacobian = None
+        for kind, task, e_rows, w_rows in self._plan:
+            if kind is _FRAME:
+                error, jacobian = task._error_and_jacobian(config)
+                frame_jacobian = jacobian
+            elif kind is _NULLSPACE:  # its frame task comes first (`supports`)
+                jacobian = task.projector_from(frame_jacobian)
+                error = jacobian @ task.raw_error(config)
+            else:  # PostureTask, DampingTask: J = I, e = q - q* (DampingTask: 0)
+                jacobian = self._eye
+                error = self._posture_error(task)
+            np.multiply(task.cost, -task.gain * error, out=e_rows)
+            np.multiply(task.cost[:, None], jacobian, out=w_rows)
+            mu_total += task.lm_damping * float(e_rows @ e_rows)
+        H = W.T @ W
+        c = -(e @ W)
+        H.flat[:: self.model.nv + 1] += self.damping + mu_total
+        return H, c
+
+    def _posture_error(self, task: mink.PostureTask) -> np.ndarray:
+        """A mink posture (or damping) task's error, without its allocations."""
+        if type(task) is mink.DampingTask:
+            self._diff[:] = 0.0
+            return self._diff
+        if task.target_q is None:
+            raise mink.TargetNotSet(type(task).__name__)
+        mujoco.mj_differentiatePos(
+            self.model, self._diff, 1.0, task.target_q, self.configuration.data.qpos
+        )
+        return self._diff
+
+    def _inequalities(self, dt: float) -> np.ndarray:
+        """h of mink's `_compute_qp_inequalities` (G is constant), into one array."""
+        h = self._h
+        qpos = self.configuration.data.qpos
+        at = 0
+        for limit in self.limits:
+            n = len(limit.indices)
+            upper, lower = h[at : at + n], h[at + n : at + 2 * n]
+            if type(limit) is mink.ConfigurationLimit:  # gain (q_max - q), gain (q - q_min)
+                mujoco.mj_differentiatePos(self.model, self._dq_max, 1.0, qpos, limit.upper)
+                mujoco.mj_differentiatePos(self.model, self._dq_min, 1.0, limit.lower, qpos)
+                np.take(self._dq_max, limit.indices, out=upper)
+                upper *= limit.gain
+                np.take(self._dq_min, limit.indices, out=lower)
+                lower *= limit.gain
+            else:  # VelocityLimit: dt v_max both ways
+                np.multiply(dt, limit.limit, out=upper)
+                lower[:] = upper
+            at += 2 * n
+        return h
+
+
+_FRAME, _NULLSPACE, _POSTURE = "frame", "nullspace", "posture"
+
+
+def _kind(task: mink.Task) -> str:
+    """How `IKProblem` assembles `task`'s rows."""
+    if isinstance(task, mink.FrameTask):
+        return _FRAME
+    if isinstance(task, NullspacePostureTask):
+        return _NULLSPACE
+    return _POSTURE
