@@ -7,9 +7,11 @@ raw readings it watches (views into MjData, the controller's output, its own sta
 which its `check` certainly returns None and changes nothing. `GuardBank` gathers the envelopes
 of all active guards once, when the active set changes, and every physics step
 
-1. reads each watched view once (one `tolist()` per distinct view),
-2. tests all bounds with two C-level passes (`all(map(le, ...))`), the pairs that must read
-   equal with one list comparison, and the scalars (the wrist force) with one comparison each,
+1. compares the views that must read zero (contact counts, fault flags) with zero bytes
+   (`tobytes()`, one memcmp each; a NaN or a -0.0 is not zero there),
+2. reads each bounded view once (one `tolist()` per distinct view) and tests all bounds with
+   two C-level passes (`all(map(le, ...))`), the pairs that must read equal with one list
+   comparison, and the scalars (the wrist force) with one comparison each,
 3. only if a value left the envelope (or a NaN appeared, which no bound admits), runs every
    active guard's full `check` in priority order, exactly as if there were no envelope.
 
@@ -113,7 +115,7 @@ class GuardBank:
         # views that must read all zero (contact counts, fault flags): one `any()` for them
         zero = [w for w in merged if not any(w.lo) and not any(w.hi)]
         bounded = [w for w in merged if any(w.lo) or any(w.hi)]
-        self._zero = tuple(w.view.tolist for w in zero)
+        self._zero = tuple((w.view.tobytes, bytes(w.view.nbytes)) for w in zero)
         self._readers = tuple(w.view.tolist for w in bounded)
         self._lo = [v for w in bounded for v in w.lo]
         self._hi = [v for w in bounded for v in w.hi]
@@ -148,12 +150,10 @@ class GuardBank:
 
     def inside(self) -> bool:
         """Every watched value inside every envelope (NaN never is)."""
+        for raw, zeros in self._zero:
+            if raw() != zeros:  # bit for bit +0.0 (a NaN, or even a -0.0: the full checks)
+                return False
         values: list[float] = []
-        for read in self._zero:
-            values += read()
-        if any(values):  # a NaN is true too
-            return False
-        values = []
         for read in self._readers:
             values += read()
         if not (all(map(_le, self._lo, values)) and all(map(_le, values, self._hi))):
