@@ -95,7 +95,7 @@ class GuardBank:
         self.checks = tuple(g.check for g in self.guards)
         """Every guard's full `check`, in priority order."""
         watched: dict[tuple[int, int, int], _Watched] = {}
-        equal: list[tuple[Callable[[], list[float]], Callable[[], list[float]]]] = []
+        equal: list[tuple[np.ndarray, np.ndarray]] = []
         scalars: dict[Callable[[], float], float] = {}
         open_checks: list[Callable[[Context], Violation | None]] = []
         self._stateful: list[Guard] = []
@@ -108,7 +108,7 @@ class GuardBank:
                 self._stateful.append(guard)
             for view, lo, hi in env.bounds:
                 self._add_bounds(watched, view, lo, hi)
-            equal += [(a.tolist, b.tolist) for a, b in env.equal]
+            equal += env.equal
             for read, limit in env.scalars:
                 scalars[read] = min(limit, scalars.get(read, limit))
         merged = _merged(list(watched.values()))
@@ -119,7 +119,17 @@ class GuardBank:
         self._readers = tuple(w.view.tolist for w in bounded)
         self._lo = [v for w in bounded for v in w.lo]
         self._hi = [v for w in bounded for v in w.hi]
-        self._equal = tuple(equal)
+        # a pair of which one side is bounded is compared as bytes (one memcmp): the bound
+        # keeps a NaN out, and bit for bit equal non-NaN floats are equal floats (a -0.0
+        # against a 0.0 only sends the step to the full checks); else as lists of floats
+        self._equal_bytes = tuple(
+            (a.tobytes, b.tobytes) for a, b in equal if _covered(a, merged) or _covered(b, merged)
+        )
+        self._equal = tuple(
+            (a.tolist, b.tolist)
+            for a, b in equal
+            if not (_covered(a, merged) or _covered(b, merged))
+        )
         self._scalars = tuple(scalars.items())
         self._open = tuple(open_checks)
         """Checks of the guards without an envelope: run in full every step."""
@@ -158,8 +168,11 @@ class GuardBank:
             values += read()
         if not (all(map(_le, self._lo, values)) and all(map(_le, values, self._hi))):
             return False
-        for a, b in self._equal:
+        for a, b in self._equal_bytes:
             if a() != b():
+                return False
+        for x, y in self._equal:
+            if x() != y():
                 return False
         for reading, limit in self._scalars:
             if not reading() <= limit:
@@ -168,16 +181,51 @@ class GuardBank:
 
     def check(self, ctx: Context) -> Violation | None:
         """The first violation of the active guards this physics step, or None."""
-        if self._full or not self.inside():
-            self.full_checks += 1
-            for full in self.checks:
-                violation = full(ctx)
+        if not self._full:
+            # `inside()` written out: this runs every physics step, where a call counts
+            for raw, zeros in self._zero:
+                if raw() != zeros:
+                    return self._check_full(ctx)
+            values: list[float] = []
+            for read in self._readers:
+                values += read()
+            if not (all(map(_le, self._lo, values)) and all(map(_le, values, self._hi))):
+                return self._check_full(ctx)
+            for a, b in self._equal_bytes:
+                if a() != b():
+                    return self._check_full(ctx)
+            for x, y in self._equal:
+                if x() != y():
+                    return self._check_full(ctx)
+            for reading, limit in self._scalars:
+                if not reading() <= limit:
+                    return self._check_full(ctx)
+            for always in self._open:
+                violation = always(ctx)
                 if violation is not None:
                     return violation
-            self._full = any(not g.settled() for g in self._stateful)
             return None
-        for always in self._open:
-            violation = always(ctx)
+        return self._check_full(ctx)
+
+    def _check_full(self, ctx: Context) -> Violation | None:
+        """Every active guard's full `check`, in priority order; the first violation."""
+        self.full_checks += 1
+        for full in self.checks:
+            violation = full(ctx)
             if violation is not None:
                 return violation
+        self._full = any(not g.settled() for g in self._stateful)
         return None
+
+
+def _covered(view: np.ndarray, watched: Sequence[_Watched]) -> bool:
+    """Every element of the 1-D `view` lies in one of the `watched` views (so it is bounded)."""
+    if view.ndim != 1 or view.strides[0] != view.itemsize:
+        return False
+    start = int(view.__array_interface__["data"][0])
+    for w in watched:
+        if w.view.strides[0] != w.view.itemsize:
+            continue
+        if w.address <= start and start + view.nbytes <= w.address + w.view.nbytes:
+            return True
+    return False
