@@ -262,3 +262,23 @@ def test_an_episode_aborts_on_the_same_step_with_and_without_the_bank(
     plain.pop("wall_time")
     assert banked["reason"] is not None and banked["reason"]["guard"] == guard
     assert banked == plain
+
+
+def test_a_state_change_keeps_the_bank_unless_its_guards_change(monkeypatch: pytest.MonkeyPatch):
+    """A bank is built when the set of active guards changes (or one is activated again), not
+    at every state change: the envelopes only change on activation."""
+    from orchestrator.language.load import load_scenario as load
+
+    built: list[tuple[str, ...]] = []
+    bind = Executor._bind_checks
+
+    def counting(self: Executor) -> None:
+        bind(self)
+        built.append(tuple(g.name for g in self.active_guards))
+
+    monkeypatch.setattr(Executor, "_bind_checks", counting)
+    result = run_episode(load("pick_place"), 0)
+    assert result.outcome == "succeeded"
+    assert len(built) < len(result.transitions)  # most state changes kept their bank
+    assert all(a != b for a, b in zip(built, built[1:], strict=False))  # each build changed it
+    assert any("grasp_lost" in names for names in built)  # the carrying state's own guard

@@ -34,25 +34,38 @@ from .base import Guard, Violation
 if TYPE_CHECKING:
     from ..engine.context import Context
 
-__all__ = ["GuardBank"]
+__all__ = ["Addresses", "GuardBank"]
 
 _le = operator.le
 
 
+Addresses = dict[int, tuple[np.ndarray, int]]
+"""Memory addresses of views, by `id()` (the view is kept with its address, so the id cannot
+be reused while it is cached): an executor keeps one for its episode and hands it to every bank
+it builds (reading `__array_interface__` costs ~10 us, and a bank is built at every state
+change)."""
+
+
+def _address(view: np.ndarray, cache: Addresses) -> int:
+    hit = cache.get(id(view))
+    if hit is not None and hit[0] is view:
+        return hit[1]
+    address = int(view.__array_interface__["data"][0])
+    cache[id(view)] = (view, address)
+    return address
+
+
 @dataclass
 class _Watched:
-    """One watched view and the bounds on each of its elements."""
+    """One watched view, the bounds on each of its elements, and where it starts in memory."""
 
     view: np.ndarray
     lo: list[float]
     hi: list[float]
-
-    @property
-    def address(self) -> int:
-        return int(self.view.__array_interface__["data"][0])
+    address: int
 
 
-def _merged(watched: list[_Watched]) -> list[_Watched]:
+def _merged(watched: list[_Watched], cache: Addresses) -> list[_Watched]:
     """Views of one array that follow each other in memory, as one view (one `tolist()` a
     step instead of several): e.g. the arm's joints and the fingers' in `qpos`."""
     out: list[_Watched] = []
@@ -68,18 +81,18 @@ def _merged(watched: list[_Watched]) -> list[_Watched]:
             and w.view.strides[0] == last.view.strides[0] == base.itemsize
             and last.address + last.view.nbytes == w.address
         ):
-            start = (last.address - base.__array_interface__["data"][0]) // base.itemsize
+            start = (last.address - _address(base, cache)) // base.itemsize
             view = base[start : start + len(last.view) + len(w.view)]
-            out[-1] = _Watched(view, last.lo + w.lo, last.hi + w.hi)
+            out[-1] = _Watched(view, last.lo + w.lo, last.hi + w.hi, last.address)
         else:
             out.append(w)
     return out
 
 
-def _key(view: np.ndarray) -> tuple[int, int, int]:
+def _key(view: np.ndarray, cache: Addresses) -> tuple[int, int, int]:
     if view.ndim != 1:
         raise ValueError(f"an envelope view must be 1-D, got shape {view.shape}")
-    return (view.__array_interface__["data"][0], len(view), view.strides[0])
+    return (_address(view, cache), len(view), view.strides[0])
 
 
 class GuardBank:
@@ -88,9 +101,14 @@ class GuardBank:
     Args:
         guards: The active guards, highest priority first (bound and activated).
         ctx: The episode's context (handed to `Guard.envelope`).
+        addresses: Where the watched views start in memory, cached across the banks of an
+            episode (None: this bank's own).
     """
 
-    def __init__(self, guards: Sequence[Guard], ctx: Context) -> None:
+    def __init__(
+        self, guards: Sequence[Guard], ctx: Context, addresses: Addresses | None = None
+    ) -> None:
+        cache: Addresses = {} if addresses is None else addresses
         self.guards = list(guards)
         self.checks = tuple(g.check for g in self.guards)
         """Every guard's full `check`, in priority order."""
@@ -107,11 +125,15 @@ class GuardBank:
             if env.stateful:
                 self._stateful.append(guard)
             for view, lo, hi in env.bounds:
-                self._add_bounds(watched, view, lo, hi)
+                self._add_bounds(watched, view, lo, hi, cache)
             equal += env.equal
             for read, limit in env.scalars:
                 scalars[read] = min(limit, scalars.get(read, limit))
-        merged = _merged(list(watched.values()))
+        merged = _merged(list(watched.values()), cache)
+
+        def covered(view: np.ndarray) -> bool:
+            return _covered(view, merged, cache)
+
         # views that must read all zero (contact counts, fault flags): one `any()` for them
         zero = [w for w in merged if not any(w.lo) and not any(w.hi)]
         bounded = [w for w in merged if any(w.lo) or any(w.hi)]
@@ -122,13 +144,12 @@ class GuardBank:
         # a pair of which one side is bounded is compared as bytes (one memcmp): the bound
         # keeps a NaN out, and bit for bit equal non-NaN floats are equal floats (a -0.0
         # against a 0.0 only sends the step to the full checks); else as lists of floats
+        as_bytes = [covered(a) or covered(b) for a, b in equal]
         self._equal_bytes = tuple(
-            (a.tobytes, b.tobytes) for a, b in equal if _covered(a, merged) or _covered(b, merged)
+            (a.tobytes, b.tobytes) for (a, b), raw in zip(equal, as_bytes, strict=True) if raw
         )
         self._equal = tuple(
-            (a.tolist, b.tolist)
-            for a, b in equal
-            if not (_covered(a, merged) or _covered(b, merged))
+            (a.tolist, b.tolist) for (a, b), raw in zip(equal, as_bytes, strict=True) if not raw
         )
         self._scalars = tuple(scalars.items())
         self._open = tuple(open_checks)
@@ -145,14 +166,15 @@ class GuardBank:
         view: np.ndarray,
         lo: Sequence[float],
         hi: Sequence[float],
+        cache: Addresses,
     ) -> None:
         lo, hi = [float(v) for v in lo], [float(v) for v in hi]
         if not len(lo) == len(hi) == len(view):
             raise ValueError(f"envelope bounds of {len(lo)}/{len(hi)} values, view of {len(view)}")
-        key = _key(view)
+        key = _key(view, cache)
         known = watched.get(key)
         if known is None:
-            watched[key] = _Watched(view, lo, hi)
+            watched[key] = _Watched(view, lo, hi, key[0])
             return
         # the same view watched by two guards: inside means inside both bounds
         known.lo = [max(a, b) for a, b in zip(known.lo, lo, strict=True)]
@@ -218,11 +240,11 @@ class GuardBank:
         return None
 
 
-def _covered(view: np.ndarray, watched: Sequence[_Watched]) -> bool:
+def _covered(view: np.ndarray, watched: Sequence[_Watched], cache: Addresses) -> bool:
     """Every element of the 1-D `view` lies in one of the `watched` views (so it is bounded)."""
     if view.ndim != 1 or view.strides[0] != view.itemsize:
         return False
-    start = int(view.__array_interface__["data"][0])
+    start = _address(view, cache)
     for w in watched:
         if w.view.strides[0] != w.view.itemsize:
             continue
