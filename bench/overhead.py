@@ -20,13 +20,16 @@ both alike); the figure is the median of the per-pair ratios, in wall time and i
 
 `--without-guard-checks` runs the framework with its guards active but never checked (a
 diagnostic, not a mode the framework offers): the difference is what checking them every
-physics step costs.
+physics step costs. The machine's load average is printed with the figures: on a shared
+machine the ratio grows with it (other processes evict the caches the Python on the physics
+step relies on).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 import statistics
 import time
 from dataclasses import dataclass
@@ -458,6 +461,7 @@ def main() -> None:
     if args.without_guard_checks:
         _skip_guard_checks()
     loaded = load_scenario("pick_place")
+    load0 = os.getloadavg()[0]
     framework(loaded, 10_000)  # warm caches (robot model, imports) for both
     hand_written(loaded.scenario, 10_000)
     pairs: list[tuple[Episode, Episode]] = []
@@ -506,6 +510,9 @@ def main() -> None:
         f"same ratio in CPU time (thread_time, robust to a busy machine): median {med(cpu):.3f} "
         f"(IQR {_iqr(cpu)})"
     )
+    # the ratio grows with the machine's load (other processes evict the caches the Python
+    # on the physics step relies on): say what it was measured at
+    print(f"load average (1 min) {load0:.1f} at the start, {os.getloadavg()[0]:.1f} at the end")
 
 
 def _skip_guard_checks() -> None:

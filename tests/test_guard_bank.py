@@ -162,6 +162,39 @@ def test_a_sensor_fault_sends_every_step_to_the_full_checks():
     assert fired is not None and "stale" in fired.message
 
 
+@pytest.mark.parametrize("with_torque_bound", [True, False])
+@pytest.mark.parametrize(("bad", "fires"), [(math.nan, True), (0.75, True), (0.25, False)])
+def test_a_motor_that_does_not_deliver_fires_on_its_step_with_or_without_a_torque_bound(
+    with_torque_bound: bool, bad: float, fires: bool
+):
+    """sensor_health's commanded == measured pair is compared as bytes when joint_torque bounds
+    the command (the bound keeps a NaN out), as floats when it does not: a NaN in both, or a
+    motor short of its command by more than the tolerance (0.5 Nm), fires on its step either
+    way; a -0.0 against a 0.0 or a motor within the tolerance does not."""
+    ctx = _ctx()
+    guards = [g for g in _guards(ctx) if with_torque_bound or not isinstance(g, JointTorque)]
+    bank = GuardBank(guards, ctx)
+    assert (len(bank._equal_bytes), len(bank._equal)) == ((1, 0) if with_torque_bound else (0, 1))
+    tau, measured = ctx.controller.tau, ctx.data.actuator_force[ctx.world.arm_act]
+    tau[5], measured[5] = 0.0, -0.0  # equal floats, different bits: quiet (the full checks)
+    ctx.data.actuator_force[ctx.world.arm_act] = measured
+    _new_instant(ctx)
+    assert bank.check(ctx) is None
+    _new_instant(ctx)
+    tau[5] = bad
+    ctx.data.actuator_force[ctx.world.arm_act[5]] = math.nan if math.isnan(bad) else 0.0
+    violation, in_full = bank.check(ctx), _first(guards, ctx)
+    if not fires:
+        # the -0.0 step went to the full checks only where the pair is compared as bytes
+        assert violation is None and in_full is None
+        assert bank.full_checks == (2 if with_torque_bound else 1)
+        return
+    assert violation is not None and in_full is not None
+    assert violation.guard == "sensor_health"  # it outranks joint_torque
+    assert violation.message == in_full.message  # word for word (a NaN value is not == NaN)
+    assert "joint 6 motor delivers" in violation.message
+
+
 # -- the same as every guard in full, every step --------------------------------------------------
 
 
@@ -229,3 +262,23 @@ def test_an_episode_aborts_on_the_same_step_with_and_without_the_bank(
     plain.pop("wall_time")
     assert banked["reason"] is not None and banked["reason"]["guard"] == guard
     assert banked == plain
+
+
+def test_a_state_change_keeps_the_bank_unless_its_guards_change(monkeypatch: pytest.MonkeyPatch):
+    """A bank is built when the set of active guards changes (or one is activated again), not
+    at every state change: the envelopes only change on activation."""
+    from orchestrator.language.load import load_scenario as load
+
+    built: list[tuple[str, ...]] = []
+    bind = Executor._bind_checks
+
+    def counting(self: Executor) -> None:
+        bind(self)
+        built.append(tuple(g.name for g in self.active_guards))
+
+    monkeypatch.setattr(Executor, "_bind_checks", counting)
+    result = run_episode(load("pick_place"), 0)
+    assert result.outcome == "succeeded"
+    assert len(built) < len(result.transitions)  # most state changes kept their bank
+    assert all(a != b for a, b in zip(built, built[1:], strict=False))  # each build changed it
+    assert any("grasp_lost" in names for names in built)  # the carrying state's own guard

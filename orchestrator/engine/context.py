@@ -78,7 +78,6 @@ class Context:
         self.gripper_target = world.robot.gripper_open_m
         self.events: list[Event] = []
         self.listeners: list[Callable[[Event], None]] = []
-        self._wrist_views: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         # Views read every control tick or physics step, bound once (MjData never reallocates;
         # a fresh view through MjData's attributes costs more than the arithmetic done on it).
         d = self.data
@@ -94,7 +93,13 @@ class Context:
         self._sensed = (0.0, 0.0, 0.0)
         self._bias: tuple[float, ...] = tuple(world.wrist_bias_world.tolist())
         """`world.wrist_bias_world` as floats (only `zero_wrist_force` changes it)."""
-        self._true_weight: tuple[float, ...] = (0.0, 0.0, 0.0)
+        self._true_weight: tuple[float, ...] = tuple(world.wrist_weight_world.tolist())
+        """`world.wrist_weight_world` as floats: the true weight of the hand and its tool."""
+        # The wrist sensor's raw reading and the rotation of its site, read every physics step
+        # as plain floats: a 3x3 matrix-vector product in numpy costs more in call overhead
+        # than in arithmetic.
+        self._f_site = d.sensordata[world.force_adr : world.force_adr + 3]
+        self._wrist_rot = d.site_xmat[world.wrist_site]
         self.metrics: dict[str, Any] = {}
         self.tasks = TaskLog()
         """The task log the task skills (`next_task`, `end_task`) report to."""
@@ -229,9 +234,21 @@ class Context:
     def true_wrist_force_norm_sq(self) -> float:
         """Squared norm of the true external force on the wrist [N^2]: the noise-free sensor
         with the true weight of the hand and its tool removed (a perfect zero). Ground truth
-        for the run's metrics, read every physics step; never what a skill or guard sees."""
+        for the run's metrics, read every physics step; never what a skill or guard sees.
+
+        The runner calls it first after every `mj_step`: it rotates the raw reading into the
+        world frame for the instant (`_sensed_world` written out: one call less on the step),
+        and the measured force of the guards takes the rotated reading from here."""
         now = self.data.time
-        rx, ry, rz = self._sensed if now == self._sensed_t else self._sensed_world(now)
+        if now == self._sensed_t:
+            rx, ry, rz = self._sensed
+        else:
+            f0, f1, f2 = self._f_site.tolist()
+            r0, r1, r2, r3, r4, r5, r6, r7, r8 = self._wrist_rot.tolist()
+            rx = r0 * f0 + r1 * f1 + r2 * f2
+            ry = r3 * f0 + r4 * f1 + r5 * f2
+            rz = r6 * f0 + r7 * f1 + r8 * f2
+            self._sensed, self._sensed_t = (rx, ry, rz), now
         bx, by, bz = self._true_weight
         fx, fy, fz = bx - rx, by - ry, bz - rz
         return fx * fx + fy * fy + fz * fz
@@ -249,35 +266,20 @@ class Context:
         measured one (guards, every step) share it."""
         if now == self._sensed_t:
             return self._sensed
-        if self._wrist_views is None:
-            self._bind_wrist()
-        f_site, rot, _ = self._wrist_views  # type: ignore[misc]
-        f0, f1, f2 = f_site.tolist()
-        r = rot.tolist()
+        f0, f1, f2 = self._f_site.tolist()
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = self._wrist_rot.tolist()
         sensed = (
-            r[0] * f0 + r[1] * f1 + r[2] * f2,
-            r[3] * f0 + r[4] * f1 + r[5] * f2,
-            r[6] * f0 + r[7] * f1 + r[8] * f2,
+            r0 * f0 + r1 * f1 + r2 * f2,
+            r3 * f0 + r4 * f1 + r5 * f2,
+            r6 * f0 + r7 * f1 + r8 * f2,
         )
         self._sensed, self._sensed_t = sensed, now
         return sensed
 
-    def _bind_wrist(self) -> None:
-        # Plain floats on views bound once (MjData never reallocates): a 3x3 matrix-vector
-        # product in numpy costs more in call overhead than in arithmetic.
-        d, w = self.data, self.world
-        self._wrist_views = (
-            d.sensordata[w.force_adr : w.force_adr + 3],
-            d.site_xmat[w.wrist_site],
-            w.wrist_bias_world,  # updated in place by zero_wrist_force()
-        )
-        self._true_weight = tuple(float(v) for v in w.wrist_weight_world)
-        self._bias = tuple(w.wrist_bias_world.tolist())
-
     def _wrist_force_xyz(self, now: float | None = None) -> tuple[float, float, float]:
         if now is None:
             now = self.data.time
-        rx, ry, rz = self._sensed_world(now)  # binds the views
+        rx, ry, rz = self._sensed_world(now)
         bx, by, bz = self._bias
         f = (bx - rx, by - ry, bz - rz)
         if self.ft_noise is not None:

@@ -23,7 +23,7 @@ from pydantic import ValidationError
 
 from ..exceptions import ConfigError, SkillError
 from ..guards import get_guard
-from ..guards.bank import GuardBank
+from ..guards.bank import Addresses, GuardBank
 from ..guards.base import Guard, Violation
 from ..language.diagnostics import Diagnostic
 from ..language.loading import MachineNode
@@ -476,6 +476,8 @@ class Executor:
         self._pending: list[tuple[str, str]] = []
         self.events: list[dict[str, Any]] = []
         """Every event delivered: `{t, event, source}`, plus `ignored` (why) if it had no effect."""
+        self._addresses: Addresses = {}
+        """Where the guards' watched views start in memory, for every bank of the episode."""
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
         for node in root.nodes():
             self._build_guards(node)
@@ -520,16 +522,25 @@ class Executor:
             active += self._guards.get((id(region.node), None), [])
             active += self._guards.get((id(region.node), region.state), [])
         before = {id(g) for g in self.active_guards}
+        entered = False
         for guard in active:
             if id(guard) not in before:
                 guard.activate(self.ctx)
-        self.active_guards = sorted(active, key=lambda g: -g.priority)
+                entered = True
+        ordered = sorted(active, key=lambda g: -g.priority)
+        if not entered and ordered == self.active_guards:
+            # the same guards, none (re)activated: their envelopes are what the bank holds
+            # (an envelope changes only on activation), so the bank stands
+            return
+        self.active_guards = ordered
         self._bind_checks()
 
     def _bind_checks(self) -> None:
         """What the physics step calls: the active guards as one bank (guards/bank.py), which
         tests their envelopes at once and runs their full checks only when a value leaves."""
-        self.guard_bank = GuardBank(self.active_guards, self.ctx) if self.active_guards else None
+        self.guard_bank = (
+            GuardBank(self.active_guards, self.ctx, self._addresses) if self.active_guards else None
+        )
         self.active_checks = (self.guard_bank.check,) if self.guard_bank is not None else ()
 
     # -- lifecycle ----------------------------------------------------------------------

@@ -154,11 +154,17 @@ def run_episode(
     # (they are views that never move), so the loop does no attribute lookups through MjData.
     qpos, ctrl = data.qpos, data.ctrl
     warnings = data.warning.number
+    diverged_warnings = (
+        warnings[_DIVERGED_INDEX].tolist  # a view, bound once
+        if isinstance(_DIVERGED_INDEX, slice)
+        else lambda: warnings[_DIVERGED_INDEX].tolist()  # noqa: PLW0108 (a copy: re-read)
+    )
     compute, mj_step, read_encoders = controller.compute, mujoco.mj_step, ctx.encoders.read
     time_limit = scn.physics.time_limit_s
-    steppers = [obs.on_step for obs in observers if hasattr(obs, "on_step")]
+    inf = math.inf
+    observer_steps = [obs.on_step for obs in observers if hasattr(obs, "on_step")]
     trace_truth = TraceTruth(ctx)
-    steppers.append(trace_truth.on_step)
+    with_trace = [*observer_steps, trace_truth.on_step]
     true_force_sq = ctx.true_wrist_force_norm_sq
     max_force_sq = 0.0
     timed_out = False
@@ -202,11 +208,15 @@ def run_episode(
         # faults only schedule in tick(), fire_due() and abort(): read the due time there, and
         # MjData's time (an attribute lookup through the bindings) only when one is due
         due = injector.next_t
+        # a trace (a contact skill) starts and ends in tick(): its ground-truth probe runs on
+        # the steps of the ticks it is running, nothing is called on the others
+        steppers = observer_steps if ctx.trace is None else with_trace
+        fault = ctx.actuator_fault  # set by a fault: only in fire_due()
         ctx.advance_gripper(executor.rate)
         for _ in range(n_sub):
             tau = compute(*read_encoders())
-            if ctx.actuator_fault is not None:
-                tau = ctx.actuator_fault.apply(tau)
+            if fault is not None:
+                tau = fault.apply(tau)
             ctrl[act_idx] = tau
             mj_step(model, data)
             # the reported peak is the true force of every step, not a per-tick sample
@@ -215,8 +225,9 @@ def run_episode(
                 max_force_sq = force_sq
             for on_step in steppers:
                 on_step(ctx)
-            if due != math.inf and data.time >= due - 1e-9:
+            if due != inf and data.time >= due - 1e-9:
                 injector.fire_due(data.time)
+                fault = ctx.actuator_fault
                 checks = executor.active_checks
                 stop = executor.stop if end_stop is None else end_stop
                 due = injector.next_t
@@ -234,8 +245,9 @@ def run_episode(
                     break
         ctx.tick += 1
         # a NaN or an inf anywhere makes the sum non-finite: the element-wise test only then
-        finite = math.isfinite(qpos.sum()) or bool(np.isfinite(qpos).all())
-        if not finite or any(warnings[_DIVERGED_INDEX].tolist()):
+        # (a sum of Python floats: a numpy reduction costs more in call overhead on ~20 values)
+        finite = math.isfinite(sum(qpos.tolist())) or bool(np.isfinite(qpos).all())
+        if not finite or any(diverged_warnings()):
             diverged = f"physics diverged at t={ctx.t:.3f} s (state {executor.leaf})"
             break
         if ctx.t >= time_limit and not executor.done:

@@ -7,9 +7,11 @@ raw readings it watches (views into MjData, the controller's output, its own sta
 which its `check` certainly returns None and changes nothing. `GuardBank` gathers the envelopes
 of all active guards once, when the active set changes, and every physics step
 
-1. reads each watched view once (one `tolist()` per distinct view),
-2. tests all bounds with two C-level passes (`all(map(le, ...))`), the pairs that must read
-   equal with one list comparison, and the scalars (the wrist force) with one comparison each,
+1. compares the views that must read zero (contact counts, fault flags) with zero bytes
+   (`tobytes()`, one memcmp each; a NaN or a -0.0 is not zero there),
+2. reads each bounded view once (one `tolist()` per distinct view) and tests all bounds with
+   two C-level passes (`all(map(le, ...))`), the pairs that must read equal with one list
+   comparison, and the scalars (the wrist force) with one comparison each,
 3. only if a value left the envelope (or a NaN appeared, which no bound admits), runs every
    active guard's full `check` in priority order, exactly as if there were no envelope.
 
@@ -32,25 +34,38 @@ from .base import Guard, Violation
 if TYPE_CHECKING:
     from ..engine.context import Context
 
-__all__ = ["GuardBank"]
+__all__ = ["Addresses", "GuardBank"]
 
 _le = operator.le
 
 
+Addresses = dict[int, tuple[np.ndarray, int]]
+"""Memory addresses of views, by `id()` (the view is kept with its address, so the id cannot
+be reused while it is cached): an executor keeps one for its episode and hands it to every bank
+it builds (reading `__array_interface__` costs ~10 us, and a bank is built at every state
+change)."""
+
+
+def _address(view: np.ndarray, cache: Addresses) -> int:
+    hit = cache.get(id(view))
+    if hit is not None and hit[0] is view:
+        return hit[1]
+    address = int(view.__array_interface__["data"][0])
+    cache[id(view)] = (view, address)
+    return address
+
+
 @dataclass
 class _Watched:
-    """One watched view and the bounds on each of its elements."""
+    """One watched view, the bounds on each of its elements, and where it starts in memory."""
 
     view: np.ndarray
     lo: list[float]
     hi: list[float]
-
-    @property
-    def address(self) -> int:
-        return int(self.view.__array_interface__["data"][0])
+    address: int
 
 
-def _merged(watched: list[_Watched]) -> list[_Watched]:
+def _merged(watched: list[_Watched], cache: Addresses) -> list[_Watched]:
     """Views of one array that follow each other in memory, as one view (one `tolist()` a
     step instead of several): e.g. the arm's joints and the fingers' in `qpos`."""
     out: list[_Watched] = []
@@ -66,18 +81,18 @@ def _merged(watched: list[_Watched]) -> list[_Watched]:
             and w.view.strides[0] == last.view.strides[0] == base.itemsize
             and last.address + last.view.nbytes == w.address
         ):
-            start = (last.address - base.__array_interface__["data"][0]) // base.itemsize
+            start = (last.address - _address(base, cache)) // base.itemsize
             view = base[start : start + len(last.view) + len(w.view)]
-            out[-1] = _Watched(view, last.lo + w.lo, last.hi + w.hi)
+            out[-1] = _Watched(view, last.lo + w.lo, last.hi + w.hi, last.address)
         else:
             out.append(w)
     return out
 
 
-def _key(view: np.ndarray) -> tuple[int, int, int]:
+def _key(view: np.ndarray, cache: Addresses) -> tuple[int, int, int]:
     if view.ndim != 1:
         raise ValueError(f"an envelope view must be 1-D, got shape {view.shape}")
-    return (view.__array_interface__["data"][0], len(view), view.strides[0])
+    return (_address(view, cache), len(view), view.strides[0])
 
 
 class GuardBank:
@@ -86,14 +101,19 @@ class GuardBank:
     Args:
         guards: The active guards, highest priority first (bound and activated).
         ctx: The episode's context (handed to `Guard.envelope`).
+        addresses: Where the watched views start in memory, cached across the banks of an
+            episode (None: this bank's own).
     """
 
-    def __init__(self, guards: Sequence[Guard], ctx: Context) -> None:
+    def __init__(
+        self, guards: Sequence[Guard], ctx: Context, addresses: Addresses | None = None
+    ) -> None:
+        cache: Addresses = {} if addresses is None else addresses
         self.guards = list(guards)
         self.checks = tuple(g.check for g in self.guards)
         """Every guard's full `check`, in priority order."""
         watched: dict[tuple[int, int, int], _Watched] = {}
-        equal: list[tuple[Callable[[], list[float]], Callable[[], list[float]]]] = []
+        equal: list[tuple[np.ndarray, np.ndarray]] = []
         scalars: dict[Callable[[], float], float] = {}
         open_checks: list[Callable[[Context], Violation | None]] = []
         self._stateful: list[Guard] = []
@@ -105,19 +125,32 @@ class GuardBank:
             if env.stateful:
                 self._stateful.append(guard)
             for view, lo, hi in env.bounds:
-                self._add_bounds(watched, view, lo, hi)
-            equal += [(a.tolist, b.tolist) for a, b in env.equal]
+                self._add_bounds(watched, view, lo, hi, cache)
+            equal += env.equal
             for read, limit in env.scalars:
                 scalars[read] = min(limit, scalars.get(read, limit))
-        merged = _merged(list(watched.values()))
+        merged = _merged(list(watched.values()), cache)
+
+        def covered(view: np.ndarray) -> bool:
+            return _covered(view, merged, cache)
+
         # views that must read all zero (contact counts, fault flags): one `any()` for them
         zero = [w for w in merged if not any(w.lo) and not any(w.hi)]
         bounded = [w for w in merged if any(w.lo) or any(w.hi)]
-        self._zero = tuple(w.view.tolist for w in zero)
+        self._zero = tuple((w.view.tobytes, bytes(w.view.nbytes)) for w in zero)
         self._readers = tuple(w.view.tolist for w in bounded)
         self._lo = [v for w in bounded for v in w.lo]
         self._hi = [v for w in bounded for v in w.hi]
-        self._equal = tuple(equal)
+        # a pair of which one side is bounded is compared as bytes (one memcmp): the bound
+        # keeps a NaN out, and bit for bit equal non-NaN floats are equal floats (a -0.0
+        # against a 0.0 only sends the step to the full checks); else as lists of floats
+        as_bytes = [covered(a) or covered(b) for a, b in equal]
+        self._equal_bytes = tuple(
+            (a.tobytes, b.tobytes) for (a, b), raw in zip(equal, as_bytes, strict=True) if raw
+        )
+        self._equal = tuple(
+            (a.tolist, b.tolist) for (a, b), raw in zip(equal, as_bytes, strict=True) if not raw
+        )
         self._scalars = tuple(scalars.items())
         self._open = tuple(open_checks)
         """Checks of the guards without an envelope: run in full every step."""
@@ -133,14 +166,15 @@ class GuardBank:
         view: np.ndarray,
         lo: Sequence[float],
         hi: Sequence[float],
+        cache: Addresses,
     ) -> None:
         lo, hi = [float(v) for v in lo], [float(v) for v in hi]
         if not len(lo) == len(hi) == len(view):
             raise ValueError(f"envelope bounds of {len(lo)}/{len(hi)} values, view of {len(view)}")
-        key = _key(view)
+        key = _key(view, cache)
         known = watched.get(key)
         if known is None:
-            watched[key] = _Watched(view, lo, hi)
+            watched[key] = _Watched(view, lo, hi, key[0])
             return
         # the same view watched by two guards: inside means inside both bounds
         known.lo = [max(a, b) for a, b in zip(known.lo, lo, strict=True)]
@@ -148,18 +182,19 @@ class GuardBank:
 
     def inside(self) -> bool:
         """Every watched value inside every envelope (NaN never is)."""
+        for raw, zeros in self._zero:
+            if raw() != zeros:  # bit for bit +0.0 (a NaN, or even a -0.0: the full checks)
+                return False
         values: list[float] = []
-        for read in self._zero:
-            values += read()
-        if any(values):  # a NaN is true too
-            return False
-        values = []
         for read in self._readers:
             values += read()
         if not (all(map(_le, self._lo, values)) and all(map(_le, values, self._hi))):
             return False
-        for a, b in self._equal:
+        for a, b in self._equal_bytes:
             if a() != b():
+                return False
+        for x, y in self._equal:
+            if x() != y():
                 return False
         for reading, limit in self._scalars:
             if not reading() <= limit:
@@ -168,16 +203,51 @@ class GuardBank:
 
     def check(self, ctx: Context) -> Violation | None:
         """The first violation of the active guards this physics step, or None."""
-        if self._full or not self.inside():
-            self.full_checks += 1
-            for full in self.checks:
-                violation = full(ctx)
+        if not self._full:
+            # `inside()` written out: this runs every physics step, where a call counts
+            for raw, zeros in self._zero:
+                if raw() != zeros:
+                    return self._check_full(ctx)
+            values: list[float] = []
+            for read in self._readers:
+                values += read()
+            if not (all(map(_le, self._lo, values)) and all(map(_le, values, self._hi))):
+                return self._check_full(ctx)
+            for a, b in self._equal_bytes:
+                if a() != b():
+                    return self._check_full(ctx)
+            for x, y in self._equal:
+                if x() != y():
+                    return self._check_full(ctx)
+            for reading, limit in self._scalars:
+                if not reading() <= limit:
+                    return self._check_full(ctx)
+            for always in self._open:
+                violation = always(ctx)
                 if violation is not None:
                     return violation
-            self._full = any(not g.settled() for g in self._stateful)
             return None
-        for always in self._open:
-            violation = always(ctx)
+        return self._check_full(ctx)
+
+    def _check_full(self, ctx: Context) -> Violation | None:
+        """Every active guard's full `check`, in priority order; the first violation."""
+        self.full_checks += 1
+        for full in self.checks:
+            violation = full(ctx)
             if violation is not None:
                 return violation
+        self._full = any(not g.settled() for g in self._stateful)
         return None
+
+
+def _covered(view: np.ndarray, watched: Sequence[_Watched], cache: Addresses) -> bool:
+    """Every element of the 1-D `view` lies in one of the `watched` views (so it is bounded)."""
+    if view.ndim != 1 or view.strides[0] != view.itemsize:
+        return False
+    start = _address(view, cache)
+    for w in watched:
+        if w.view.strides[0] != w.view.itemsize:
+            continue
+        if w.address <= start and start + view.nbytes <= w.address + w.view.nbytes:
+            return True
+    return False

@@ -42,6 +42,9 @@ class JointTorque(Guard):
         self._counting = 0
         """Sum of the counts: 0 lets `check` take its fast path."""
         self._tau = ctx.controller.tau  # the controller writes its output into this array
+        # `check` counts a joint at |tau| >= limit: its envelope is strictly below, the largest
+        # float under the limit (computed once: the envelope is asked for at every state change)
+        self._below = np.nextafter(np.asarray(self._limit), 0.0).tolist()
 
     def activate(self, ctx: Context) -> None:
         self._count = [0] * len(self._limit)
@@ -77,10 +80,8 @@ class JointTorque(Guard):
     def envelope(self, ctx: Context) -> Envelope | None:
         if min(self._limit) <= 0.0:
             return None
-        # `check` counts a joint at |tau| >= limit: inside is strictly below, the largest
-        # float under the limit
-        below = np.nextafter(np.asarray(self._limit), 0.0)
-        return Envelope(bounds=((self._tau, -below, below),), stateful=True)
+        below = self._below
+        return Envelope(bounds=((self._tau, [-v for v in below], below),), stateful=True)
 
     def settled(self) -> bool:
         return self._counting == 0

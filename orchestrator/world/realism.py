@@ -80,12 +80,14 @@ class WristForceNoise:
         self.std = float(std_n)
         self.drift = float(drift_n_per_sqrt_s)
         self.rng = np.random.default_rng([seed, FT_SEED])
-        self._normals: list[float] = []
-        """Normal samples drawn ahead, in blocks: the stream is the same as drawing six per
-        reading (a Generator fills an array one sample after another), at a fraction of the
-        cost of a numpy call every physics step."""
+        self._draws: list[tuple[float, ...]] = []
+        """Normal samples drawn ahead, six per reading (white noise x, y, z, then the drift's
+        steps x, y, z), in blocks of `_BLOCK` readings: the stream is the same as drawing six
+        per reading (a Generator fills an array one sample after another), at a fraction of
+        the cost of a numpy call every physics step."""
         self._next = 0
         self.bias = [0.0, 0.0, 0.0]
+        """The drift the bias has walked to [N], per axis."""
         self._t = math.nan
         self._offset = (0.0, 0.0, 0.0)
 
@@ -96,19 +98,26 @@ class WristForceNoise:
 
     def offset(self, t: float) -> tuple[float, float, float]:
         """What noise and drift add to a reading at simulated time `t` [s], per axis [N]."""
-        if t != self._t:
-            dt = 0.0 if math.isnan(self._t) else max(t - self._t, 0.0)
-            k = self._next
-            if k + 6 > len(self._normals):
-                self._normals, k = self.rng.standard_normal(_BLOCK * 6).tolist(), 0
-            n = self._normals[k : k + 6]
-            self._next = k + 6
-            walk = self.drift * math.sqrt(dt)
-            b = self.bias
-            b[0] += walk * n[3]
-            b[1] += walk * n[4]
-            b[2] += walk * n[5]
-            s = self.std
-            self._offset = (b[0] + s * n[0], b[1] + s * n[1], b[2] + s * n[2])
-            self._t = t
-        return self._offset
+        if t == self._t:
+            return self._offset
+        # runs every physics step while a guard reads the wrist force: no list is built here
+        dt = 0.0 if math.isnan(self._t) else t - self._t  # the first reading walks no drift
+        if dt < 0.0:  # noqa: PLR1730 (cheaper than max() per step)
+            dt = 0.0
+        k = self._next
+        draws = self._draws
+        if k == len(draws):
+            flat = self.rng.standard_normal(_BLOCK * 6).tolist()
+            draws = self._draws = list(zip(*[iter(flat)] * 6, strict=True))
+            k = 0
+        n0, n1, n2, n3, n4, n5 = draws[k]
+        self._next = k + 1
+        walk = self.drift * math.sqrt(dt)
+        b = self.bias
+        bx = b[0] = b[0] + walk * n3
+        by = b[1] = b[1] + walk * n4
+        bz = b[2] = b[2] + walk * n5
+        s = self.std
+        offset = self._offset = (bx + s * n0, by + s * n1, bz + s * n2)
+        self._t = t
+        return offset
