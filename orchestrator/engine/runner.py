@@ -159,6 +159,8 @@ def run_episode(
     steppers = [obs.on_step for obs in observers if hasattr(obs, "on_step")]
     trace_truth = TraceTruth(ctx)
     steppers.append(trace_truth.on_step)
+    if world.conveyor is not None:  # the belt's drive, light barrier and feed
+        steppers.append(world.conveyor.on_step)
     true_force_sq = ctx.true_wrist_force_norm_sq
     max_force_sq = 0.0
     timed_out = False
