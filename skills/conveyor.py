@@ -54,6 +54,7 @@ class WaitForParcel(Skill):
     Params: ClassVar[type[SkillParams]] = WaitForParcelParams
     outcomes: ClassVar[tuple[str, ...]] = ("arrived", "shift_over", "timeout")
     writes: ClassVar[dict[str, str]] = {"into": "dict"}
+    needs_scene: ClassVar[tuple[str, ...]] = ("conveyor",)
 
     params: WaitForParcelParams
 
@@ -107,6 +108,7 @@ class PassParcel(Skill):
     Params: ClassVar[type[SkillParams]] = PassParcelParams
     outcomes: ClassVar[tuple[str, ...]] = ("passed", "timeout")
     writes: ClassVar[dict[str, str]] = {"state": "dict"}
+    needs_scene: ClassVar[tuple[str, ...]] = ("conveyor",)
 
     params: PassParcelParams
 

@@ -41,7 +41,9 @@ class BeltWatch:
 
     def on_end(self, ctx, executor, result) -> None:
         self.nbody.append(ctx.model.nbody)
-        self.fed_on = [e.message for e in ctx.events if e.kind == "conveyor" and " fed on " in e.message]
+        self.fed_on = [
+            e.message for e in ctx.events if e.kind == "conveyor" and " fed on " in e.message
+        ]
 
 
 @pytest.fixture(scope="module")
@@ -61,7 +63,10 @@ def test_a_short_shift_sorts_every_parcel_into_the_bin_of_its_class(shift):
     m = r.metrics
     assert (m["parcels"], m["sorted"], m["missorted"], m["parcels_fed"]) == (5, 5, 0, 5)
     assert m["parcels_per_hour"] > 300 and m["misclassified"] == 0
-    assert r.final_state == "DONE" and [t["to"] for t in r.transitions][-2:] == ["HOME.DONE", "DONE"]
+    assert r.final_state == "DONE" and [t["to"] for t in r.transitions][-2:] == [
+        "HOME.DONE",
+        "DONE",
+    ]
 
 
 def test_the_light_barrier_stops_the_belt_and_the_parcel_on_it(shift):
@@ -150,3 +155,17 @@ def test_belt_skills_need_a_conveyor():
         skill = cls(cls.Params.model_validate({}))
         with pytest.raises(SkillError, match="no conveyor: add `scene.conveyor`"):
             skill.start(ctx)
+
+
+def test_a_belt_skill_in_a_scenario_without_a_belt_is_a_located_error(cli, tmp_path):
+    text = (REPO / "scenarios" / "sorting.yaml").read_text()
+    path = tmp_path / "mix.yaml"
+    path.write_text(text.replace("machine: sorting\n", "machine: sorting_conveyor\n"))
+    res = cli("validate", str(path))
+    assert res.exit_code == 2
+    assert re.search(
+        r"sorting_conveyor\.yaml:\d+:\d+: states\.WAIT\.skill: skill 'wait_for_parcel' needs "
+        r"`scene\.conveyor`, which scenario 'sorting' has not",
+        res.stderr,
+    ), res.stderr
+    assert "states.PASS.skill: skill 'pass_parcel'" in res.stderr
