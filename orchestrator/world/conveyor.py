@@ -276,8 +276,10 @@ class ConveyorBelt:
 
     def _feed_next(self, ctx: _Context) -> None:
         i = self._free_slot(ctx)
-        if i is None:
+        if i is None:  # every body is busy: the feed waits (a pool too small for the cell)
             self.feed_waits += 1
+            wait_s = self.feed_waits * SCAN_STEPS * float(self.model.opt.timestep)
+            ctx.metrics["feed_wait_s"] = round(wait_s, 3)
             return
         h = self.slots[i]
         if self.ids[i] is not None:
