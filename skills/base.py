@@ -46,6 +46,9 @@ class Skill(abc.ABC):
     Params: ClassVar[type[SkillParams]]
     outcomes: ClassVar[tuple[str, ...]]
     writes: ClassVar[dict[str, str] | tuple[str, ...]] = {}
+    needs_scene: ClassVar[tuple[str, ...]] = ()
+    """Keys of `scene` the skill cannot run without (e.g. `conveyor`): a scenario whose scene
+    lacks one is an error naming the state, before anything moves."""
 
     def __init__(self, params: SkillParams) -> None:
         self.params = params

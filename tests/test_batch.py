@@ -38,6 +38,7 @@ def _by_seed(path: Path) -> dict[int, dict[str, Any]]:
     out = {}
     for line in _lines(path):
         line.pop("wall_time", None)
+        line.pop("worker", None)  # which process ran it, and its memory: not the episode
         out[line["seed"]] = line
     return out
 
@@ -182,6 +183,13 @@ def test_batch_writes_a_line_per_episode_and_a_summary(cli, tmp_path, pick_place
     for line in lines:
         assert tuple(line)[: len(RESULT_KEYS)] == RESULT_KEYS
         assert line["scenario"] == "pick_place" and line["outcome"] == "succeeded"
+        assert line["worker"]["rss_mb"] > 50 and line["worker"]["episode"] >= 1
+    # each worker's memory at its first and last episode, from those lines
+    memory = summary["memory"]
+    assert sum(w["episodes"] for w in memory["workers"]) == 3
+    assert {w["pid"] for w in memory["workers"]} == {ln["worker"]["pid"] for ln in lines}
+    for w in memory["workers"]:
+        assert w["growth_mb"] == pytest.approx(w["rss_end_mb"] - w["rss_start_mb"], abs=0.11)
 
 
 def test_failing_seeds_are_listed_with_the_command_that_reruns_one(cli, tmp_path):

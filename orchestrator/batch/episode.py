@@ -12,6 +12,7 @@ from typing import Any
 from ..engine.result import RunResult
 from ..engine.runner import Observer, WallTimeExceeded, run_episode
 from ..language.load import LoadedScenario, load_scenario
+from .memory import rss_mb, worker_stamp
 from .task import EpisodeTask, error_line, rrd_name
 
 __all__ = ["loaded_scenario", "run_task", "same_episode"]
@@ -29,17 +30,31 @@ def loaded_scenario(
     return _LOADED[key]
 
 
+_NOT_THE_EPISODE = ("wall_time", "worker")
+"""Result-line keys that describe how an episode ran (wall time, the worker's memory), not
+what happened in it."""
+
+
 def same_episode(a: dict[str, Any], b: dict[str, Any]) -> bool:
-    """Two result lines describe the same episode: equal in everything but wall time."""
-    return {k: v for k, v in a.items() if k != "wall_time"} == {
-        k: v for k, v in b.items() if k != "wall_time"
+    """Two result lines describe the same episode: equal in everything but wall time and
+    the worker that ran it."""
+    return {k: v for k, v in a.items() if k not in _NOT_THE_EPISODE} == {
+        k: v for k, v in b.items() if k not in _NOT_THE_EPISODE
     }
 
 
 def run_task(task: EpisodeTask) -> dict[str, Any]:
     """Run `task` and return its line: the RunResult's JSON (which includes `seed`), plus
-    `rrd` when a recording was saved; outcome `error` with the traceback if anything raised.
+    `rrd` when a recording was saved, and `worker` (the process and its RSS before and after
+    the episode, batch/memory.py); outcome `error` with the traceback if anything raised.
     """
+    before = rss_mb()
+    line = _run(task)
+    line["worker"] = worker_stamp(before)
+    return line
+
+
+def _run(task: EpisodeTask) -> dict[str, Any]:
     try:
         loaded = loaded_scenario(task.scenario, task.overrides, task.allow_paths)
         if task.record == "all":

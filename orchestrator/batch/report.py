@@ -34,6 +34,14 @@ def print_summary(summary: BatchSummary, console: Console) -> None:
         f"{s.episodes_run} episodes in {s.wall_time_s:.1f} s = {s.episodes_per_s:.2f} episodes/s "
         f"({s.backend}, {s.workers} workers)",
     )
+    if s.memory is not None:
+        m = s.memory
+        table.add_row(
+            "worker memory",
+            f"RSS {min(w.rss_start_mb for w in m.workers):.0f} -> "
+            f"{max(w.rss_end_mb for w in m.workers):.0f} MB, growth at most "
+            f"{m.max_growth_mb:+.1f} MB over {max(w.episodes for w in m.workers)} episodes",
+        )
     console.print(table)
     if s.failing_seeds:
         shown = ", ".join(map(str, s.failing_seeds[:_MAX_SEEDS_SHOWN]))

@@ -10,6 +10,7 @@ from typing import Any
 
 from pydantic import BaseModel, Field
 
+from .memory import MemoryStats, memory_stats
 from .stats import percentile, wilson_interval
 from .task import ERROR
 
@@ -97,6 +98,10 @@ class BatchSummary(BaseModel):
     results: str = Field(description="Path of results.jsonl.")
     sorting: SortingStats | None = Field(
         default=None, description="Parcel counts of a batch whose scenario has parcels."
+    )
+    memory: MemoryStats | None = Field(
+        default=None,
+        description="Each worker's RSS at the end of its first and its last episode [MB].",
     )
 
     def to_json_dict(self) -> dict[str, Any]:
@@ -197,6 +202,7 @@ def summarize(
         rerun_command=command,
         results=str(results),
         sorting=_sorting(lines),
+        memory=memory_stats(lines),
     )
 
 

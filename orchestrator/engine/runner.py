@@ -164,6 +164,8 @@ def run_episode(
     inf = math.inf
     observer_steps = [obs.on_step for obs in observers if hasattr(obs, "on_step")]
     trace_truth = TraceTruth(ctx)
+    if world.conveyor is not None:  # the belt's drive, light barrier and feed
+        observer_steps.append(world.conveyor.on_step)
     with_trace = [*observer_steps, trace_truth.on_step]
     true_force_sq = ctx.true_wrist_force_norm_sq
     max_force_sq = 0.0

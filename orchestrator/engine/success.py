@@ -129,16 +129,19 @@ def _traced(m: dict, c: SuccessCheck) -> tuple[bool, str]:
 
 def _sorted(ctx: Context) -> tuple[bool, str]:
     """Every parcel sorted or rejected with a reason (the task log's verdicts)."""
-    entries = [ctx.tasks.entries[p] for p in ctx.world.parcel_classes if p in ctx.tasks.entries]
     if not ctx.world.parcel_classes:
         return False, "the scene has no parcels (scene.parcels)"
+    entries = ctx.tasks.final or []
+    belt = ctx.world.conveyor
+    if belt is not None and belt.fed < belt.c.parcels:
+        return False, f"{belt.fed} of the shift's {belt.c.parcels} parcels were fed"
     bad = [e for e in entries if e.outcome not in ("sorted", "rejected")]
     counts = ", ".join(
         f"{n} {o}"
         for o in ("sorted", "rejected", "missorted", "dropped", "unsorted")
         if (n := sum(1 for e in entries if e.outcome == o))
     )
-    if bad or len(entries) < len(ctx.world.parcel_classes):
+    if bad or not entries:
         worst = "; ".join(f"{e.id} ({e.true_class}) {e.outcome}" for e in bad[:5])
         return False, f"{counts}: {worst}"
     return True, counts

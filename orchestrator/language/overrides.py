@@ -44,7 +44,7 @@ def parse_override(text: str) -> Override | Diagnostic:
 
 def apply_override(data: dict, ov: Override, blackboard_keys: set[str]) -> Diagnostic | None:
     """Apply `ov` to the raw scenario mapping `data` in place. `parcels=N` is short for
-    `scene.parcels.count=N`."""
+    `scene.parcels.count=N` (`scene.conveyor.parcels=N` in a conveyor cell)."""
     scene = data.get("scene")
     if (
         ov.path == ("parcels",)
@@ -52,6 +52,13 @@ def apply_override(data: dict, ov: Override, blackboard_keys: set[str]) -> Diagn
         and isinstance(scene.get("parcels"), dict)
     ):
         scene["parcels"]["count"] = ov.value
+        return None
+    if (
+        ov.path == ("parcels",)
+        and isinstance(scene, dict)
+        and isinstance(scene.get("conveyor"), dict)
+    ):
+        scene["conveyor"]["parcels"] = ov.value
         return None
     if len(ov.path) == 1 and ov.path[0] not in data and ov.path[0] not in _SCENARIO_KEYS:
         key = ov.path[0]

@@ -7,6 +7,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validator
 
+from ..world.pool import pool_body_name
+from .conveyor_scene import Conveyor
 from .events import ScheduledEvent
 from .faults import Fault
 from .machine import GuardRef
@@ -275,6 +277,19 @@ class SceneSpec(_Strict):
         default_factory=list,
         description="Bins with walls, each a marker (its floor) and four obstacles (its walls).",
     )
+    conveyor: Conveyor | None = Field(
+        default=None,
+        description="A belt feeding parcels one after another to a light barrier (a shift).",
+    )
+
+    @model_validator(mode="after")
+    def _one_feed(self) -> SceneSpec:
+        if self.conveyor is not None and self.parcels is not None:
+            raise ValueError(
+                "scene.parcels (a pick area) and scene.conveyor (a belt) are two ways of "
+                "feeding parcels: use one"
+            )
+        return self
 
     @model_validator(mode="after")
     def _bin_parts(self) -> SceneSpec:
@@ -578,9 +593,20 @@ class Scenario(_Strict):
         description="Events sent into the run at simulated times (see docs/live.md).",
     )
 
+    @model_validator(mode="after")
+    def _shift_time(self) -> Scenario:
+        """A conveyor shift's time limit grows with the shift (`time_per_parcel_s`)."""
+        c = self.scene.conveyor
+        if c is not None:
+            need = min(86_400.0, c.parcels * c.time_per_parcel_s)
+            self.physics.time_limit_s = max(self.physics.time_limit_s, need)
+        return self
+
     def for_seed(self, seed: int) -> tuple[Scenario, dict[str, str]]:
         """This scenario with what is drawn per seed as scene objects (the parcels of
         `scene.parcels`), and the class of each parcel by name."""
+        if self.scene.conveyor is not None:
+            return self._with_pool(self.scene.conveyor), {}
         p = self.scene.parcels
         if p is None or p.count == 0:
             return self, {}
@@ -601,3 +627,24 @@ class Scenario(_Strict):
             classes[name] = cls
         scene = self.scene.model_copy(update={"objects": objects})
         return self.model_copy(update={"scene": scene}), classes
+
+    def _with_pool(self, c: Conveyor) -> Scenario:
+        """The conveyor's pool of parcel bodies as scene objects, parked in a row on the
+        floor at `park_xy` (world/conveyor.py takes them to the feed one at a time)."""
+        size = [c.length_m[1], c.parcel_width_m[1], c.height_m[1]]
+        objects = list(self.scene.objects)
+        for i in range(c.pool):
+            spot = Spot(xy=[c.park_xy[0] + 0.1 * i, c.park_xy[1]], height=0.0)
+            objects.append(
+                ObjectSpec(
+                    name=pool_body_name(i),
+                    size=size,
+                    mass=c.mass_kg[0],
+                    xy=spot.xy,
+                    randomize=Randomize(spots=[spot]),
+                    friction=c.friction,
+                    rgba=[0.5, 0.5, 0.5, 1.0],
+                )
+            )
+        scene = self.scene.model_copy(update={"objects": objects})
+        return self.model_copy(update={"scene": scene})

@@ -106,12 +106,26 @@ def check_scene_names(
             cls = SKILLS.get(st.skill or "")
             if cls is not None:
                 out += check(node.source, (*at, "with"), cls.Params, st.with_)
+                out += _missing_scene(node.source, (*at, "skill"), cls, scenario)
         for s, b, br in node.skill_branches():
             cls = SKILLS.get(br.skill or "")
             if cls is not None:
                 at = (*node.at, "states", s, "parallel", b, "with")
                 out += check(node.source, at, cls.Params, br.with_)
     return out
+
+
+def _missing_scene(source: SourceMap, at: tuple, cls: Any, scenario: Scenario) -> list[Diagnostic]:
+    """A skill that needs a part of the scene (`needs_scene`) the scenario lacks."""
+    return [
+        source.diag(
+            at,
+            f"skill {cls.name!r} needs `scene.{key}`, which scenario {scenario.name!r} has "
+            f"not: add one, or use a machine without {cls.name!r}",
+        )
+        for key in getattr(cls, "needs_scene", ())
+        if getattr(scenario.scene, key, None) is None
+    ]
 
 
 def goal_keys(machine: MachineNode) -> set[str]:

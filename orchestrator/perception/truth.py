@@ -136,23 +136,25 @@ def fully_in_view(truth: TrueObject, frame: Frame, margin_px: float = 2.0) -> bo
 
 
 def true_objects(world: World) -> list[TrueObject]:
-    """The scene's free objects as the simulator holds them now (their class: the colour class
-    of their nominal colour, before any jitter)."""
+    """The scene's free objects as the simulator holds them now (their class: a parcel's true
+    class, else the colour class of their nominal colour, before any jitter; their size: the
+    one they have now — a conveyor's recycled bodies change it)."""
     classes = world.scenario.perception.class_boxes()
     qpos = world.data.qpos
     out = []
     for spec in world.scenario.scene.objects:
-        adr = world.objects[spec.name].qpos_adr
+        handle = world.objects[spec.name]
+        adr = handle.qpos_adr
         pos = qpos[adr : adr + 3]
         w, x, y, z = (float(v) for v in qpos[adr + 3 : adr + 7])
         normal = np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
         out.append(
             TrueObject(
                 name=spec.name,
-                cls=classify_rgb(spec.rgba, classes),
-                top=pos + normal * spec.size[2] / 2.0,
+                cls=world.parcel_classes.get(spec.name) or classify_rgb(spec.rgba, classes),
+                top=pos + normal * float(handle.half_size[2]),
                 yaw=math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)),
-                size=np.asarray(spec.size, float),
+                size=2.0 * handle.half_size,
             )
         )
     return out

@@ -13,6 +13,7 @@ from ..robots import Robot, get_robot
 from ..robots.tool import Tool, mount_tool
 from .cameras import add_cameras, randomize_appearance
 from .contacts import ContactSensor, add_contact_sensors, bind_contact_sensors
+from .conveyor import ConveyorBelt, add_conveyor
 from .faults import FaultEffects, add_fault_obstacles
 from .phantom import (
     PhantomHandle,
@@ -77,7 +78,10 @@ class World:
         self.scenario = scenario
         self.seed = seed
         self.parcel_classes: dict[str, str] = {}
-        """Parcel name -> its true class, for the parcels of `scene.parcels`."""
+        """Parcel name -> its true class, for the parcels of `scene.parcels` (a conveyor's
+        bodies: the class of the parcel each carries now)."""
+        self.conveyor: ConveyorBelt | None = None
+        """The belt of a conveyor cell (`scene.conveyor`), attached by `build`."""
         self.robot = robot
         self.model = model
         self.data = mujoco.MjData(model)
@@ -184,6 +188,8 @@ class World:
         spec.body(robot.root_body).pos = scenario.robot.base_pos
         add_scene(spec, scenario, seed)
         add_phantom_scene(spec, scenario, seed)
+        if scenario.scene.conveyor is not None:
+            add_conveyor(spec, scenario.scene.conveyor)
         add_fault_obstacles(spec, scenario)
         add_cameras(spec, scenario, robot)
         tool: Tool | None = getattr(robot, "tool", None)
@@ -203,6 +209,8 @@ class World:
         randomize_appearance(model, scenario, seed, [int(g) for g in object_geoms])
         world = cls(scenario, seed, robot, model, sensors)
         world.parcel_classes = parcel_classes
+        if scenario.scene.conveyor is not None:
+            world.conveyor = ConveyorBelt(world, scenario.scene.conveyor)
         apply_joint_friction(model, robot, world.arm_dof, scenario.physics.realism)
         return world
 
