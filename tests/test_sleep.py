@@ -84,3 +84,16 @@ def test_a_bad_physics_sleep_value_is_a_located_error(cli):
     res = cli("run", "mobile_search", "--set", "physics.sleep=sometimes")
     assert res.exit_code == 2
     assert "physics.sleep" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_a_moved_static_body_is_placed_again_by_static_moved(room):
+    _settle(room, 500)
+    m, d = room.model, room.data
+    table = m.body("table").id
+    z0 = float(d.xpos[table, 2])
+    m.body_pos[table, 2] += 0.1
+    mujoco.mj_forward(m, d)
+    assert d.xpos[table, 2] == z0  # with sleeping on, MuJoCo placed static bodies at reset only
+    room.static_moved()
+    assert d.xpos[table, 2] == pytest.approx(z0 + 0.1)
+    assert m.opt.enableflags & mujoco.mjtEnableBit.mjENBL_SLEEP  # still on afterwards

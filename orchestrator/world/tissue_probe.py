@@ -34,6 +34,7 @@ def indent(world: World, depth_m: float, speed_m_s: float = 0.0) -> dict[str, fl
     tip = d.site_xpos[world.tcp_site].copy()
     try:
         m.body_pos[body] = [tip[0], tip[1], tip[2] + depth_m - ph.size[2] / 2.0]
+        world.static_moved()  # the phantom is static: placed again only on request
         jac = np.zeros((3, m.nv))
         mujoco.mj_jacSite(m, d, jac, None, world.tcp_site)
         d.qvel[:] = np.linalg.pinv(jac) @ np.array([0.0, 0.0, -speed_m_s])

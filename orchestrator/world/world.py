@@ -227,6 +227,22 @@ class World:
         its next task: the motors take over again)."""
         self.model.dof_frictionloss[self.arm_dof] = self._friction0
 
+    def static_moved(self) -> None:
+        """Recompute the world after a static body's model pose changed (`model.body_pos` or
+        `body_quat` of a body without joints, e.g. a table raised in a test).
+
+        With sleeping on (`physics.sleep`), MuJoCo places static bodies once, at reset, and
+        never again: this runs one `mj_forward` with sleeping off, which places them and
+        wakes every sleeping object (they fall asleep again once at rest).
+        """
+        m = self.model
+        flags = m.opt.enableflags
+        m.opt.enableflags = flags & ~SLEEP
+        try:
+            mujoco.mj_forward(m, self.data)
+        finally:
+            m.opt.enableflags = flags
+
     def reset(self) -> None:
         """Robot at home with the gripper open, objects at their seeded poses, at rest."""
         m, d = self.model, self.data
