@@ -446,7 +446,7 @@ class Physics(_Strict):
         default=True,
         description="Free objects at rest sleep (MuJoCo island sleeping) until a contact with "
         "a moving body, a velocity or a force wakes them: the step skips their collisions. "
-        "Turn off for objects moved only by static or mocap bodies (they would not wake).",
+        "Turn off if a scene moves objects by some other means and they stay put.",
     )
 
     @model_validator(mode="after")
