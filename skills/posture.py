@@ -71,8 +71,8 @@ class NullspacePostureTask(mink.Task):
         J⁺J = Jᵀ(JJᵀ)⁻¹J = YᵀY with Y = L⁻¹J, L the Cholesky factor of JJᵀ: two 6x6 LAPACK
         calls instead of an SVD (a third of the time, bench/ik_step.py). L⁻¹ proves that
         case: λ_min(JJᵀ) >= 1 / ||L⁻¹||_F² and λ_max(JJᵀ) <= tr(JJᵀ), so
-        ||L⁻¹||_F² tr(JJᵀ) _RCOND² <= 1 means no singular value is below the cut (98.5 % of
-        uniformly random Panda configurations; the two agree to 1e-11 there,
+        ||L⁻¹||_F² tr(JJᵀ) _RCOND² <= 1 means no singular value is below the cut (98.4 % of
+        uniformly random Panda configurations; the two agree to 5e-12 there,
         tests/test_posture.py). Otherwise (near a singularity, where the bound is
         conservative by at most 36x, or where the Cholesky fails) the pseudo-inverse with its
         cut does it, as before.
