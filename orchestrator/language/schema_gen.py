@@ -50,9 +50,15 @@ def _allow_refs(params: dict) -> dict:
     return params
 
 
-def _guard_schema(defs: dict[str, Any]) -> dict:
+def _guard_schema(defs: dict[str, Any], bundled_only: bool = False) -> dict:
+    guards = {
+        name: cls
+        for name, cls in sorted(GUARDS.items())
+        # as shipped: the package's own guards, not one a plugin or a test registered
+        if not bundled_only or cls.__module__.startswith("orchestrator.guards.")
+    }
     by_name = {}
-    for name, cls in sorted(GUARDS.items()):
+    for name, cls in guards.items():
         by_name[name] = _model_schema(cls.Params, defs, prefix=f"guard_{name}_")
     one = {
         "type": "object",
@@ -61,7 +67,7 @@ def _guard_schema(defs: dict[str, Any]) -> dict:
         "additionalProperties": False,
         "properties": {n: {"anyOf": [s, {"type": "null"}]} for n, s in by_name.items()},
     }
-    return {"anyOf": [{"type": "string", "enum": sorted(GUARDS)}, one]}
+    return {"anyOf": [{"type": "string", "enum": sorted(guards)}, one]}
 
 
 def _skill_conditions(defs: dict[str, Any], names: list[str]) -> list[dict]:
@@ -85,7 +91,7 @@ def machine_schema(bundled_only: bool = False) -> dict:
     names = bundled_skill_names() if bundled_only else skill_names()
     defs: dict[str, Any] = {}
     schema = _model_schema(MachineSpec, defs)
-    guard = _guard_schema(defs)
+    guard = _guard_schema(defs, bundled_only)
     conditions = _skill_conditions(defs, names)
     skills = {"type": "string", "enum": names, "description": "Skill to run."}
     for name in ("StateSpec", "BranchSpec"):
@@ -98,11 +104,11 @@ def machine_schema(bundled_only: bool = False) -> dict:
     return _finish(schema, defs, "embodied-orchestrator machine")
 
 
-def scenario_schema() -> dict:
+def scenario_schema(bundled_only: bool = False) -> dict:
     """JSON Schema of a scenario file."""
     defs: dict[str, Any] = {}
     schema = _model_schema(Scenario, defs)
-    guard = _guard_schema(defs)
+    guard = _guard_schema(defs, bundled_only)
     mapping = {
         "type": "object",
         "additionalProperties": False,
@@ -121,7 +127,9 @@ def _finish(schema: dict, defs: dict, title: str) -> dict:
 def schema_text(kind: str, bundled_only: bool = False) -> str:
     """The schema of `machine` or `scenario` as formatted JSON (`bundled_only`: as shipped,
     without installed plugins or local skills)."""
-    schema = machine_schema(bundled_only) if kind == "machine" else scenario_schema()
+    schema = (
+        machine_schema(bundled_only) if kind == "machine" else scenario_schema(bundled_only)
+    )
     return json.dumps(schema, indent=2, sort_keys=False) + "\n"
 
 
