@@ -19,8 +19,11 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from orchestrator.language.load import load_scenario
+from orchestrator.perception import opengl
+from orchestrator.perception.backends import backend_status
 from orchestrator.perception.detections import quantile, row_ends
 from orchestrator.perception.frame import Frame, Intrinsics
+from orchestrator.perception.opengl import _upload_key
 from orchestrator.perception.rig import CameraRig
 from orchestrator.perception.vision import components
 from orchestrator.world.world import World
@@ -160,3 +163,31 @@ def test_hue_margins_are_the_same_for_boxes_given_as_lists_or_tuples():
     for hue in (0.0, 2.0, 7.5, 175.0):
         assert hue_margin(hue, as_lists) == hue_margin(hue, red)
     assert hue_margin(2.0, red) == 7.0  # red ends at 8: 9, the first hue outside it, is 7 away
+
+
+@pytest.mark.skipif(not backend_status().opengl, reason="no OpenGL context on this machine")
+def test_parcels_of_new_sizes_keep_the_gl_context_and_render_what_a_fresh_one_renders():
+    # the sorting scene draws new parcel sizes every episode: rebuilding the MjrContext for each
+    # (~110 ms) bought nothing, since boxes are unit shapes scaled when drawn
+    scn = load_scenario("sorting").scenario
+    worlds = [World.build(scn, seed) for seed in (0, 1)]
+    assert not np.array_equal(worlds[0].model.geom_size, worlds[1].model.geom_size)
+    assert _upload_key(worlds[0].model) == _upload_key(worlds[1].model)
+
+    def frame(world: World, fresh: bool) -> Frame:
+        if fresh:
+            opengl._shared.clear()
+        mujoco.mj_forward(world.model, world.data)
+        rig = CameraRig(world.model, scn, 0)
+        return rig.renderer.render(world.data, 0, rig.intrinsics["overhead"], True)
+
+    frame(worlds[0], fresh=True)  # the context made for seed 0's parcels
+    kept, fresh = frame(worlds[1], fresh=False), frame(worlds[1], fresh=True)
+    assert kept.backend == fresh.backend == "opengl"
+    assert np.array_equal(kept.rgb, fresh.rgb)
+    assert np.array_equal(kept.depth, fresh.depth)
+    assert np.array_equal(kept.seg, fresh.seg)
+    # a plane's size is uploaded (its grid): a different floor still gets its own context
+    other = World.build(scn, 0).model
+    other.geom_size[other.geom_type == mujoco.mjtGeom.mjGEOM_PLANE] *= 2.0
+    assert _upload_key(other) != _upload_key(worlds[0].model)

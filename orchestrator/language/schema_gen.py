@@ -127,9 +127,7 @@ def _finish(schema: dict, defs: dict, title: str) -> dict:
 def schema_text(kind: str, bundled_only: bool = False) -> str:
     """The schema of `machine` or `scenario` as formatted JSON (`bundled_only`: as shipped,
     without installed plugins or local skills)."""
-    schema = (
-        machine_schema(bundled_only) if kind == "machine" else scenario_schema(bundled_only)
-    )
+    schema = machine_schema(bundled_only) if kind == "machine" else scenario_schema(bundled_only)
     return json.dumps(schema, indent=2, sort_keys=False) + "\n"
 
 

@@ -25,10 +25,12 @@ software OpenGL (llvmpipe), and none of them helps colour segmentation."""
 _UPLOADED = (
     "mesh_vert", "mesh_normal", "mesh_face", "mesh_texcoord", "mesh_vertadr", "mesh_vertnum",
     "tex_data", "tex_width", "tex_height", "hfield_data", "hfield_size", "skin_vert",
-    "geom_type", "geom_size", "geom_dataid", "mat_texid",
+    "geom_type", "geom_dataid", "mat_texid",
 )  # fmt: skip
 """What `mjr_makeContext` uploads (meshes, textures, height fields, skins, plane geometry):
-two models equal in these (and in the offscreen buffer's size and samples) share a context."""
+two models equal in these, in their planes' sizes (and in the offscreen buffer's size and
+samples) share a context. Other geoms' sizes are not uploaded: boxes, spheres and capsules are
+unit shapes scaled when drawn, so parcels of new sizes every episode keep the context."""
 
 
 class _SharedGL:
@@ -65,6 +67,8 @@ def _upload_key(model: mujoco.MjModel) -> bytes:
     h.update(np.array([glob.offwidth, glob.offheight, model.vis.quality.offsamples]).tobytes())
     for name in _UPLOADED:
         h.update(np.ascontiguousarray(getattr(model, name)).tobytes())
+    planes = model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE
+    h.update(np.ascontiguousarray(model.geom_size[planes]).tobytes())
     return h.digest()
 
 
