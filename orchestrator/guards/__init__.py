@@ -32,6 +32,16 @@ GUARDS: dict[str, type[Guard]] = {
 }
 
 
+def bundled_guards() -> dict[str, type[Guard]]:
+    """The guards this package ships, by name: `GUARDS` without one a plugin or a test
+    registered in the process (what the shipped schemas and docs/skills.md list)."""
+    return {
+        name: cls
+        for name, cls in sorted(GUARDS.items())
+        if cls.__module__.startswith("orchestrator.guards.")
+    }
+
+
 class UnknownGuardError(OrchestratorError):
     """No guard of that name."""
 

@@ -16,7 +16,7 @@ from typing import Any
 from pydantic import BaseModel
 from pydantic_core import PydanticUndefined
 
-from ..guards import GUARDS
+from ..guards import bundled_guards
 from ..guards.base import Guard
 from ..skills import SKILLS, Skill, bundled_skill_names
 from .scenario import Scenario
@@ -230,9 +230,8 @@ def skills_reference() -> str:
         "violation aborts the run through the controlled stop.",
         "",
     ]
-    for name in sorted(GUARDS):
-        if GUARDS[name].__module__.startswith("orchestrator.guards."):  # not a test's guard
-            lines.append(guard_markdown(GUARDS[name]))
+    for cls in bundled_guards().values():  # not a test's or a plugin's guard
+        lines.append(guard_markdown(cls))
     return "\n".join(lines).rstrip() + "\n"
 
 

@@ -13,7 +13,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from ..guards import GUARDS
+from ..guards import GUARDS, bundled_guards
 from ..skills import SKILLS, bundled_skill_names, skill_names
 from .machine import MachineSpec
 from .scenario import Scenario
@@ -51,12 +51,7 @@ def _allow_refs(params: dict) -> dict:
 
 
 def _guard_schema(defs: dict[str, Any], bundled_only: bool = False) -> dict:
-    guards = {
-        name: cls
-        for name, cls in sorted(GUARDS.items())
-        # as shipped: the package's own guards, not one a plugin or a test registered
-        if not bundled_only or cls.__module__.startswith("orchestrator.guards.")
-    }
+    guards = bundled_guards() if bundled_only else dict(sorted(GUARDS.items()))
     by_name = {}
     for name, cls in guards.items():
         by_name[name] = _model_schema(cls.Params, defs, prefix=f"guard_{name}_")
