@@ -126,8 +126,17 @@ def test_a_bad_shift_length_is_a_located_error(cli, value, why):
     res = cli("run", "sorting_conveyor", "--set", f"parcels={value}")
     assert res.exit_code == 2 and res.exception is None
     assert "scene.conveyor.parcels" in res.stderr and why in res.stderr
-    assert re.search(r"sorting_conveyor\.yaml:\d+:\d+: ", res.stderr)
+    # the option that set the value is blamed, not the scenario file's line it overrode
+    assert res.stderr.startswith("<--set>: ") and f"(from --set parcels={value})" in res.stderr
+    assert "sorting_conveyor.yaml" not in res.stderr
     assert "Traceback" not in res.stderr
+
+
+def test_a_bad_parcel_count_in_a_bin_cell_blames_the_option(cli):
+    res = cli("run", "sorting", "--set", "parcels=lots")
+    assert res.exit_code == 2 and res.exception is None
+    assert res.stderr.startswith("<--set>: scene.parcels.count: ")
+    assert "valid integer" in res.stderr and "(from --set parcels=lots)" in res.stderr
 
 
 def test_the_time_limit_grows_with_the_shift():

@@ -22,7 +22,7 @@ from .faults import parse_fault_spec
 from .includes import resolve_include
 from .limits import current_limits
 from .loading import MachineNode, load_machine_file
-from .overrides import Override, apply_override, parse_override
+from .overrides import Override, apply_override, parcels_alias, parse_override
 from .pydantic_errors import diagnostics_from_validation
 from .scenario import Scenario
 from .scenario_checks import check_faults, check_scenario_refs, check_scene_names
@@ -137,11 +137,12 @@ def load_scenario(
             continue
         if ov.path == ("machine",):
             continue  # applied above
+        alias = parcels_alias(data, ov)  # read before applying: the path it writes
         refused = apply_override(data, ov, keys)
         if refused is not None:
             problems.append(refused)
         else:
-            dotted = ".".join(ov.path)
+            dotted = ".".join(alias or ov.path)
             overridden[
                 "blackboard." + dotted if len(ov.path) == 1 and dotted in keys else dotted
             ] = f"--set {ov.text}"

@@ -9,7 +9,7 @@ from ..exceptions import ConfigError
 from .diagnostics import Diagnostic
 from .yamlio import parse_yaml
 
-__all__ = ["Override", "apply_override", "parse_override"]
+__all__ = ["Override", "apply_override", "parcels_alias", "parse_override"]
 
 
 @dataclass(frozen=True)
@@ -42,23 +42,25 @@ def parse_override(text: str) -> Override | Diagnostic:
     return Override(text, tuple(key.split(".")), value)
 
 
+def parcels_alias(data: dict, ov: Override) -> tuple[str, ...] | None:
+    """Where `parcels=N` writes in this scenario: `scene.parcels.count` in a bin-picking cell,
+    `scene.conveyor.parcels` in a conveyor cell; None for any other override or scene."""
+    scene = data.get("scene")
+    if ov.path != ("parcels",) or not isinstance(scene, dict):
+        return None
+    if isinstance(scene.get("parcels"), dict):
+        return ("scene", "parcels", "count")
+    if isinstance(scene.get("conveyor"), dict):
+        return ("scene", "conveyor", "parcels")
+    return None
+
+
 def apply_override(data: dict, ov: Override, blackboard_keys: set[str]) -> Diagnostic | None:
     """Apply `ov` to the raw scenario mapping `data` in place. `parcels=N` is short for
     `scene.parcels.count=N` (`scene.conveyor.parcels=N` in a conveyor cell)."""
-    scene = data.get("scene")
-    if (
-        ov.path == ("parcels",)
-        and isinstance(scene, dict)
-        and isinstance(scene.get("parcels"), dict)
-    ):
-        scene["parcels"]["count"] = ov.value
-        return None
-    if (
-        ov.path == ("parcels",)
-        and isinstance(scene, dict)
-        and isinstance(scene.get("conveyor"), dict)
-    ):
-        scene["conveyor"]["parcels"] = ov.value
+    alias = parcels_alias(data, ov)
+    if alias is not None:
+        data[alias[0]][alias[1]][alias[2]] = ov.value
         return None
     if len(ov.path) == 1 and ov.path[0] not in data and ov.path[0] not in _SCENARIO_KEYS:
         key = ov.path[0]
