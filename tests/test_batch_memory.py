@@ -68,3 +68,36 @@ def test_a_torn_stamp_is_ignored(missing):
     line = _line(0, 11, 1, 250.0)
     del line["worker"][missing]
     assert memory_stats([line]) is None
+
+
+def test_release_frees_the_episode_world_held_in_reference_cycles():
+    import gc
+    import weakref
+
+    from orchestrator.engine.runner import run_episode
+    from orchestrator.language.load import load_scenario
+
+    refs: list[weakref.ref] = []
+
+    class Watch:
+        def on_start(self, ctx, executor):
+            refs.extend([weakref.ref(ctx.world), weakref.ref(ctx), weakref.ref(executor)])
+
+        def on_tick(self, ctx, executor):
+            pass
+
+        def on_end(self, ctx, executor, result):
+            pass
+
+    loaded = load_scenario("pick_place", ["physics.time_limit_s=0.2"])
+    frozen = gc.get_freeze_count()
+    gc.disable()  # the only collection is the one release_episode makes
+    try:
+        run_episode(loaded, 0, [Watch()])
+        memory.release_episode()
+        assert [r() for r in refs] == [None, None, None]
+        assert gc.get_freeze_count() > 0  # the next collections skip what lives on
+    finally:
+        gc.enable()
+        if not frozen:
+            gc.unfreeze()

@@ -12,7 +12,7 @@ from typing import Any
 from ..engine.result import RunResult
 from ..engine.runner import Observer, WallTimeExceeded, run_episode
 from ..language.load import LoadedScenario, load_scenario
-from .memory import rss_mb, worker_stamp
+from .memory import release_episode, rss_mb, worker_stamp
 from .task import EpisodeTask, error_line, rrd_name
 
 __all__ = ["loaded_scenario", "run_task", "same_episode"]
@@ -47,9 +47,11 @@ def run_task(task: EpisodeTask) -> dict[str, Any]:
     """Run `task` and return its line: the RunResult's JSON (which includes `seed`), plus
     `rrd` when a recording was saved, and `worker` (the process and its RSS before and after
     the episode, batch/memory.py); outcome `error` with the traceback if anything raised.
+    What the episode held is freed before its RSS is read (`release_episode`).
     """
     before = rss_mb()
     line = _run(task)
+    release_episode()  # the episode's native memory, held in reference cycles
     line["worker"] = worker_stamp(before)
     return line
 

@@ -12,6 +12,7 @@ stands in for it (it never falls, so it over-reports growth, never hides it).
 
 from __future__ import annotations
 
+import gc
 import itertools
 import os
 import resource
@@ -21,7 +22,14 @@ from typing import Any
 
 from pydantic import BaseModel, Field
 
-__all__ = ["MemoryStats", "WorkerMemory", "memory_stats", "rss_mb", "worker_stamp"]
+__all__ = [
+    "MemoryStats",
+    "WorkerMemory",
+    "memory_stats",
+    "release_episode",
+    "rss_mb",
+    "worker_stamp",
+]
 
 _STATUS = "/proc/self/status"
 _episodes_run = itertools.count(1)
@@ -39,6 +47,27 @@ def rss_mb() -> float:
         pass
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak / (1024.0 * 1024.0) if sys.platform == "darwin" else peak / 1024.0
+
+
+def release_episode() -> None:
+    """Free what the episode that has just ended left in reference cycles.
+
+    An episode's objects refer to each other in cycles (its context, executor and skills; the
+    `transitions` machine and its states; the world and the views into its MjData), so
+    reference counting does not free them when the episode returns: the cyclic garbage
+    collector does, in a full collection, and those get rarer as the heap grows. Until then
+    the episode's native memory (MuJoCo's model and data, pinocchio's, the IK's own model)
+    stays resident: a worker's RSS rose ~0.6 MB per pick_place episode and 2-3 MB per
+    sorting episode. Collected after every episode it stays flat.
+
+    A full collection walks every object alive (~42 ms after a pick_place episode, most of
+    them created by the imports). After the first episode what is alive is frozen
+    (`gc.freeze`: never collected again; it lives as long as the worker anyway), so each
+    later collection walks only the objects the episode created (~1.3 ms).
+    """
+    gc.collect()
+    if gc.get_freeze_count() == 0:  # the first episode in this process
+        gc.freeze()
 
 
 def worker_stamp(rss_before_mb: float) -> dict[str, Any]:
