@@ -9,10 +9,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from orchestrator.skills import get_skill
+from rerun.chunk import RrdReader
 
 from orchestrator.engine.runner import run_episode
 from orchestrator.exceptions import SkillError
 from orchestrator.language.load import load_scenario
+from orchestrator.recording import RerunRecorder
 
 REPO = Path(__file__).resolve().parents[1]
 SHIFT = ["parcels=5", "scene.conveyor.pool=3"]
@@ -25,6 +27,8 @@ class BeltWatch:
     def __init__(self) -> None:
         self.rows: list[tuple] = []
         self.nbody: list[int] = []
+        self.shapes: dict[str, list[tuple]] = {}
+        """Pool body name -> the (half size, rgba) it had, each change once, in order."""
 
     def on_start(self, ctx, executor) -> None:
         self.nbody.append(ctx.model.nbody)
@@ -38,6 +42,12 @@ class BeltWatch:
             along = float((ctx.data.qpos[h.qpos_adr : h.qpos_adr + 2] - belt._feed) @ belt._u)
             past = max(past, along + float(h.half_size[0]) - belt.c.travel_m())
         self.rows.append((ctx.t, belt.blocked, belt.running, belt.passing, speeds, past))
+        for h in belt.slots:
+            g = h.geom_id
+            shape = (tuple(ctx.model.geom_size[g]), tuple(ctx.model.geom_rgba[g]))
+            seen = self.shapes.setdefault(h.name, [])
+            if not seen or seen[-1] != shape:
+                seen.append(shape)
 
     def on_end(self, ctx, executor, result) -> None:
         self.nbody.append(ctx.model.nbody)
@@ -47,9 +57,11 @@ class BeltWatch:
 
 
 @pytest.fixture(scope="module")
-def shift():
+def shift(tmp_path_factory):
     watch = BeltWatch()
-    result = run_episode(load_scenario("sorting_conveyor", SHIFT), 0, [watch])
+    watch.rrd = tmp_path_factory.mktemp("conveyor") / "shift.rrd"
+    recorder = RerunRecorder(path=watch.rrd)  # the recording is checked too (last test)
+    result = run_episode(load_scenario("sorting_conveyor", SHIFT), 0, [watch, recorder])
     return result, watch
 
 
@@ -178,3 +190,32 @@ def test_a_belt_skill_in_a_scenario_without_a_belt_is_a_located_error(cli, tmp_p
         res.stderr,
     ), res.stderr
     assert "states.PASS.skill: skill 'pass_parcel'" in res.stderr
+
+
+def test_the_recording_draws_each_recycled_parcel_with_its_own_size_and_colour(shift):
+    _, watch = shift
+    temporal: dict[str, list[dict]] = {}
+    static: dict[str, dict] = {}
+    for chunk in RrdReader(watch.rrd).stream().to_chunks():
+        if "pool_parcel" not in chunk.entity_path:
+            continue
+        for raw in chunk.to_record_batch().to_pylist():
+            row = {k: v for k, v in raw.items() if v is not None}
+            if chunk.is_static:
+                static.setdefault(chunk.entity_path, {}).update(row)
+            else:
+                temporal.setdefault(chunk.entity_path, []).append(row)
+    boxes = {e: rows for e, rows in temporal.items() if "Boxes3D:half_sizes" in rows[0]}
+    assert len(boxes) == 3  # one geom per pool body
+    # static data would win over the timeline in the viewer: only their pose is static
+    for entity in boxes:
+        assert not [c for c in static.get(entity, {}) if c.startswith("Boxes3D")], entity
+    for body, shapes in watch.shapes.items():
+        (entity,) = [e for e in boxes if f"/{body}/" in e]
+        rows = sorted(boxes[entity], key=lambda r: r["tick"])
+        drawn = [(r["Boxes3D:half_sizes"][0], r["Boxes3D:colors"][0]) for r in rows]
+        assert len(drawn) == len(shapes) >= 2, (body, len(drawn), len(shapes))  # recycled
+        for (half, colour), (size, rgba) in zip(drawn, shapes, strict=True):
+            assert half == pytest.approx(size, abs=1e-6)
+            packed = sum(round(c * 255) << (24 - 8 * i) for i, c in enumerate(rgba))
+            assert colour == packed

@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 from rerun.chunk import Chunk
 
-from .geometry import model_geometry
+from .geometry import GeomVisual, model_geometry
 
 __all__ = ["StaticGeometry", "geometry_chunks", "model_signature", "static_chunk"]
 
@@ -40,14 +40,18 @@ class StaticGeometry:
     """The drawn part of a model.
 
     Attributes:
-        chunks: One static chunk per drawable visible geom (shape + pose in its body).
+        chunks: One static chunk per drawable visible geom (shape + pose in its body; only
+            the pose for a geom in `reshaped`).
         bodies: Ids of the bodies that carry at least one of them.
         skipped: Ids of visible geoms that cannot be drawn (SDF geoms without a mesh).
+        reshaped: The drawable geoms the run may reshape or recolour: their shape is logged
+            on the timeline (`recording/reshaped.py`), since static data would hide it.
     """
 
     chunks: list[Chunk]
     bodies: frozenset[int]
     skipped: list[int]
+    reshaped: tuple[GeomVisual, ...] = ()
 
 
 _cache: OrderedDict[str, StaticGeometry] = OrderedDict()
@@ -74,18 +78,32 @@ def static_chunk(entity: str, *archetypes: Any) -> Chunk:
     return Chunk.from_columns(entity, indexes=[], columns=columns)
 
 
-def geometry_chunks(model: mujoco.MjModel) -> StaticGeometry:
-    """The static geometry of `model`, cached per `model_signature` (the last few models)."""
-    key = model_signature(model)
+def geometry_chunks(
+    model: mujoco.MjModel, reshaped: frozenset[int] = frozenset()
+) -> StaticGeometry:
+    """The static geometry of `model`, cached per `model_signature` (the last few models).
+
+    Args:
+        model: The compiled model.
+        reshaped: Ids of geoms whose size or colour the run changes (a conveyor's recycled
+            parcels): only their pose in the body is static.
+    """
+    key = f"{model_signature(model)}:{sorted(reshaped)}"
     hit = _cache.get(key)
     if hit is not None:
         _cache.move_to_end(key)
         return hit
     geoms, skipped = model_geometry(model)
     out = StaticGeometry(
-        chunks=[static_chunk(g.entity, g.local, g.shape) for g in geoms],
+        chunks=[
+            static_chunk(g.entity, g.local)
+            if g.geom_id in reshaped
+            else static_chunk(g.entity, g.local, g.shape)
+            for g in geoms
+        ],
         bodies=frozenset(g.body_id for g in geoms),
         skipped=skipped,
+        reshaped=tuple(g for g in geoms if g.geom_id in reshaped),
     )
     _cache[key] = out
     while len(_cache) > _CACHE_SIZE:

@@ -14,6 +14,7 @@ from .blueprint import default_blueprint
 from .camera_shots import CameraShots
 from .events import EventLog
 from .exceptions import RecordingError
+from .reshaped import ReshapedGeoms
 from .signals import GuardSignals, RobotSignals
 from .state_log import StateLog
 from .static_scene import static_scene
@@ -112,6 +113,7 @@ class RerunRecorder:
         self._guards = GuardSignals()
         self._events = EventLog()
         self._shots = CameraShots(ctx)
+        self._reshaped = ReshapedGeoms(ctx.model, scene.reshaped)
         for g in scene.skipped:
             self._events.add_text(
                 ctx.tick, ctx.t, "recorder", f"geom {g}: an SDF without a mesh is not drawn", "WARN"
@@ -211,6 +213,7 @@ class RerunRecorder:
         self._guards.sample(tick, t, ctx, executor.active_guards)
         self._targets.sample(tick, t, ctx)
         self._shots.sample()
+        self._reshaped.sample(tick, t)
         self._last_tick = tick
 
     def _flush(self) -> None:
@@ -243,5 +246,6 @@ class RerunRecorder:
         chunks += self._targets.chunks()
         chunks += self._states.chunks()
         chunks += self._events.chunks()
+        chunks += self._reshaped.chunks()
         self.rec.send_chunks(chunks)
         self._shots.log(self.rec)

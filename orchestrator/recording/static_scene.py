@@ -15,6 +15,7 @@ import rerun as rr
 from rerun.chunk import Chunk
 
 from .batches import StaticBatch
+from .geometry import GeomVisual
 from .geometry_chunks import geometry_chunks, model_signature
 from .machine_graph import MachineGraph, build_graph
 from .paths import WORLD
@@ -27,7 +28,7 @@ if TYPE_CHECKING:
     from ..engine.context import Context
     from ..language.loading import MachineNode
 
-__all__ = ["StaticScene", "static_scene"]
+__all__ = ["StaticScene", "reshaped_geoms", "static_scene"]
 
 _CACHE_SIZE = 8
 
@@ -42,6 +43,7 @@ class StaticScene:
         graph: The machine tree's graph.
         skipped: Visible geoms that cannot be drawn (SDF geoms without a mesh).
         root: The machine the scene was built for (kept to recognise it).
+        reshaped: The geoms the run may reshape, drawn on the timeline (recording/reshaped.py).
     """
 
     chunks: list[Chunk]
@@ -49,6 +51,7 @@ class StaticScene:
     graph: MachineGraph
     skipped: list[int]
     root: MachineNode
+    reshaped: tuple[GeomVisual, ...] = ()
 
 
 _cache: OrderedDict[tuple, StaticScene] = OrderedDict()
@@ -60,7 +63,23 @@ def _key(ctx: Context, root: MachineNode) -> tuple:
         (mk.name, tuple(mk.size_xy), tuple(mk.rgba)) for mk in ctx.scenario.scene.markers
     )
     joints = tuple(getattr(ctx.robot, "arm_joints", ()))
-    return model_signature(ctx.model), id(root), markers, styles, joints, ctx.world.tcp_site
+    return (
+        model_signature(ctx.model),
+        id(root),
+        markers,
+        styles,
+        joints,
+        ctx.world.tcp_site,
+        tuple(sorted(reshaped_geoms(ctx))),
+    )
+
+
+def reshaped_geoms(ctx: Context) -> frozenset[int]:
+    """Geoms the run may reshape or recolour: a conveyor's recycled parcel bodies."""
+    conveyor = ctx.world.conveyor
+    if conveyor is None:
+        return frozenset()
+    return frozenset(int(slot.geom_id) for slot in conveyor.slots)
 
 
 def static_scene(ctx: Context, root: MachineNode) -> StaticScene:
@@ -70,7 +89,7 @@ def static_scene(ctx: Context, root: MachineNode) -> StaticScene:
     if hit is not None and hit.root is root:
         _cache.move_to_end(key)
         return hit
-    geometry = geometry_chunks(ctx.model)
+    geometry = geometry_chunks(ctx.model, reshaped_geoms(ctx))
     static = StaticBatch()
     static.log(WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
     poses = BodyPoses(ctx.model, geometry.bodies)
@@ -85,6 +104,7 @@ def static_scene(ctx: Context, root: MachineNode) -> StaticScene:
         graph=graph,
         skipped=list(geometry.skipped),
         root=root,
+        reshaped=geometry.reshaped,
     )
     _cache[key] = scene
     while len(_cache) > _CACHE_SIZE:
