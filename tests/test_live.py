@@ -214,3 +214,23 @@ def test_send_status_prints_the_status_json(served):
     assert res.exit_code == 0
     status = json.loads(res.stdout)["status"]
     assert status["session"] == "t" and status["scene"] == {"objects": ["cube"], "markers": ["pad"]}
+
+
+def test_a_conveyor_runs_in_a_live_session_and_stops_its_parcel_at_the_barrier():
+    from orchestrator.live.session import Session
+
+    session = Session("sorting_conveyor", "belt-test", speed=0.0)
+    belt = session.world.conveyor
+    assert belt is not None
+    for _ in range(800):  # 8 s: the first parcel is fed and carried to the beam
+        session._tick()
+        if belt.blocked and not belt.running:
+            break
+    assert belt.fed >= 1 and belt.blocked and not belt.running, (belt.fed, belt.blocked)
+    for _ in range(20):  # the stopped belt holds what it carries
+        session._tick()
+    qvel = session.world.data.qvel
+    carried = [belt.slots[i] for i in belt._on_belt]
+    assert carried
+    for h in carried:
+        assert float(np.linalg.norm(qvel[h.qvel_adr : h.qvel_adr + 3])) < 0.01, h.name

@@ -364,9 +364,14 @@ class Session:
         data, model = ctx.data, ctx.model
         act = as_index(self.world.arm_act)
         compute, read = self.controller.compute, ctx.encoders.read
+        # a conveyor runs with the physics, task or not: the belt carries parcels to its light
+        # barrier and the feed puts new ones on, as in a real cell (as run_episode steps it)
+        belt = self.world.conveyor.on_step if self.world.conveyor is not None else None
         for _ in range(self.n_sub):
             data.ctrl[act] = compute(*read())
             mujoco.mj_step(model, data)
+            if belt is not None:
+                belt(ctx)
             if stop is not None:
                 stop.step()
                 if not stop.active:
