@@ -234,3 +234,37 @@ def test_a_conveyor_runs_in_a_live_session_and_stops_its_parcel_at_the_barrier()
     assert carried
     for h in carried:
         assert float(np.linalg.norm(qvel[h.qvel_adr : h.qvel_adr + 3])) < 0.01, h.name
+
+
+VIA_MACHINE = """name: via_only
+initial: MOVE
+blackboard:
+  waypoint: {type: vec3, default: [0.45, 0.0, 0.35], description: "Passed on the way [m]."}
+states:
+  MOVE:
+    skill: move
+    with: {target: [0.5, 0.1, 0.3], via: [{target: $waypoint}]}
+    transitions: {reached: DONE, unreachable: FAILED, timeout: FAILED}
+  DONE: {final: succeeded}
+  FAILED: {final: failed}
+"""
+
+
+def test_a_goal_read_only_by_a_via_point_is_guarded(tmp_path):
+    from orchestrator.language.load import load_scenario
+    from orchestrator.language.scenario_checks import goal_keys
+    from orchestrator.live.guardrail import GoalRejected, check_goals
+    from orchestrator.world import World
+
+    (tmp_path / "m.yaml").write_text(VIA_MACHINE)
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text(
+        "name: s\nmachine: m.yaml\nguards: [{workspace: {min: [0.2, -0.5, 0.0], max: [0.8, 0.5,"
+        " 0.8]}}]\nscene:\n  objects:\n    - {name: cube, size: [0.05, 0.05, 0.05], xy: [0.5,"
+        " 0.0]}\n"
+    )
+    assert goal_keys(load_scenario(str(scenario)).machine) == {"waypoint"}
+    loaded = load_scenario(str(scenario), ["waypoint=[1.5, 0.0, 0.3]"])
+    world = World.build(loaded.scenario, 0)
+    with pytest.raises(GoalRejected, match=r"waypoint = \[1\.5, 0\.0, 0\.3\]: outside the work"):
+        check_goals(loaded, ["waypoint"], world, world.home[: world.robot.n_arm])

@@ -130,16 +130,23 @@ def _missing_scene(source: SourceMap, at: tuple, cls: Any, scenario: Scenario) -
 
 def goal_keys(machine: MachineNode) -> set[str]:
     """Blackboard keys the machine moves to: those a skill's target parameter (a `target`,
-    e.g. `move`'s) reads as `$key` anywhere in the tree. Offsets and heights are not goals."""
+    e.g. `move`'s, or a `via` point's) reads as `$key` anywhere in the tree. Offsets and
+    heights are not goals."""
     skill_names()  # discover the skills
     keys: set[str] = set()
 
     def scan(model, params: dict) -> None:
         for field, info in model.model_fields.items():
+            value = params.get(field)
+            nested = _item_model(info.annotation)
+            if nested is not None:  # a list of parameter models: `move`'s `via` points
+                for item in value if isinstance(value, list) else []:
+                    if isinstance(item, dict):
+                        scan(nested, item)
+                continue
             extra = info.json_schema_extra
             if not isinstance(extra, dict) or extra.get("scene_ref") != "target":
                 continue
-            value = params.get(field)
             for item in value if isinstance(value, list) else [value]:
                 ref = parse_ref(item)
                 if ref is not None and not ref[1]:
