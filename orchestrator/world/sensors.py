@@ -117,7 +117,7 @@ class JointEncoders:
         # in-place ufuncs on 0-d array scalars, the same operations in the same order as
         # round(x / res) * res and m1 + k (raw - m1), so the readings are bit for bit those.
         res = self._res
-        q = np.divide(self._qpos[self._qi], res)
+        q = np.divide(self._truth[0] if self._views else self._qpos[self._qi], res)
         np.rint(q, out=q)  # np.round with 0 decimals is rint: half to even
         np.multiply(q, res, out=q)
         if math.isnan(self._read_t) or now <= self._read_t:
