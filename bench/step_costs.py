@@ -23,6 +23,7 @@ from typing import Any
 import mujoco
 
 NESTED = {
+    "skill starts",
     "IKSolver.reference_step",
     "BaseMap.clearance",
     "BaseMap.reach_clear",
@@ -44,6 +45,12 @@ HOT: list[tuple[str, str, str]] = [
     ("orchestrator.skills.base_motion", "BaseMotion", "command"),
 ]
 """(module, class, method) of the functions on or near the per-step path."""
+
+MODULE_HOT: list[tuple[str, str, str]] = [
+    ("orchestrator.engine.executor", "_start_skill", "skill starts"),
+]
+"""(module, function, row) of module-level functions: a state's skill starting (a move's
+dry runs of the IK, an approach's planning) runs inside `Executor.tick`, once per state."""
 
 _clock = time.thread_time
 
@@ -77,6 +84,9 @@ def main() -> None:
     for mod, cls, meth in HOT:
         owner = getattr(importlib.import_module(mod), cls)
         setattr(owner, meth, _timed(getattr(owner, meth), acc, f"{cls}.{meth}"))
+    for mod, name, key in MODULE_HOT:
+        module = importlib.import_module(mod)
+        setattr(module, name, _timed(getattr(module, name), acc, key))
     step = mujoco.mj_step
     mujoco.mj_step = _timed(step, acc, "mj_step")
     try:

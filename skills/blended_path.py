@@ -18,6 +18,8 @@ import math
 import mink
 import numpy as np
 
+from .trajectory import turned
+
 __all__ = ["BlendedPath"]
 
 _GRID_M = 0.002
@@ -58,6 +60,9 @@ class BlendedPath:
         via_len = float(s[via_end])
         self.length = float(s[-1])
         self._s, self._xyz = s, xyz
+        self._columns = tuple(np.ascontiguousarray(xyz[:, i]) for i in range(3))
+        """x, y, z of the samples, each contiguous: `np.interp` copies a strided column on
+        every call (the dry runs of time_scaling.py sample the path hundreds of times)."""
         turn = float(np.linalg.norm(self.delta))
         # the rotation is spread over [0, s_rot]: the last via point (or the whole path)
         self.s_rot = via_len if via_len > 1e-6 else self.length
@@ -104,9 +109,10 @@ class BlendedPath:
     def sample_so3(self, t: float) -> tuple[np.ndarray, mink.SO3]:
         """Position [m] and rotation at time `t` [s] after the start."""
         s = self.progress(t)
-        pos = np.array([np.interp(s, self._s, self._xyz[:, i]) for i in range(3)])
+        grid = self._s
+        pos = np.array([np.interp(s, grid, column) for column in self._columns])
         frac = 1.0 if self.s_rot <= 0.0 else min(1.0, s / self.s_rot)
-        return pos, self.rot0 @ mink.SO3.exp(frac * self.delta)
+        return pos, turned(self.rot0, frac, self.delta)
 
     def sample(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Position [m] and rotation matrix at time `t` [s] after the start."""

@@ -81,6 +81,13 @@ class IKProblem:
             for task, rows in zip(self.tasks, self.rows, strict=True)
         ]
         """Per task: its kind, itself, and its views of the stacked rows."""
+        self._constant: list[tuple[bytes, float] | None] = [None] * len(self.tasks)
+        """Per task: the (cost bits, gain) its rows were last written for, when they do not
+        depend on the configuration (a posture task's Jacobian I, a damping task's rows)."""
+        self._damping_sq = [0.0] * len(self.tasks)
+        """Per damping task: its (constant) e·e of the last write."""
+        self._velocity_h: list[tuple[float, bytes] | None] = [None] * len(self.limits)
+        """Per velocity limit: the (dt, limit bits) its rows of h were last written for."""
         self._diff = np.empty(nv)
         self._dq_max = np.empty(nv)
         self._dq_min = np.empty(nv)
@@ -138,34 +145,55 @@ class IKProblem:
         return v
 
     def _objective(self) -> tuple[np.ndarray, np.ndarray]:
-        """H and c of mink's `_compute_qp_objective`, the same operations in place."""
+        """H and c of mink's `_compute_qp_objective`, the same operations in place.
+
+        A posture task's Jacobian rows (cost x I) and a damping task's rows (its error is
+        zero) do not depend on the configuration: they are written again only when the
+        task's cost or gain changed (compared bit for bit), not on every step."""
         config = self.configuration
         W, e = self._W, self._e
         mu_total = 0.0
         frame_jacobian = None
-        for kind, task, e_rows, w_rows in self._plan:
+        for i, (kind, task, e_rows, w_rows) in enumerate(self._plan):
+            if kind is _POSTURE:  # PostureTask, DampingTask: J = I, e = q - q* (DampingTask: 0)
+                key = (task.cost.tobytes(), task.gain)
+                fresh = key != self._constant[i]
+                if fresh:
+                    self._constant[i] = key
+                    np.multiply(task.cost[:, None], self._eye, out=w_rows)
+                if type(task) is mink.DampingTask:
+                    if fresh:
+                        np.multiply(task.cost, -task.gain * self._zero_error(), out=e_rows)
+                        self._damping_sq[i] = float(e_rows @ e_rows)
+                    mu_total += task.lm_damping * self._damping_sq[i]
+                    continue
+                error = self._posture_error(task)
+                np.multiply(task.cost, -task.gain * error, out=e_rows)
+                mu_total += task.lm_damping * float(e_rows @ e_rows)
+                continue
             if kind is _FRAME:
                 error, jacobian = task._error_and_jacobian(config)
                 frame_jacobian = jacobian
-            elif kind is _NULLSPACE:  # its frame task comes first (`supports`)
+            else:  # _NULLSPACE: its frame task comes first (`supports`)
                 jacobian = task.projector_from(frame_jacobian)
                 error = jacobian @ task.raw_error(config)
-            else:  # PostureTask, DampingTask: J = I, e = q - q* (DampingTask: 0)
-                jacobian = self._eye
-                error = self._posture_error(task)
             np.multiply(task.cost, -task.gain * error, out=e_rows)
             np.multiply(task.cost[:, None], jacobian, out=w_rows)
             mu_total += task.lm_damping * float(e_rows @ e_rows)
         H = W.T @ W
         c = -(e @ W)
-        H.flat[:: self.model.nv + 1] += self.damping + mu_total
+        # H's diagonal as a strided view of the fresh (contiguous) product: one ufunc call,
+        # where `H.flat[...] +=` goes through numpy's flat iterator (the same additions)
+        H.reshape(-1)[:: self.model.nv + 1] += self.damping + mu_total
         return H, c
 
+    def _zero_error(self) -> np.ndarray:
+        """A damping task's error: zero. Shape (nv,)."""
+        self._diff[:] = 0.0
+        return self._diff
+
     def _posture_error(self, task: mink.PostureTask) -> np.ndarray:
-        """A mink posture (or damping) task's error, without its allocations."""
-        if type(task) is mink.DampingTask:
-            self._diff[:] = 0.0
-            return self._diff
+        """A mink posture task's error, without its allocations."""
         if task.target_q is None:
             raise mink.TargetNotSet(type(task).__name__)
         mujoco.mj_differentiatePos(
@@ -174,23 +202,29 @@ class IKProblem:
         return self._diff
 
     def _inequalities(self, dt: float) -> np.ndarray:
-        """h of mink's `_compute_qp_inequalities` (G is constant), into one array."""
+        """h of mink's `_compute_qp_inequalities` (G is constant), into one array.
+
+        A velocity limit's rows depend on `dt` only: written again when `dt` or the limit
+        changed (the dry runs of time_scaling.py step at another dt than the control tick)."""
         h = self._h
         qpos = self.configuration.data.qpos
         at = 0
-        for limit in self.limits:
+        for i, limit in enumerate(self.limits):
             n = len(limit.indices)
             upper, lower = h[at : at + n], h[at + n : at + 2 * n]
             if type(limit) is mink.ConfigurationLimit:  # gain (q_max - q), gain (q - q_min)
                 mujoco.mj_differentiatePos(self.model, self._dq_max, 1.0, qpos, limit.upper)
                 mujoco.mj_differentiatePos(self.model, self._dq_min, 1.0, limit.lower, qpos)
-                np.take(self._dq_max, limit.indices, out=upper)
+                self._dq_max.take(limit.indices, out=upper)
                 upper *= limit.gain
-                np.take(self._dq_min, limit.indices, out=lower)
+                self._dq_min.take(limit.indices, out=lower)
                 lower *= limit.gain
             else:  # VelocityLimit: dt v_max both ways
-                np.multiply(dt, limit.limit, out=upper)
-                lower[:] = upper
+                key = (dt, limit.limit.tobytes())
+                if key != self._velocity_h[i]:
+                    self._velocity_h[i] = key
+                    np.multiply(dt, limit.limit, out=upper)
+                    lower[:] = upper
             at += 2 * n
         return h
 

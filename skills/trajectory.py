@@ -5,10 +5,11 @@ from __future__ import annotations
 from functools import cached_property
 
 import mink
+import mujoco
 import numpy as np
 import ruckig
 
-__all__ = ["JERK_PER_ACCEL", "CartesianLine", "Profile"]
+__all__ = ["JERK_PER_ACCEL", "CartesianLine", "Profile", "turned"]
 
 
 JERK_PER_ACCEL = 50.0
@@ -122,8 +123,26 @@ class CartesianLine:
         """Position [m] and rotation (as an SO3, no matrix round trip) at time `t` [s]."""
         s, _ = self.profile.progress(t)
         pos = self.pos0 + s * self._span
-        return pos, self.rot0 @ mink.SO3.exp(s * self.delta)
+        return pos, turned(self.rot0, s, self.delta)
 
     @cached_property
     def _span(self) -> np.ndarray:
         return self.pos1 - self.pos0
+
+
+def turned(rot0: mink.SO3, frac: float, tangent: np.ndarray) -> mink.SO3:
+    """`rot0 @ mink.SO3.exp(frac * tangent)` bit for bit (the same MuJoCo calls), without
+    the intermediate SO3 and its checks: the paths' samplers call it on every IK step of a
+    dry run (skills/time_scaling.py).
+
+    Args:
+        rot0: The start rotation.
+        frac: Fraction of the turn.
+        tangent: The whole turn as a rotation vector [rad]. Shape (3,).
+    """
+    axis = frac * tangent
+    turn = np.empty(4)
+    mujoco.mju_axisAngle2Quat(turn, axis, mujoco.mju_normalize3(axis))
+    wxyz = np.empty(4)
+    mujoco.mju_mulQuat(wxyz, rot0.wxyz, turn)
+    return mink.SO3(wxyz=wxyz)

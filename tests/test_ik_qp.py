@@ -83,3 +83,32 @@ def test_ik_problem_refuses_what_it_cannot_assemble():
     p, rot = ik.tcp_pose()
     v = ik.reference_step(p, rot, 0.01)
     assert ik._problem is None and np.all(np.isfinite(v))
+
+
+def test_constant_rows_are_rewritten_when_a_cost_or_the_step_changes():
+    """The posture and damping rows and the velocity limits' h are kept between calls
+    (they do not depend on the configuration): a cost changed in place (`set_cost`), a
+    damping task's gain, or another dt must still give mink's velocity exactly."""
+    ik = _solver("mobile_panda")
+    problem = IKProblem(ik.config, ik.tasks, ik.limits, ik.damping)
+    posture, damping = ik.tasks[1], ik.tasks[2]
+    assert type(posture) is mink.PostureTask and type(damping) is mink.DampingTask
+    p0, rot = ik.tcp_pose()
+    ik.frame_task.set_target(
+        mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(rot), p0 + 0.4)
+    )
+    first = problem.solve(0.01)
+    changes = [
+        lambda: posture.set_cost(posture.cost * 50.0),  # in place: the same array object
+        lambda: damping.set_cost(damping.cost * 0.1),
+        lambda: setattr(damping, "gain", 0.5),  # its error is zero: the same solution
+        lambda: None,  # only dt changes below
+    ]
+    seen = {first.tobytes()}
+    for k, change in enumerate(changes):
+        change()
+        dt = 0.03 if k == 3 else 0.01
+        fast = problem.solve(dt)
+        assert np.array_equal(fast, _mink_velocity(ik, dt)), f"change {k}"
+        seen.add(fast.tobytes())
+    assert len(seen) == 4  # every cost and the step moved the solution: rows rewritten

@@ -63,6 +63,36 @@ def test_planned_paths_keep_the_planning_radius_from_every_box(loaded):
     assert room.plan(np.zeros(2), np.array([-2.2, 1.5])) is None  # inside the cabinet
 
 
+def test_footprint_check_answers_as_its_outline_does(loaded):
+    """`footprint_clear` answers a pose far from every box from its centre alone: over
+    random poses, many of them grazing a box, it agrees with testing each outline point."""
+    room = base_map(loaded.scenario)
+    rng = np.random.default_rng(11)
+    rect = (0.30, 0.25)
+
+    def outline_clear(x, y, yaw, margin):
+        hl, hw = rect[0] + margin, rect[1] + margin
+        c, s = math.cos(yaw), math.sin(yaw)
+        return all(
+            room.clearance(x + c * u - s * v, y + s * u + c * v) > 0.0
+            for u in np.linspace(-hl, hl, 9)
+            for v in np.linspace(-hw, hw, 7)
+            if not (abs(u) < hl - 1e-9 and abs(v) < hw - 1e-9)
+        )
+
+    answers, grazing = [], 0
+    for _ in range(3000):
+        x, y = rng.uniform(-2.6, 2.6, 2)
+        yaw, margin = rng.uniform(-math.pi, math.pi), rng.uniform(0.0, 0.1)
+        want = outline_clear(x, y, yaw, margin)
+        assert room.footprint_clear(x, y, yaw, margin, rect) == want, (x, y, yaw, margin)
+        answers.append(want)
+        diag = math.hypot(rect[0] + margin, rect[1] + margin)
+        grazing += abs(room.clearance(x, y) - diag) < 0.05  # where the shortcut's bound is
+    assert 100 < sum(answers) < len(answers) - 100  # both answers occur
+    assert grazing > 100
+
+
 def test_the_red_block_starts_on_a_table_or_the_floor_clear_of_the_others(loaded):
     scn = loaded.scenario
     heights = set()

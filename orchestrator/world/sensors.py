@@ -80,6 +80,7 @@ class JointEncoders:
         self._res = np.array(self.resolution)
         self._dt = np.zeros(())
         self._gain = np.zeros(())
+        self._dt_last = math.nan
         """0-d scalars of the quantization's arithmetic (cheaper operands than floats)."""
         self._omega = 2.0 * math.pi * velocity_filter_hz
         self._read_t = math.nan
@@ -116,7 +117,7 @@ class JointEncoders:
         # in-place ufuncs on 0-d array scalars, the same operations in the same order as
         # round(x / res) * res and m1 + k (raw - m1), so the readings are bit for bit those.
         res = self._res
-        q = np.divide(self._qpos[self._qi], res)
+        q = np.divide(self._truth[0] if self._views else self._qpos[self._qi], res)
         np.rint(q, out=q)  # np.round with 0 decimals is rint: half to even
         np.multiply(q, res, out=q)
         if math.isnan(self._read_t) or now <= self._read_t:
@@ -126,8 +127,10 @@ class JointEncoders:
         else:
             dt = now - self._read_t
             q0, v0 = self._measured
-            self._dt[()] = dt
-            self._gain[()] = 1.0 - math.exp(-self._omega * dt)
+            if dt != self._dt_last:  # nearly always the last step's: skip 2 writes, an exp
+                self._dt_last = dt
+                self._dt[()] = dt
+                self._gain[()] = 1.0 - math.exp(-self._omega * dt)
             v = np.subtract(q, q0)
             np.divide(v, self._dt, out=v)  # the raw differenced velocity
             np.subtract(v, v0, out=v)
