@@ -12,6 +12,7 @@ import numpy as np
 from ..exceptions import SkillError
 from ..perception.rig import CameraRig
 from ..world.actuators import ActuatorFault
+from ..world.native import native
 from ..world.pose import Pose
 from ..world.realism import WristForceNoise
 from ..world.sensors import JointEncoders, PerceptionFaults, WristForceFault
@@ -125,6 +126,17 @@ class Context:
             else None
         )
         """Noise and bias drift of the wrist force sensor (`physics.realism`), if on."""
+        ext = native()
+        self._wf: Any = None
+        """The wrist force computed in C (world/native.py), None on the pure-Python path."""
+        if ext is not None and (self.ft_noise is None or self.ft_noise.compiled is not None):
+            noise = None if self.ft_noise is None else self.ft_noise.compiled
+            self._wf = ext.WristForce(
+                d, self._f_site, self._wrist_rot, self._bias, self._true_weight, noise
+            )
+            # the two readings of every physics step, one C call each
+            self.wrist_force_norm_sq = self._wf.norm_sq  # type: ignore[method-assign]
+            self.true_wrist_force_norm_sq = self._wf.true_norm_sq  # type: ignore[method-assign]
         self.encoders = JointEncoders(
             self.data.qpos,
             self.data.qvel,
@@ -158,6 +170,9 @@ class Context:
     def ft_fault(self, fault: WristForceFault | None) -> None:
         self._ft_fault = fault
         self.sensor_faults[0] = 0.0 if fault is None else 1.0
+        self._norm_sq_t = -1.0  # the fault acts from now on: a new reading
+        if self._wf is not None:  # the C reading hands over to Python while a fault acts
+            self._wf.set_fallback(None if fault is None else self._faulted_norm_sq)
 
     # -- time ---------------------------------------------------------------------------
     @property
@@ -231,6 +246,15 @@ class Context:
         self._norm_sq, self._norm_sq_t = norm_sq, now
         return norm_sq
 
+    def _faulted_norm_sq(self) -> float:
+        """`wrist_force_norm_sq` on the compiled path while a sensor fault acts (the compiled
+        reading calls it and caches the result for the instant)."""
+        now = self.data.time
+        fx, fy, fz = self._wf.measured(now)
+        if self._ft_fault is not None:
+            fx, fy, fz = self._ft_fault.apply((fx, fy, fz), now)
+        return fx * fx + fy * fy + fz * fz
+
     def true_wrist_force_norm_sq(self) -> float:
         """Squared norm of the true external force on the wrist [N^2]: the noise-free sensor
         with the true weight of the hand and its tool removed (a perfect zero). Ground truth
@@ -264,6 +288,8 @@ class Context:
         """The wrist sensor's raw reading rotated into the world frame [N] at simulated time
         `now` [s], computed once per instant: the true force (metrics, every step) and the
         measured one (guards, every step) share it."""
+        if self._wf is not None:
+            return self._wf.sensed(now)
         if now == self._sensed_t:
             return self._sensed
         f0, f1, f2 = self._f_site.tolist()
@@ -279,6 +305,9 @@ class Context:
     def _wrist_force_xyz(self, now: float | None = None) -> tuple[float, float, float]:
         if now is None:
             now = self.data.time
+        if self._wf is not None:
+            f = self._wf.measured(now)
+            return f if self._ft_fault is None else self._ft_fault.apply(f, now)
         rx, ry, rz = self._sensed_world(now)
         bx, by, bz = self._bias
         f = (bx - rx, by - ry, bz - rz)
@@ -304,6 +333,8 @@ class Context:
         self.world.wrist_bias_world -= np.asarray(offset, dtype=float)
         self._bias = tuple(self.world.wrist_bias_world.tolist())
         self._norm_sq_t = -1.0
+        if self._wf is not None:
+            self._wf.set_bias(self._bias)
 
     # -- commands -----------------------------------------------------------------------
     def set_gripper(self, opening_m: float) -> None:
