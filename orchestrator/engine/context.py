@@ -12,7 +12,7 @@ import numpy as np
 from ..exceptions import SkillError
 from ..perception.rig import CameraRig
 from ..world.actuators import ActuatorFault
-from ..world.native import native
+from ..world.native import native, time_address
 from ..world.pose import Pose
 from ..world.realism import WristForceNoise
 from ..world.sensors import JointEncoders, PerceptionFaults, WristForceFault
@@ -132,7 +132,13 @@ class Context:
         if ext is not None and (self.ft_noise is None or self.ft_noise.compiled is not None):
             noise = None if self.ft_noise is None else self.ft_noise.compiled
             self._wf = ext.WristForce(
-                d, self._f_site, self._wrist_rot, self._bias, self._true_weight, noise
+                d,
+                self._f_site,
+                self._wrist_rot,
+                self._bias,
+                self._true_weight,
+                noise,
+                time_address(d),
             )
             # the two readings of every physics step, one C call each
             self.wrist_force_norm_sq = self._wf.norm_sq  # type: ignore[method-assign]

@@ -165,6 +165,7 @@ static int address_of(PyObject *array, Py_ssize_t min_len, double **out) {
 typedef struct {
     PyObject_HEAD
     PyObject *data;      /* MjData: its `time` keys the readings */
+    const double *time;  /* where MjData keeps `time` (NULL: read through the bindings) */
     PyObject *keep;      /* the arrays read below */
     const double *f_site; /* raw force in the sensor's site frame, shape (3,) */
     const double *rot;   /* the site's rotation, row-major 3x3 */
@@ -179,6 +180,10 @@ typedef struct {
 static PyObject *time_str;
 
 static int wf_now(WristForce *self, double *now) {
+    if (self->time != NULL) {
+        *now = *self->time;
+        return 0;
+    }
     PyObject *t = PyObject_GetAttr(self->data, time_str);
     if (t == NULL) return -1;
     *now = PyFloat_AsDouble(t);
@@ -253,11 +258,13 @@ static int read3(PyObject *seq, double out[3], const char *what) {
 }
 
 static int wf_init(WristForce *self, PyObject *args, PyObject *kwds) {
-    static char *kw[] = {"data", "f_site", "rot", "bias", "weight", "noise", NULL};
+    static char *kw[] = {"data", "f_site", "rot", "bias", "weight", "noise", "time_address", NULL};
     PyObject *data, *f_site, *rot, *bias, *weight, *noise;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOO", kw, &data, &f_site, &rot, &bias,
-                                     &weight, &noise))
+    Py_ssize_t time_address = 0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOO|n", kw, &data, &f_site, &rot, &bias,
+                                     &weight, &noise, &time_address))
         return -1;
+    self->time = (const double *)time_address;
     double *fp, *rp;
     if (address_of(f_site, 3, &fp) < 0 || address_of(rot, 9, &rp) < 0) return -1;
     if (read3(bias, self->bias, "bias") < 0 || read3(weight, self->weight, "weight") < 0)
