@@ -13,6 +13,7 @@ Objects choose their path when they are built (`native()`), so a test can build 
 from __future__ import annotations
 
 import ctypes
+import importlib
 import os
 from types import ModuleType
 
@@ -23,12 +24,15 @@ __all__ = ["PURE_PYTHON_ENV", "compiled", "native", "time_address"]
 PURE_PYTHON_ENV = "ORCHESTRATOR_PURE_PYTHON"
 """Set to 1 to run the pure-Python path although the compiled one is built."""
 
-try:
-    from . import _native as _compiled  # type: ignore[attr-defined]
-except ImportError:  # not built (no compiler at install time): the Python twin runs
-    _compiled = None
 
-compiled: ModuleType | None = _compiled
+def _load() -> ModuleType | None:
+    try:
+        return importlib.import_module(f"{__package__}._native")
+    except ImportError:  # not built (no compiler at install time): the Python twin runs
+        return None
+
+
+compiled: ModuleType | None = _load()
 """The compiled module, None if it was not built."""
 
 
