@@ -97,6 +97,8 @@ def test_the_wrist_force_is_the_same_in_c_and_in_python(monkeypatch: pytest.Monk
                 c.world.wrist_bias_world[:] = bias
                 ctx.ft_fault = None
                 ctx.zero_wrist_force(np.array([0.5, -0.25, 1.0]))
+        assert c.t == py.t == d.time and c.clock == py.clock  # time read in place / bound
+        assert c.gripper_width == py.gripper_width == float(d.qpos[c.world.finger_qpos].sum())
         assert c.true_wrist_force_norm_sq() == py.true_wrist_force_norm_sq()
         assert c.wrist_force_norm_sq() == py.wrist_force_norm_sq()
         if rng.random() < 0.2:  # a skill's reading of the vector at the same instant

@@ -1,6 +1,6 @@
 /* The per-physics-step arithmetic of the framework in C: an optional speed-up.
 
-   Three types, each the exact twin of a pure-Python path (the fallback when this module is
+   Four types, each the exact twin of a pure-Python path (the fallback when this module is
    not built; tests hold both to the same results, bit for bit):
 
    * FtNoise    - world/realism.py `WristForceNoise.offset`: the wrist sensor's white noise
@@ -8,6 +8,7 @@
    * WristForce - engine/context.py `Context.wrist_force_norm_sq` and
                   `true_wrist_force_norm_sq`: the raw sensor reading rotated into the world
                   frame, the hand's weight and the sensor's bias removed, noise added.
+   * Clock      - `float(data.time)`: MjData's time read in place (Context.t, the encoders).
    * Envelope   - guards/bank.py `GuardBank.inside`: every active guard's envelope (views that
                   must read zero, bounded views, pairs that must read equal, scalars) tested
                   in one call.
@@ -372,6 +373,52 @@ static PyTypeObject WristForceType = {
     .tp_methods = wf_methods,
 };
 
+/* ---------------------------------------------------------------- Clock ------------ */
+
+typedef struct {
+    PyObject_HEAD
+    PyObject *data;
+    const double *time;
+} Clock;
+
+static int clock_init(Clock *self, PyObject *args, PyObject *kwds) {
+    static char *kw[] = {"data", "time_address", NULL};
+    PyObject *data;
+    Py_ssize_t address;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "On", kw, &data, &address)) return -1;
+    if (address == 0) {
+        PyErr_SetString(PyExc_ValueError, "Clock needs the address of MjData's time");
+        return -1;
+    }
+    Py_XSETREF(self->data, Py_NewRef(data)); /* keeps the memory alive */
+    self->time = (const double *)address;
+    return 0;
+}
+
+static void clock_dealloc(Clock *self) {
+    Py_XDECREF(self->data);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyObject *clock_now(Clock *self, PyObject *unused) {
+    return PyFloat_FromDouble(*self->time);
+}
+
+static PyMethodDef clock_methods[] = {
+    {"now", (PyCFunction)clock_now, METH_NOARGS, "MjData's simulated time [s], read in place."},
+    {NULL}};
+
+static PyTypeObject ClockType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "orchestrator.world._native.Clock",
+    .tp_basicsize = sizeof(Clock),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "Clock(data, time_address): `float(data.time)` without the bindings.",
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)clock_init,
+    .tp_dealloc = (destructor)clock_dealloc,
+    .tp_methods = clock_methods,
+};
+
 /* ---------------------------------------------------------------- Envelope --------- */
 
 typedef struct {
@@ -609,13 +656,15 @@ static struct PyModuleDef module = {
 PyMODINIT_FUNC PyInit__native(void) {
     time_str = PyUnicode_InternFromString("time");
     if (time_str == NULL || PyType_Ready(&FtNoiseType) < 0 ||
-        PyType_Ready(&WristForceType) < 0 || PyType_Ready(&EnvelopeType) < 0)
+        PyType_Ready(&WristForceType) < 0 || PyType_Ready(&EnvelopeType) < 0 ||
+        PyType_Ready(&ClockType) < 0)
         return NULL;
     PyObject *m = PyModule_Create(&module);
     if (m == NULL) return NULL;
     if (PyModule_AddObjectRef(m, "FtNoise", (PyObject *)&FtNoiseType) < 0 ||
         PyModule_AddObjectRef(m, "WristForce", (PyObject *)&WristForceType) < 0 ||
-        PyModule_AddObjectRef(m, "Envelope", (PyObject *)&EnvelopeType) < 0) {
+        PyModule_AddObjectRef(m, "Envelope", (PyObject *)&EnvelopeType) < 0 ||
+        PyModule_AddObjectRef(m, "Clock", (PyObject *)&ClockType) < 0) {
         Py_DECREF(m);
         return NULL;
     }
