@@ -176,6 +176,16 @@ def test_the_envelope_test_is_the_same_in_c_and_in_python(monkeypatch: pytest.Mo
         assert got == py_bank.inside()
         outcomes.add(got)
     assert outcomes == {True, False}
+    # exactly on a bound is inside (the bounds are inclusive), a hair beyond is not
+    ctx.sensor_faults[0] = 0.0
+    d.qfrc_applied[:] = 0.0
+    d.qpos[w.arm_qpos], d.qvel[w.arm_dof] = q0, 0.0
+    mujoco.mj_forward(ctx.model, d)
+    d.actuator_force[w.arm_act] = ctx.controller.tau
+    for value, inside in ((speed[1], True), (np.nextafter(speed[1], math.inf), False)):
+        d.time += ctx.dt_physics
+        d.qvel[w.arm_dof[1]] = value
+        assert c_bank.inside() is py_bank.inside() is inside
 
 
 @pytest.mark.parametrize(
