@@ -17,12 +17,15 @@ both alike); the figure is the median of the per-pair ratios, in wall time and i
 (`time.thread_time`, robust to other processes on a shared machine).
 
     python bench/overhead.py [--pairs 20] [--seed-base 0] [--without-guard-checks]
+                             [--pure-python]
 
-`--without-guard-checks` runs the framework with its guards active but never checked (a
-diagnostic, not a mode the framework offers): the difference is what checking them every
-physics step costs. The machine's load average is printed with the figures: on a shared
-machine the ratio grows with it (other processes evict the caches the Python on the physics
-step relies on).
+`--pure-python` runs the framework's per-step readings and envelope test on their pure-Python
+path (`ORCHESTRATOR_PURE_PYTHON=1`, orchestrator/world/native.py) instead of the compiled one;
+the hand-written loop uses neither. `--without-guard-checks` runs the framework with its
+guards active but never checked (a diagnostic, not a mode the framework offers): the
+difference is what checking them every physics step costs. The machine's load average is
+printed with the figures: on a shared machine the ratio grows with it (other processes evict
+the caches the Python on the physics step relies on).
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ from orchestrator.engine.runner import run_episode
 from orchestrator.language.load import LoadedScenario, load_scenario
 from orchestrator.language.scenario import Scenario
 from orchestrator.world import World, as_index, robot_only_model
+from orchestrator.world.native import PURE_PYTHON_ENV, native
 from orchestrator.world.pose import quat_from_yaw, yaw_of
 from orchestrator.world.realism import link_mass_scale
 from orchestrator.world.sensors import JointEncoders
@@ -457,9 +461,17 @@ def main() -> None:
         action="store_true",
         help="Diagnostic: the framework's guards are never checked (what they cost).",
     )
+    parser.add_argument(
+        "--pure-python",
+        action="store_true",
+        help="The framework's per-step readings and envelope test in Python, not compiled.",
+    )
     args = parser.parse_args()
     if args.without_guard_checks:
         _skip_guard_checks()
+    if args.pure_python:
+        os.environ[PURE_PYTHON_ENV] = "1"
+    print(f"per-step readings and envelope test: {'compiled' if native() else 'pure Python'}")
     loaded = load_scenario("pick_place")
     load0 = os.getloadavg()[0]
     framework(loaded, 10_000)  # warm caches (robot model, imports) for both

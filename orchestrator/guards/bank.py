@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..world.native import native
 from .base import Guard, Violation
 
 if TYPE_CHECKING:
@@ -152,6 +153,11 @@ class GuardBank:
             (a.tolist, b.tolist) for (a, b), raw in zip(equal, as_bytes, strict=True) if not raw
         )
         self._scalars = tuple(scalars.items())
+        self.compiled = _compiled(zero, bounded, equal, as_bytes, self._scalars, cache)
+        """`inside()` in C (world/native.py), None on the pure-Python path."""
+        if self.compiled is not None:
+            self.check = self._check_compiled  # type: ignore[method-assign]
+            self.inside = self.compiled  # type: ignore[method-assign]
         self._open = tuple(open_checks)
         """Checks of the guards without an envelope: run in full every step."""
         self._full = any(not g.settled() for g in self._stateful)
@@ -229,6 +235,16 @@ class GuardBank:
             return None
         return self._check_full(ctx)
 
+    def _check_compiled(self, ctx: Context) -> Violation | None:
+        """`check` with the envelope tested in C (`self.compiled`)."""
+        if self._full or not self.compiled():  # type: ignore[misc]
+            return self._check_full(ctx)
+        for always in self._open:
+            violation = always(ctx)
+            if violation is not None:
+                return violation
+        return None
+
     def _check_full(self, ctx: Context) -> Violation | None:
         """Every active guard's full `check`, in priority order; the first violation."""
         self.full_checks += 1
@@ -251,3 +267,54 @@ def _covered(view: np.ndarray, watched: Sequence[_Watched], cache: Addresses) ->
         if w.address <= start and start + view.nbytes <= w.address + w.view.nbytes:
             return True
     return False
+
+
+def _compiled(
+    zero: list[_Watched],
+    bounded: list[_Watched],
+    equal: list[tuple[np.ndarray, np.ndarray]],
+    as_bytes: list[bool],
+    scalars: tuple[tuple[Callable[[], float], float], ...],
+    cache: Addresses,
+) -> Callable[[], bool] | None:
+    """The envelope test in C, tested in the order of `GuardBank.inside` (so the scalars'
+    readings, which draw the wrist sensor's noise, are taken on the same steps); None when the
+    compiled module is not in use or a view is not float64 (then Python tests it)."""
+    ext = native()
+    f8 = np.dtype(np.float64)
+    if ext is None or any(w.view.dtype != f8 for w in bounded):
+        return None
+    if any(a.dtype != f8 or b.dtype != f8 or a.shape != b.shape for a, b in equal):
+        return None
+    if any(w.view.itemsize > 64 for w in zero):
+        return None
+
+    def span(w: _Watched) -> tuple[int, int, int, int]:
+        return (w.address, len(w.view), w.view.strides[0], w.view.itemsize)
+
+    pairs = [
+        (_address(a, cache), a.strides[0], _address(b, cache), b.strides[0], len(a), raw)
+        for (a, b), raw in zip(equal, as_bytes, strict=True)
+    ]
+    # a reading of the C wrist force is taken in C; any other scalar is called
+    reads = [
+        (getattr(read, "__self__", None) if _is_compiled_force(read, ext) else read, limit)
+        for read, limit in scalars
+    ]
+    keep = (zero, bounded, equal, scalars)  # the views stay alive as long as the test
+    envelope = ext.Envelope(
+        [span(w) for w in zero],
+        [span(w) for w in bounded],
+        [v for w in bounded for v in w.lo],
+        [v for w in bounded for v in w.hi],
+        pairs,
+        reads,
+        keep,
+    )
+    inside: Callable[[], bool] = envelope.inside
+    return inside
+
+
+def _is_compiled_force(read: Callable[[], float], ext: object) -> bool:
+    owner = getattr(read, "__self__", None)
+    return isinstance(owner, ext.WristForce) and read == owner.norm_sq  # type: ignore[attr-defined]

@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from .native import native
+
 if TYPE_CHECKING:
     from ..language.scenario import Realism
     from ..robots import Robot
@@ -86,10 +88,24 @@ class WristForceNoise:
         per reading (a Generator fills an array one sample after another), at a fraction of
         the cost of a numpy call every physics step."""
         self._next = 0
-        self.bias = [0.0, 0.0, 0.0]
-        """The drift the bias has walked to [N], per axis."""
+        self._bias = [0.0, 0.0, 0.0]
         self._t = math.nan
         self._offset = (0.0, 0.0, 0.0)
+        ext = native()
+        self.compiled = (
+            ext.FtNoise(self.std, self.drift, lambda: self.rng.standard_normal(_BLOCK * 6))
+            if ext is not None
+            else None
+        )
+        """The same stream computed in C (world/native.py), None on the pure-Python path:
+        `offset` then hands over to it."""
+        if self.compiled is not None:
+            self.offset = self.compiled.offset  # type: ignore[method-assign]
+
+    @property
+    def bias(self) -> list[float]:
+        """The drift the bias has walked to [N], per axis."""
+        return self._bias if self.compiled is None else self.compiled.bias
 
     def apply(self, f: tuple[float, float, float], t: float) -> tuple[float, float, float]:
         """The reading of a sensor that measures `f` [N] at simulated time `t` [s]."""
@@ -113,7 +129,7 @@ class WristForceNoise:
         n0, n1, n2, n3, n4, n5 = draws[k]
         self._next = k + 1
         walk = self.drift * math.sqrt(dt)
-        b = self.bias
+        b = self._bias
         bx = b[0] = b[0] + walk * n3
         by = b[1] = b[1] + walk * n4
         bz = b[2] = b[2] + walk * n5

@@ -1,0 +1,672 @@
+/* The per-physics-step arithmetic of the framework in C: an optional speed-up.
+
+   Four types, each the exact twin of a pure-Python path (the fallback when this module is
+   not built; tests hold both to the same results, bit for bit):
+
+   * FtNoise    - world/realism.py `WristForceNoise.offset`: the wrist sensor's white noise
+                  and random-walk bias drift, one reading per simulated instant.
+   * WristForce - engine/context.py `Context.wrist_force_norm_sq` and
+                  `true_wrist_force_norm_sq`: the raw sensor reading rotated into the world
+                  frame, the hand's weight and the sensor's bias removed, noise added.
+   * Clock      - `float(data.time)`: MjData's time read in place (Context.t, the encoders).
+   * Envelope   - guards/bank.py `GuardBank.inside`: every active guard's envelope (views that
+                  must read zero, bounded views, pairs that must read equal, scalars) tested
+                  in one call.
+
+   The arithmetic is written in the order Python evaluates it and compiled without
+   floating-point contraction (-ffp-contract=off): no fused multiply-add, so every result
+   rounds as Python's float operations do. Views are read through the addresses of numpy
+   arrays that the Python side keeps alive (MjData's arrays never move). */
+
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+/* ---------------------------------------------------------------- FtNoise ---------- */
+
+typedef struct {
+    PyObject_HEAD
+    double std, drift;
+    double bias[3];
+    double t;          /* simulated time of the last reading [s] (NaN: none yet) */
+    double offset[3];  /* what noise and drift added to that reading [N] */
+    PyObject *refill;  /* () -> float64 array of 6 * block normal samples */
+    PyObject *block;   /* the samples drawn ahead (kept alive) */
+    const double *draws;
+    Py_ssize_t next, n; /* next reading's index, readings in the block */
+} FtNoise;
+
+static int ftnoise_refill(FtNoise *self) {
+    PyObject *arr = PyObject_CallNoArgs(self->refill);
+    if (arr == NULL) return -1;
+    Py_buffer view;
+    if (PyObject_GetBuffer(arr, &view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
+        Py_DECREF(arr);
+        return -1;
+    }
+    if (view.itemsize != 8 || view.format == NULL || strcmp(view.format, "d") != 0 ||
+        view.len < 48) {
+        PyBuffer_Release(&view);
+        Py_DECREF(arr);
+        PyErr_SetString(PyExc_ValueError, "FtNoise refill must return float64 samples, 6 a reading");
+        return -1;
+    }
+    self->draws = (const double *)view.buf;
+    self->n = view.len / 48;
+    PyBuffer_Release(&view); /* the array is kept: its memory stays */
+    Py_XSETREF(self->block, arr);
+    self->next = 0;
+    return 0;
+}
+
+/* `WristForceNoise.offset(t)`, written as its Python is evaluated. */
+static int ftnoise_offset(FtNoise *self, double t, double out[3]) {
+    if (t == self->t) {
+        memcpy(out, self->offset, sizeof self->offset);
+        return 0;
+    }
+    double dt = isnan(self->t) ? 0.0 : t - self->t;
+    if (dt < 0.0) dt = 0.0;
+    if (self->next == self->n && ftnoise_refill(self) < 0) return -1;
+    const double *n = self->draws + 6 * self->next;
+    self->next += 1;
+    double walk = self->drift * sqrt(dt);
+    double *b = self->bias;
+    b[0] = b[0] + walk * n[3];
+    b[1] = b[1] + walk * n[4];
+    b[2] = b[2] + walk * n[5];
+    double s = self->std;
+    self->offset[0] = b[0] + s * n[0];
+    self->offset[1] = b[1] + s * n[1];
+    self->offset[2] = b[2] + s * n[2];
+    self->t = t;
+    memcpy(out, self->offset, sizeof self->offset);
+    return 0;
+}
+
+static int ftnoise_init(FtNoise *self, PyObject *args, PyObject *kwds) {
+    static char *kw[] = {"std_n", "drift_n_per_sqrt_s", "refill", NULL};
+    PyObject *refill;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "ddO", kw, &self->std, &self->drift, &refill))
+        return -1;
+    if (!PyCallable_Check(refill)) {
+        PyErr_SetString(PyExc_TypeError, "refill must be callable");
+        return -1;
+    }
+    Py_INCREF(refill);
+    Py_XSETREF(self->refill, refill);
+    Py_CLEAR(self->block);
+    self->bias[0] = self->bias[1] = self->bias[2] = 0.0;
+    self->offset[0] = self->offset[1] = self->offset[2] = 0.0;
+    self->t = NAN;
+    self->draws = NULL;
+    self->next = self->n = 0;
+    return 0;
+}
+
+static void ftnoise_dealloc(FtNoise *self) {
+    Py_XDECREF(self->refill);
+    Py_XDECREF(self->block);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyObject *ftnoise_offset_py(FtNoise *self, PyObject *arg) {
+    double t = PyFloat_AsDouble(arg);
+    if (t == -1.0 && PyErr_Occurred()) return NULL;
+    double o[3];
+    if (ftnoise_offset(self, t, o) < 0) return NULL;
+    return Py_BuildValue("(ddd)", o[0], o[1], o[2]);
+}
+
+static PyObject *ftnoise_get_bias(FtNoise *self, void *closure) {
+    return Py_BuildValue("[ddd]", self->bias[0], self->bias[1], self->bias[2]);
+}
+
+static PyMethodDef ftnoise_methods[] = {
+    {"offset", (PyCFunction)ftnoise_offset_py, METH_O,
+     "What noise and drift add to a reading at simulated time t [s], per axis [N]."},
+    {NULL}};
+
+static PyGetSetDef ftnoise_getset[] = {
+    {"bias", (getter)ftnoise_get_bias, NULL, "The drift the bias has walked to [N].", NULL},
+    {NULL}};
+
+static PyTypeObject FtNoiseType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "orchestrator.world._native.FtNoise",
+    .tp_basicsize = sizeof(FtNoise),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "FtNoise(std_n, drift_n_per_sqrt_s, refill): WristForceNoise's stream in C.",
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)ftnoise_init,
+    .tp_dealloc = (destructor)ftnoise_dealloc,
+    .tp_methods = ftnoise_methods,
+    .tp_getset = ftnoise_getset,
+};
+
+/* ---------------------------------------------------------------- WristForce ------- */
+
+static int address_of(PyObject *array, Py_ssize_t min_len, double **out) {
+    /* a float64 array's first element, through its buffer (the caller keeps the array) */
+    Py_buffer view;
+    if (PyObject_GetBuffer(array, &view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) return -1;
+    int ok = view.itemsize == 8 && view.format != NULL && strcmp(view.format, "d") == 0 &&
+             view.len >= 8 * min_len;
+    *out = (double *)view.buf;
+    PyBuffer_Release(&view);
+    if (!ok) {
+        PyErr_Format(PyExc_ValueError, "expected a contiguous float64 array of >= %zd values",
+                     min_len);
+        return -1;
+    }
+    return 0;
+}
+
+typedef struct {
+    PyObject_HEAD
+    PyObject *data;      /* MjData: its `time` keys the readings */
+    const double *time;  /* where MjData keeps `time` (NULL: read through the bindings) */
+    PyObject *keep;      /* the arrays read below */
+    const double *f_site; /* raw force in the sensor's site frame, shape (3,) */
+    const double *rot;   /* the site's rotation, row-major 3x3 */
+    double bias[3];      /* world.wrist_bias_world */
+    double weight[3];    /* world.wrist_weight_world (the true weight of hand and tool) */
+    FtNoise *noise;      /* NULL: no noise */
+    PyObject *fallback;  /* while a sensor fault is in effect: () -> norm_sq, in Python */
+    double sensed_t, sensed[3];
+    double norm_t, norm;
+} WristForce;
+
+static PyObject *time_str;
+
+static int wf_now(WristForce *self, double *now) {
+    if (self->time != NULL) {
+        *now = *self->time;
+        return 0;
+    }
+    PyObject *t = PyObject_GetAttr(self->data, time_str);
+    if (t == NULL) return -1;
+    *now = PyFloat_AsDouble(t);
+    Py_DECREF(t);
+    return (*now == -1.0 && PyErr_Occurred()) ? -1 : 0;
+}
+
+static const double *wf_sensed(WristForce *self, double now) {
+    if (now != self->sensed_t) {
+        const double *f = self->f_site, *r = self->rot;
+        self->sensed[0] = r[0] * f[0] + r[1] * f[1] + r[2] * f[2];
+        self->sensed[1] = r[3] * f[0] + r[4] * f[1] + r[5] * f[2];
+        self->sensed[2] = r[6] * f[0] + r[7] * f[1] + r[8] * f[2];
+        self->sensed_t = now;
+    }
+    return self->sensed;
+}
+
+/* The measured force before a sensor fault acts: bias - sensed + noise. */
+static int wf_measured(WristForce *self, double now, double f[3]) {
+    const double *r = wf_sensed(self, now);
+    f[0] = self->bias[0] - r[0];
+    f[1] = self->bias[1] - r[1];
+    f[2] = self->bias[2] - r[2];
+    if (self->noise != NULL) {
+        double o[3];
+        if (ftnoise_offset(self->noise, now, o) < 0) return -1;
+        f[0] = f[0] + o[0];
+        f[1] = f[1] + o[1];
+        f[2] = f[2] + o[2];
+    }
+    return 0;
+}
+
+/* `Context.wrist_force_norm_sq` at `now`; -1 on an error (a norm is never negative). */
+static double wf_norm_sq(WristForce *self, double now) {
+    if (now == self->norm_t) return self->norm;
+    double n;
+    if (self->fallback != NULL) {
+        PyObject *v = PyObject_CallNoArgs(self->fallback);
+        if (v == NULL) return -1.0;
+        n = PyFloat_AsDouble(v);
+        Py_DECREF(v);
+        if (n == -1.0 && PyErr_Occurred()) return -1.0;
+    } else {
+        double f[3];
+        if (wf_measured(self, now, f) < 0) return -1.0;
+        n = f[0] * f[0] + f[1] * f[1] + f[2] * f[2];
+    }
+    self->norm = n;
+    self->norm_t = now;
+    return n;
+}
+
+static int read3(PyObject *seq, double out[3], const char *what) {
+    PyObject *fast = PySequence_Fast(seq, what);
+    if (fast == NULL) return -1;
+    if (PySequence_Fast_GET_SIZE(fast) != 3) {
+        Py_DECREF(fast);
+        PyErr_Format(PyExc_ValueError, "%s: expected 3 values", what);
+        return -1;
+    }
+    for (int i = 0; i < 3; i++) {
+        out[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(fast, i));
+        if (out[i] == -1.0 && PyErr_Occurred()) {
+            Py_DECREF(fast);
+            return -1;
+        }
+    }
+    Py_DECREF(fast);
+    return 0;
+}
+
+static int wf_init(WristForce *self, PyObject *args, PyObject *kwds) {
+    static char *kw[] = {"data", "f_site", "rot", "bias", "weight", "noise", "time_address", NULL};
+    PyObject *data, *f_site, *rot, *bias, *weight, *noise;
+    Py_ssize_t time_address = 0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOO|n", kw, &data, &f_site, &rot, &bias,
+                                     &weight, &noise, &time_address))
+        return -1;
+    self->time = (const double *)time_address;
+    double *fp, *rp;
+    if (address_of(f_site, 3, &fp) < 0 || address_of(rot, 9, &rp) < 0) return -1;
+    if (read3(bias, self->bias, "bias") < 0 || read3(weight, self->weight, "weight") < 0)
+        return -1;
+    if (noise != Py_None && !PyObject_TypeCheck(noise, &FtNoiseType)) {
+        PyErr_SetString(PyExc_TypeError, "noise must be an FtNoise or None");
+        return -1;
+    }
+    PyObject *keep = PyTuple_Pack(2, f_site, rot);
+    if (keep == NULL) return -1;
+    Py_XSETREF(self->keep, keep);
+    Py_INCREF(data);
+    Py_XSETREF(self->data, data);
+    Py_XSETREF(self->noise, noise == Py_None ? NULL : (FtNoise *)Py_NewRef(noise));
+    Py_CLEAR(self->fallback);
+    self->f_site = fp;
+    self->rot = rp;
+    self->sensed_t = self->norm_t = NAN;
+    return 0;
+}
+
+static void wf_dealloc(WristForce *self) {
+    Py_XDECREF(self->data);
+    Py_XDECREF(self->keep);
+    Py_XDECREF(self->noise);
+    Py_XDECREF(self->fallback);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyObject *wf_norm_sq_py(WristForce *self, PyObject *unused) {
+    double now;
+    if (wf_now(self, &now) < 0) return NULL;
+    double n = wf_norm_sq(self, now);
+    if (n < 0.0 && PyErr_Occurred()) return NULL;
+    return PyFloat_FromDouble(n);
+}
+
+static PyObject *wf_true_norm_sq_py(WristForce *self, PyObject *unused) {
+    double now;
+    if (wf_now(self, &now) < 0) return NULL;
+    const double *r = wf_sensed(self, now);
+    double fx = self->weight[0] - r[0], fy = self->weight[1] - r[1], fz = self->weight[2] - r[2];
+    return PyFloat_FromDouble(fx * fx + fy * fy + fz * fz);
+}
+
+static PyObject *wf_sensed_py(WristForce *self, PyObject *arg) {
+    double now = PyFloat_AsDouble(arg);
+    if (now == -1.0 && PyErr_Occurred()) return NULL;
+    const double *r = wf_sensed(self, now);
+    return Py_BuildValue("(ddd)", r[0], r[1], r[2]);
+}
+
+static PyObject *wf_measured_py(WristForce *self, PyObject *arg) {
+    double now = PyFloat_AsDouble(arg);
+    if (now == -1.0 && PyErr_Occurred()) return NULL;
+    double f[3];
+    if (wf_measured(self, now, f) < 0) return NULL;
+    return Py_BuildValue("(ddd)", f[0], f[1], f[2]);
+}
+
+static PyObject *wf_set_bias(WristForce *self, PyObject *arg) {
+    if (read3(arg, self->bias, "bias") < 0) return NULL;
+    self->norm_t = NAN;
+    Py_RETURN_NONE;
+}
+
+static PyObject *wf_set_fallback(WristForce *self, PyObject *arg) {
+    if (arg != Py_None && !PyCallable_Check(arg)) {
+        PyErr_SetString(PyExc_TypeError, "fallback must be callable or None");
+        return NULL;
+    }
+    Py_XSETREF(self->fallback, arg == Py_None ? NULL : Py_NewRef(arg));
+    self->norm_t = NAN;
+    Py_RETURN_NONE;
+}
+
+static PyObject *wf_forget(WristForce *self, PyObject *unused) {
+    self->norm_t = NAN;
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef wf_methods[] = {
+    {"norm_sq", (PyCFunction)wf_norm_sq_py, METH_NOARGS,
+     "Squared norm of the measured wrist force now [N^2] (one reading per instant)."},
+    {"true_norm_sq", (PyCFunction)wf_true_norm_sq_py, METH_NOARGS,
+     "Squared norm of the true external wrist force now [N^2]."},
+    {"sensed", (PyCFunction)wf_sensed_py, METH_O,
+     "The raw reading rotated into the world frame at time t [N]."},
+    {"measured", (PyCFunction)wf_measured_py, METH_O,
+     "bias - sensed + noise at time t [N] (before a sensor fault acts)."},
+    {"set_bias", (PyCFunction)wf_set_bias, METH_O, "The sensor's zero offset (3 floats) [N]."},
+    {"set_fallback", (PyCFunction)wf_set_fallback, METH_O,
+     "While a sensor fault is in effect: the Python reading of norm_sq (None: none)."},
+    {"forget", (PyCFunction)wf_forget, METH_NOARGS, "Drop the cached norm (a new reading)."},
+    {NULL}};
+
+static PyTypeObject WristForceType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "orchestrator.world._native.WristForce",
+    .tp_basicsize = sizeof(WristForce),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "WristForce(data, f_site, rot, bias, weight, noise): the wrist force in C.",
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)wf_init,
+    .tp_dealloc = (destructor)wf_dealloc,
+    .tp_methods = wf_methods,
+};
+
+/* ---------------------------------------------------------------- Clock ------------ */
+
+typedef struct {
+    PyObject_HEAD
+    PyObject *data;
+    const double *time;
+} Clock;
+
+static int clock_init(Clock *self, PyObject *args, PyObject *kwds) {
+    static char *kw[] = {"data", "time_address", NULL};
+    PyObject *data;
+    Py_ssize_t address;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "On", kw, &data, &address)) return -1;
+    if (address == 0) {
+        PyErr_SetString(PyExc_ValueError, "Clock needs the address of MjData's time");
+        return -1;
+    }
+    Py_XSETREF(self->data, Py_NewRef(data)); /* keeps the memory alive */
+    self->time = (const double *)address;
+    return 0;
+}
+
+static void clock_dealloc(Clock *self) {
+    Py_XDECREF(self->data);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyObject *clock_now(Clock *self, PyObject *unused) {
+    return PyFloat_FromDouble(*self->time);
+}
+
+static PyMethodDef clock_methods[] = {
+    {"now", (PyCFunction)clock_now, METH_NOARGS, "MjData's simulated time [s], read in place."},
+    {NULL}};
+
+static PyTypeObject ClockType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "orchestrator.world._native.Clock",
+    .tp_basicsize = sizeof(Clock),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "Clock(data, time_address): `float(data.time)` without the bindings.",
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)clock_init,
+    .tp_dealloc = (destructor)clock_dealloc,
+    .tp_methods = clock_methods,
+};
+
+/* ---------------------------------------------------------------- Envelope --------- */
+
+typedef struct {
+    const char *p;
+    Py_ssize_t n, stride, itemsize;
+} Span;
+
+typedef struct {
+    const char *a, *b;
+    Py_ssize_t n, sa, sb;
+    int as_bytes;
+} Pair;
+
+typedef struct {
+    PyObject *read; /* a WristForce (read in C) or any () -> float */
+    double limit;
+} Scalar;
+
+typedef struct {
+    PyObject_HEAD
+    PyObject *keep;
+    Span *zero, *bounded;
+    Py_ssize_t n_zero, n_bounded;
+    double *lo, *hi;
+    Py_ssize_t n_values;
+    Pair *equal;
+    Py_ssize_t n_equal;
+    Scalar *scalars;
+    Py_ssize_t n_scalars;
+} Envelope;
+
+static int parse_spans(PyObject *list, Span **out, Py_ssize_t *n, Py_ssize_t *n_values) {
+    PyObject *fast = PySequence_Fast(list, "spans must be a sequence");
+    if (fast == NULL) return -1;
+    *n = PySequence_Fast_GET_SIZE(fast);
+    *out = PyMem_Calloc(*n ? *n : 1, sizeof(Span));
+    if (*out == NULL) {
+        Py_DECREF(fast);
+        PyErr_NoMemory();
+        return -1;
+    }
+    for (Py_ssize_t i = 0; i < *n; i++) {
+        Py_ssize_t addr, len, stride, itemsize;
+        if (!PyArg_ParseTuple(PySequence_Fast_GET_ITEM(fast, i), "nnnn", &addr, &len, &stride,
+                              &itemsize)) {
+            Py_DECREF(fast);
+            return -1;
+        }
+        (*out)[i] = (Span){(const char *)addr, len, stride, itemsize};
+        if (n_values) *n_values += len;
+    }
+    Py_DECREF(fast);
+    return 0;
+}
+
+static int parse_doubles(PyObject *list, double **out, Py_ssize_t n) {
+    PyObject *fast = PySequence_Fast(list, "bounds must be a sequence");
+    if (fast == NULL) return -1;
+    if (PySequence_Fast_GET_SIZE(fast) != n) {
+        Py_DECREF(fast);
+        PyErr_Format(PyExc_ValueError, "expected %zd bounds", n);
+        return -1;
+    }
+    *out = PyMem_Calloc(n ? n : 1, sizeof(double));
+    if (*out == NULL) {
+        Py_DECREF(fast);
+        PyErr_NoMemory();
+        return -1;
+    }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        (*out)[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(fast, i));
+        if ((*out)[i] == -1.0 && PyErr_Occurred()) {
+            Py_DECREF(fast);
+            return -1;
+        }
+    }
+    Py_DECREF(fast);
+    return 0;
+}
+
+static int env_init(Envelope *self, PyObject *args, PyObject *kwds) {
+    static char *kw[] = {"zero", "bounded", "lo", "hi", "equal", "scalars", "keep", NULL};
+    PyObject *zero, *bounded, *lo, *hi, *equal, *scalars, *keep;
+    if (self->keep != NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "an Envelope is initialised once");
+        return -1;
+    }
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOOO", kw, &zero, &bounded, &lo, &hi,
+                                     &equal, &scalars, &keep))
+        return -1;
+    self->keep = Py_NewRef(keep);
+    self->n_values = 0;
+    if (parse_spans(zero, &self->zero, &self->n_zero, NULL) < 0 ||
+        parse_spans(bounded, &self->bounded, &self->n_bounded, &self->n_values) < 0 ||
+        parse_doubles(lo, &self->lo, self->n_values) < 0 ||
+        parse_doubles(hi, &self->hi, self->n_values) < 0)
+        return -1;
+    for (Py_ssize_t i = 0; i < self->n_bounded; i++) {
+        if (self->bounded[i].itemsize != 8) {
+            PyErr_SetString(PyExc_ValueError, "bounded views must be float64");
+            return -1;
+        }
+    }
+    PyObject *fast = PySequence_Fast(equal, "equal must be a sequence");
+    if (fast == NULL) return -1;
+    self->n_equal = PySequence_Fast_GET_SIZE(fast);
+    self->equal = PyMem_Calloc(self->n_equal ? self->n_equal : 1, sizeof(Pair));
+    for (Py_ssize_t i = 0; self->equal != NULL && i < self->n_equal; i++) {
+        Py_ssize_t a, b, n, sa, sb;
+        int as_bytes;
+        if (!PyArg_ParseTuple(PySequence_Fast_GET_ITEM(fast, i), "nnnnnp", &a, &sa, &b, &sb, &n,
+                              &as_bytes)) {
+            Py_DECREF(fast);
+            return -1;
+        }
+        self->equal[i] = (Pair){(const char *)a, (const char *)b, n, sa, sb, as_bytes};
+    }
+    Py_DECREF(fast);
+    if (self->equal == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    fast = PySequence_Fast(scalars, "scalars must be a sequence");
+    if (fast == NULL) return -1;
+    self->n_scalars = PySequence_Fast_GET_SIZE(fast);
+    self->scalars = PyMem_Calloc(self->n_scalars ? self->n_scalars : 1, sizeof(Scalar));
+    for (Py_ssize_t i = 0; self->scalars != NULL && i < self->n_scalars; i++) {
+        PyObject *read;
+        double limit;
+        if (!PyArg_ParseTuple(PySequence_Fast_GET_ITEM(fast, i), "Od", &read, &limit)) {
+            Py_DECREF(fast);
+            return -1;
+        }
+        self->scalars[i] = (Scalar){Py_NewRef(read), limit};
+    }
+    Py_DECREF(fast);
+    if (self->scalars == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    return 0;
+}
+
+static void env_dealloc(Envelope *self) {
+    for (Py_ssize_t i = 0; self->scalars != NULL && i < self->n_scalars; i++)
+        Py_XDECREF(self->scalars[i].read);
+    PyMem_Free(self->zero);
+    PyMem_Free(self->bounded);
+    PyMem_Free(self->lo);
+    PyMem_Free(self->hi);
+    PyMem_Free(self->equal);
+    PyMem_Free(self->scalars);
+    Py_XDECREF(self->keep);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static const char zeros[64];
+
+/* 1 inside, 0 outside, -1 error; tested in the order of `GuardBank.inside`. */
+static int env_inside(Envelope *self) {
+    for (Py_ssize_t i = 0; i < self->n_zero; i++) {
+        const Span *s = &self->zero[i];
+        for (Py_ssize_t k = 0; k < s->n; k++) {
+            if (memcmp(s->p + k * s->stride, zeros, s->itemsize) != 0) return 0;
+        }
+    }
+    const double *lo = self->lo, *hi = self->hi;
+    for (Py_ssize_t i = 0; i < self->n_bounded; i++) {
+        const Span *s = &self->bounded[i];
+        for (Py_ssize_t k = 0; k < s->n; k++) {
+            double v = *(const double *)(s->p + k * s->stride);
+            if (!(*lo <= v && v <= *hi)) return 0; /* NaN: never inside */
+            lo++;
+            hi++;
+        }
+    }
+    for (Py_ssize_t i = 0; i < self->n_equal; i++) {
+        const Pair *e = &self->equal[i];
+        for (Py_ssize_t k = 0; k < e->n; k++) {
+            const char *a = e->a + k * e->sa, *b = e->b + k * e->sb;
+            if (e->as_bytes ? memcmp(a, b, 8) != 0 : *(const double *)a != *(const double *)b)
+                return 0;
+        }
+    }
+    for (Py_ssize_t i = 0; i < self->n_scalars; i++) {
+        const Scalar *s = &self->scalars[i];
+        double v;
+        if (Py_IS_TYPE(s->read, &WristForceType)) {
+            WristForce *wf = (WristForce *)s->read;
+            double now;
+            if (wf_now(wf, &now) < 0) return -1;
+            v = wf_norm_sq(wf, now);
+            if (v < 0.0 && PyErr_Occurred()) return -1;
+        } else {
+            PyObject *r = PyObject_CallNoArgs(s->read);
+            if (r == NULL) return -1;
+            v = PyFloat_AsDouble(r);
+            Py_DECREF(r);
+            if (v == -1.0 && PyErr_Occurred()) return -1;
+        }
+        if (!(v <= s->limit)) return 0;
+    }
+    return 1;
+}
+
+static PyObject *env_call(Envelope *self, PyObject *unused) {
+    int r = env_inside(self);
+    if (r < 0) return NULL;
+    return Py_NewRef(r ? Py_True : Py_False);
+}
+
+static PyMethodDef env_methods[] = {
+    {"inside", (PyCFunction)env_call, METH_NOARGS,
+     "Every watched value inside every envelope (NaN never is)."},
+    {NULL}};
+
+static PyTypeObject EnvelopeType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "orchestrator.world._native.Envelope",
+    .tp_basicsize = sizeof(Envelope),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "Envelope(zero, bounded, lo, hi, equal, scalars, keep): GuardBank.inside in C.",
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)env_init,
+    .tp_dealloc = (destructor)env_dealloc,
+    .tp_methods = env_methods,
+};
+
+/* ---------------------------------------------------------------- module ----------- */
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "orchestrator.world._native",
+    "The per-physics-step arithmetic in C (an optional speed-up; see world/native.py).", -1,
+    NULL};
+
+PyMODINIT_FUNC PyInit__native(void) {
+    time_str = PyUnicode_InternFromString("time");
+    if (time_str == NULL || PyType_Ready(&FtNoiseType) < 0 ||
+        PyType_Ready(&WristForceType) < 0 || PyType_Ready(&EnvelopeType) < 0 ||
+        PyType_Ready(&ClockType) < 0)
+        return NULL;
+    PyObject *m = PyModule_Create(&module);
+    if (m == NULL) return NULL;
+    if (PyModule_AddObjectRef(m, "FtNoise", (PyObject *)&FtNoiseType) < 0 ||
+        PyModule_AddObjectRef(m, "WristForce", (PyObject *)&WristForceType) < 0 ||
+        PyModule_AddObjectRef(m, "Envelope", (PyObject *)&EnvelopeType) < 0 ||
+        PyModule_AddObjectRef(m, "Clock", (PyObject *)&ClockType) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

@@ -1,0 +1,214 @@
+"""The compiled per-step arithmetic (orchestrator/world/_native.c) and its pure-Python twin give
+the same results, bit for bit: the wrist sensor's noise stream, the wrist force, the guards'
+envelope test, and whole episodes (with a sensor fault and a zeroed sensor among them)."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+from orchestrator.robots import Controller
+
+from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.context import Context
+from orchestrator.engine.runner import run_episode
+from orchestrator.guards import (
+    Collision,
+    ContactForce,
+    GraspLost,
+    JointLimits,
+    JointTorque,
+    JointVelocity,
+    SensorHealth,
+    Workspace,
+)
+from orchestrator.guards.bank import GuardBank
+from orchestrator.guards.base import Guard
+from orchestrator.language.load import load_scenario
+from orchestrator.world import World
+from orchestrator.world import native as native_mod
+from orchestrator.world.native import PURE_PYTHON_ENV, compiled, time_address
+from orchestrator.world.realism import WristForceNoise
+from orchestrator.world.sensors import WristForceFault
+
+
+def _pure(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(PURE_PYTHON_ENV, "1")
+
+
+def test_the_compiled_module_is_built_and_chosen_unless_switched_off(
+    monkeypatch: pytest.MonkeyPatch,
+):
+    # `pip install -e .` builds it wherever a C compiler is present (here and in CI)
+    assert compiled is not None, "orchestrator/world/_native.c was not built"
+    assert native_mod.native() is compiled
+    _pure(monkeypatch)
+    assert native_mod.native() is None
+    monkeypatch.setenv(PURE_PYTHON_ENV, "0")
+    assert native_mod.native() is compiled
+
+
+def test_the_noise_stream_is_the_same_in_c_and_in_python(monkeypatch: pytest.MonkeyPatch):
+    """Readings at repeated, new, backwards and uneven instants, across block refills."""
+    c = WristForceNoise(0.3, 0.05, seed=11)
+    _pure(monkeypatch)
+    py = WristForceNoise(0.3, 0.05, seed=11)
+    assert c.compiled is not None and py.compiled is None
+    rng = np.random.default_rng(3)
+    t = 0.0
+    for _ in range(1300):  # > 2 blocks of 512 readings
+        step = rng.choice([0.0, 0.002, 0.002, -0.001, 0.0137])
+        t += step
+        assert c.offset(t) == py.offset(t)
+    assert c.bias == py.bias
+    assert c.apply((1.0, -2.0, 3.0), t + 1.0) == py.apply((1.0, -2.0, 3.0), t + 1.0)
+
+
+def _ctx() -> Context:
+    world = World.build(load_scenario("pick_place").scenario, seed=4)
+    ctrl = Controller(world.robot, float(world.model.opt.timestep))
+    ctrl.hold(world.home)
+    ctx = Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
+    ctrl.tau[:] = world.data.ctrl[world.arm_act]
+    mujoco.mj_forward(world.model, world.data)
+    return ctx
+
+
+def test_the_wrist_force_is_the_same_in_c_and_in_python(monkeypatch: pytest.MonkeyPatch):
+    """Two contexts on one world (their noise streams seeded alike), one of each path: the same
+    measured and true force at every step, through a bias fault, a zeroing and its end."""
+    c = _ctx()
+    _pure(monkeypatch)
+    py = Context(c.world, c.controller, Blackboard(), np.random.default_rng(0), 0.01)
+    assert c._wf is not None and py._wf is None
+    m, d = c.model, c.data
+    rng = np.random.default_rng(5)
+    for step in range(400):
+        d.ctrl[c.world.arm_act] = c.controller.compute(*c.encoders.read())
+        mujoco.mj_step(m, d)
+        if step == 100:
+            for ctx in (c, py):
+                ctx.ft_fault = WristForceFault("ft_bias", ctx.t, (0.0, 3.0, -40.0), math.inf)
+        if step == 200:
+            bias = c.world.wrist_bias_world.copy()  # the world is shared: zero each from it
+            for ctx in (c, py):
+                c.world.wrist_bias_world[:] = bias
+                ctx.ft_fault = None
+                ctx.zero_wrist_force(np.array([0.5, -0.25, 1.0]))
+        assert c.t == py.t == d.time and c.clock == py.clock  # time read in place / bound
+        assert c.gripper_width == py.gripper_width == float(d.qpos[c.world.finger_qpos].sum())
+        assert c.true_wrist_force_norm_sq() == py.true_wrist_force_norm_sq()
+        assert c.wrist_force_norm_sq() == py.wrist_force_norm_sq()
+        if rng.random() < 0.2:  # a skill's reading of the vector at the same instant
+            assert c.wrist_force().tolist() == py.wrist_force().tolist()
+            assert c.true_wrist_force() == py.true_wrist_force()
+    assert c.ft_noise is not None and py.ft_noise is not None
+    assert c.ft_noise.bias == py.ft_noise.bias
+
+
+def test_time_is_read_in_place():
+    world = World.build(load_scenario("pick_place").scenario, seed=0)
+    address = time_address(world.data)
+    assert address != 0
+    import ctypes
+
+    for _ in range(3):
+        mujoco.mj_step(world.model, world.data)
+        assert ctypes.c_double.from_address(address).value == world.data.time
+
+
+def _guards(ctx: Context) -> list[Guard]:
+    made = []
+    for cls, params in (
+        (Collision, {}),
+        (SensorHealth, {}),
+        (JointVelocity, {}),
+        (JointTorque, {"duration_ms": 6.0}),
+        (Workspace, {"min": [0.05, -0.6, 0.15], "max": [0.95, 0.6, 1.2]}),
+        (ContactForce, {"max_n": 20.0}),
+        (JointLimits, {}),
+        (GraspLost, {}),
+    ):
+        guard = cls(cls.Params.model_validate(params))
+        guard.bind(ctx)
+        guard.activate(ctx)
+        made.append(guard)
+    return sorted(made, key=lambda g: -g.priority)
+
+
+def test_the_envelope_test_is_the_same_in_c_and_in_python(monkeypatch: pytest.MonkeyPatch):
+    """One context, a bank of each path: `inside()` agrees on random states near and across
+    every bound, with NaN, -0.0, a motor that does not deliver and a sensor fault flag."""
+    ctx = _ctx()
+    c_bank = GuardBank(_guards(ctx), ctx)
+    with monkeypatch.context() as mp:
+        _pure(mp)
+        py_bank = GuardBank(_guards(ctx), ctx)
+    assert c_bank.compiled is not None and py_bank.compiled is None
+    d, w = ctx.data, ctx.world
+    q0 = d.qpos[w.arm_qpos].copy()
+    speed = np.asarray(next(g for g in _guards(ctx) if isinstance(g, JointVelocity))._lim)
+    rng = np.random.default_rng(9)
+    outcomes = set()
+    for _ in range(600):
+        d.time += ctx.dt_physics
+        d.qpos[w.arm_qpos] = q0 + rng.normal(0.0, 0.3, 7) * (rng.random(7) < 0.3)
+        d.qvel[w.arm_dof] = speed * rng.uniform(-1.01, 1.01, 7)
+        d.actuator_force[w.arm_act] = ctx.controller.tau
+        pick = rng.random()
+        if pick < 0.05:
+            d.actuator_force[w.arm_act[2]] += 1e-9
+        elif pick < 0.1:
+            d.qvel[w.arm_dof[3]] = math.nan
+        elif pick < 0.15:
+            ctx.sensor_faults[0] = -0.0
+        elif pick < 0.2:
+            d.xfrc_applied[:] = 0.0
+            d.qfrc_applied[w.arm_dof[5]] = 50.0
+        else:
+            ctx.sensor_faults[0] = 0.0
+            d.qfrc_applied[:] = 0.0
+        mujoco.mj_forward(ctx.model, d)
+        d.actuator_force[w.arm_act] = ctx.controller.tau
+        got = c_bank.inside()
+        assert got == py_bank.inside()
+        outcomes.add(got)
+    assert outcomes == {True, False}
+    # exactly on a bound is inside (the bounds are inclusive), a hair beyond is not
+    ctx.sensor_faults[0] = 0.0
+    d.qfrc_applied[:] = 0.0
+    d.qpos[w.arm_qpos], d.qvel[w.arm_dof] = q0, 0.0
+    mujoco.mj_forward(ctx.model, d)
+    d.actuator_force[w.arm_act] = ctx.controller.tau
+    for value, inside in ((speed[1], True), (np.nextafter(speed[1], math.inf), False)):
+        d.time += ctx.dt_physics
+        d.qvel[w.arm_dof[1]] = value
+        assert c_bank.inside() is py_bank.inside() is inside
+
+
+@pytest.mark.parametrize(
+    ("scenario", "seed", "overrides", "faults"),
+    [
+        ("pick_place", 1, [], []),
+        ("pick_place", 2, ["guards.contact_force.max_n=2.0"], []),
+        ("pick_place", 4, [], ["ft_bias:force_n=[0,0,20]@TRANSPORT+0.1"]),
+        ("pick_place", 4, [], ["encoder_noise@PICK.GRASP.APPROACH+0.6"]),
+        ("surgical", 0, [], []),
+    ],
+)
+def test_an_episode_is_the_same_in_c_and_in_python(
+    scenario: str,
+    seed: int,
+    overrides: list[str],
+    faults: list[str],
+    monkeypatch: pytest.MonkeyPatch,
+):
+    loaded = load_scenario(scenario, overrides=overrides, faults=faults)
+    c = run_episode(loaded, seed).to_json_dict()
+    _pure(monkeypatch)
+    py = run_episode(loaded, seed).to_json_dict()
+    c.pop("wall_time")
+    py.pop("wall_time")
+    assert c == py
