@@ -5,6 +5,7 @@ envelope test, and whole episodes (with a sensor fault and a zeroed sensor among
 from __future__ import annotations
 
 import math
+import os
 
 import mujoco
 import numpy as np
@@ -34,6 +35,17 @@ from orchestrator.world.realism import WristForceNoise
 from orchestrator.world.sensors import WristForceFault
 
 
+REQUIRE_ENV = "ORCHESTRATOR_REQUIRE_NATIVE"
+"""Set to 1 where the compiled module must have been built (CI: .ci/run sets it)."""
+if compiled is None and os.environ.get(REQUIRE_ENV, "") in ("", "0"):
+    pytest.skip(
+        "orchestrator/world/_native.c is not built (no C compiler or Python headers when the "
+        "package was installed): the pure-Python path runs; set ORCHESTRATOR_REQUIRE_NATIVE=1 "
+        "to make this a failure",
+        allow_module_level=True,
+    )
+
+
 def _pure(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(PURE_PYTHON_ENV, "1")
 
@@ -41,7 +53,8 @@ def _pure(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_the_compiled_module_is_built_and_chosen_unless_switched_off(
     monkeypatch: pytest.MonkeyPatch,
 ):
-    # `pip install -e .` builds it wherever a C compiler is present (here and in CI)
+    # `pip install -e .` builds it wherever a C compiler is present (here and in CI, which
+    # sets ORCHESTRATOR_REQUIRE_NATIVE=1 so that a failed build is a failure, not a skip)
     assert compiled is not None, "orchestrator/world/_native.c was not built"
     assert native_mod.native() is compiled
     _pure(monkeypatch)
