@@ -16,20 +16,16 @@ from orchestrator.engine.context import Context
 from orchestrator.engine.executor import Executor
 from orchestrator.engine.runner import run_episode
 from orchestrator.guards import (
-    Collision,
-    ContactForce,
     GraspLost,
-    JointLimits,
     JointTorque,
     JointVelocity,
-    SensorHealth,
-    Workspace,
 )
 from orchestrator.guards.bank import GuardBank
 from orchestrator.guards.base import Guard
 from orchestrator.language.load import load_scenario
 from orchestrator.world import World
 from orchestrator.world.sensors import WristForceFault
+from tests.guard_set import carrying_guards
 
 
 def _ctx() -> Context:
@@ -43,23 +39,7 @@ def _ctx() -> Context:
 
 
 def _guards(ctx: Context) -> list[Guard]:
-    """pick_place's guards while it carries the cube, highest priority first."""
-    made = []
-    for cls, params in (
-        (Collision, {}),
-        (SensorHealth, {}),
-        (JointVelocity, {}),
-        (JointTorque, {"duration_ms": 6.0}),
-        (Workspace, {"min": [0.05, -0.6, 0.15], "max": [0.95, 0.6, 1.2]}),
-        (ContactForce, {"max_n": 60.0}),
-        (JointLimits, {}),
-        (GraspLost, {}),
-    ):
-        guard = cls(cls.Params.model_validate(params))
-        guard.bind(ctx)
-        guard.activate(ctx)
-        made.append(guard)
-    return sorted(made, key=lambda g: -g.priority)
+    return carrying_guards(ctx)
 
 
 def _first(guards: list[Guard], ctx: Context):

@@ -16,14 +16,7 @@ from orchestrator.engine.blackboard import Blackboard
 from orchestrator.engine.context import Context
 from orchestrator.engine.runner import run_episode
 from orchestrator.guards import (
-    Collision,
-    ContactForce,
-    GraspLost,
-    JointLimits,
-    JointTorque,
     JointVelocity,
-    SensorHealth,
-    Workspace,
 )
 from orchestrator.guards.bank import GuardBank
 from orchestrator.guards.base import Guard
@@ -33,7 +26,7 @@ from orchestrator.world import native as native_mod
 from orchestrator.world.native import PURE_PYTHON_ENV, compiled, time_address
 from orchestrator.world.realism import WristForceNoise
 from orchestrator.world.sensors import WristForceFault
-
+from tests.guard_set import carrying_guards
 
 REQUIRE_ENV = "ORCHESTRATOR_REQUIRE_NATIVE"
 """Set to 1 where the compiled module must have been built (CI: .ci/run sets it)."""
@@ -133,22 +126,7 @@ def test_time_is_read_in_place():
 
 
 def _guards(ctx: Context) -> list[Guard]:
-    made = []
-    for cls, params in (
-        (Collision, {}),
-        (SensorHealth, {}),
-        (JointVelocity, {}),
-        (JointTorque, {"duration_ms": 6.0}),
-        (Workspace, {"min": [0.05, -0.6, 0.15], "max": [0.95, 0.6, 1.2]}),
-        (ContactForce, {"max_n": 20.0}),
-        (JointLimits, {}),
-        (GraspLost, {}),
-    ):
-        guard = cls(cls.Params.model_validate(params))
-        guard.bind(ctx)
-        guard.activate(ctx)
-        made.append(guard)
-    return sorted(made, key=lambda g: -g.priority)
+    return carrying_guards(ctx, max_force_n=20.0)
 
 
 def test_the_envelope_test_is_the_same_in_c_and_in_python(monkeypatch: pytest.MonkeyPatch):

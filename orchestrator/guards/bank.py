@@ -228,17 +228,17 @@ class GuardBank:
             for reading, limit in self._scalars:
                 if not reading() <= limit:
                     return self._check_full(ctx)
-            for always in self._open:
-                violation = always(ctx)
-                if violation is not None:
-                    return violation
-            return None
+            return self._check_open(ctx) if self._open else None
         return self._check_full(ctx)
 
     def _check_compiled(self, ctx: Context) -> Violation | None:
         """`check` with the envelope tested in C (`self.compiled`)."""
         if self._full or not self.compiled():  # type: ignore[misc]
             return self._check_full(ctx)
+        return self._check_open(ctx) if self._open else None
+
+    def _check_open(self, ctx: Context) -> Violation | None:
+        """Inside every envelope: the full checks of the guards without one."""
         for always in self._open:
             violation = always(ctx)
             if violation is not None:
