@@ -39,6 +39,13 @@ if compiled is None and os.environ.get(REQUIRE_ENV, "") in ("", "0"):
     )
 
 
+@pytest.fixture(autouse=True)
+def _compiled_unless_switched_off_here(monkeypatch: pytest.MonkeyPatch) -> None:
+    """These tests build one object on each path: the compiled one even when the whole suite
+    runs on the Python path (`ORCHESTRATOR_PURE_PYTHON=1 pytest`)."""
+    monkeypatch.delenv(PURE_PYTHON_ENV, raising=False)
+
+
 def _pure(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(PURE_PYTHON_ENV, "1")
 
