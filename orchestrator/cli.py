@@ -103,7 +103,11 @@ def _version(value: bool) -> None:
     if value:
         from importlib.metadata import version
 
-        out.print(f"orchestrator {version('embodied-orchestrator')}")
+        from .world.native import native
+
+        # which path runs the per-step arithmetic: the compiled extension or its Python twin
+        step = "compiled" if native() is not None else "pure Python"
+        out.print(f"orchestrator {version('embodied-orchestrator')} (physics step: {step})")
         raise typer.Exit()
 
 

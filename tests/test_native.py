@@ -19,7 +19,7 @@ from orchestrator.guards import (
     JointVelocity,
 )
 from orchestrator.guards.bank import GuardBank
-from orchestrator.guards.base import Guard
+from orchestrator.guards.base import Envelope, Guard, GuardParams
 from orchestrator.language.load import load_scenario
 from orchestrator.world import World
 from orchestrator.world import native as native_mod
@@ -210,3 +210,41 @@ def test_an_episode_is_the_same_in_c_and_in_python(
     c.pop("wall_time")
     py.pop("wall_time")
     assert c == py
+
+
+def test_the_compiled_objects_do_not_keep_an_episode_alive():
+    """The C types take part in garbage collection: a context whose wrist force falls back to
+    Python while a sensor fault is in effect (a reference cycle through the C object), its
+    noise stream and a guard bank reading it are freed by one collection."""
+    import gc
+    import weakref
+
+    ctx = _ctx()
+    ctx.ft_fault = WristForceFault("ft_bias", ctx.t, (0.0, 0.0, 5.0), math.inf)
+    bank = GuardBank(_guards(ctx), ctx)
+    assert bank.check(ctx) is None  # the compiled envelope reads the faulted force
+    assert ctx._wf is not None and ctx.ft_noise is not None
+    refs = [weakref.ref(o) for o in (ctx, ctx.world, ctx.ft_noise, bank)]
+    ctx.bank = bank  # a cycle through the bank's C envelope, as the executor makes one
+    del ctx, bank
+    gc.collect()
+    assert [r() for r in refs] == [None, None, None, None]
+
+
+def test_an_equal_pair_of_views_must_be_one_dimensional():
+    ctx = _ctx()
+
+    class Square(Guard):
+        name = "square"
+        Params = GuardParams
+
+        def check(self, ctx):
+            return None
+
+        def envelope(self, ctx):
+            a = ctx.data.xmat[:2].reshape(2, 3, 3)[0]  # a 3x3 view
+            return Envelope(equal=((a, a.copy()),))
+
+    guard = Square(GuardParams())
+    with pytest.raises(ValueError, match=r"square: .* two 1-D views of one length.*\(3, 3\)"):
+        GuardBank([guard], ctx)

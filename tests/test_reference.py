@@ -102,9 +102,12 @@ def test_list_skills_lists_only_skills(cli):
     assert "move " in res.stdout and "scenarios" not in res.stdout
 
 
-def test_version(cli):
+def test_version(cli, monkeypatch):
     res = cli("--version")
     assert res.exit_code == 0 and res.stdout.startswith("orchestrator 0.")
+    assert "(physics step: compiled)" in res.stdout or "(physics step: pure Python)" in res.stdout
+    monkeypatch.setenv("ORCHESTRATOR_PURE_PYTHON", "1")  # says which path the user gets
+    assert "(physics step: pure Python)" in cli("--version").stdout
 
 
 def test_run_takes_a_machine_file_in_the_default_scene(cli_process, tmp_path: Path):

@@ -233,9 +233,9 @@ class Context:
         """Distance between the fingers [m]."""
         if self._fingers is None:
             return float(self.data.qpos[self.world.finger_qpos].sum())
-        if self._two_fingers:  # numpy's sum of two is their one addition: the same float
-            a, b = self._fingers.tolist()
-            return a + b
+        if self._two_fingers:  # numpy's sum of two, the same float: it adds them to 0.0
+            a, b = self._fingers.tolist()  # (so two -0.0 sum to 0.0, as numpy's does)
+            return 0.0 + a + b
         return float(self._fingers.sum())
 
     def wrist_force(self) -> np.ndarray:

@@ -127,6 +127,12 @@ class GuardBank:
                 self._stateful.append(guard)
             for view, lo, hi in env.bounds:
                 self._add_bounds(watched, view, lo, hi, cache)
+            for a, b in env.equal:
+                if a.ndim != 1 or a.shape != b.shape:
+                    raise ValueError(
+                        f"{guard.name}: an envelope's equal pair must be two 1-D views of one "
+                        f"length, got shapes {a.shape} and {b.shape}"
+                    )
             equal += env.equal
             for read, limit in env.scalars:
                 scalars[read] = min(limit, scalars.get(read, limit))

@@ -39,6 +39,10 @@ typedef struct {
 } FtNoise;
 
 static int ftnoise_refill(FtNoise *self) {
+    if (self->refill == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "FtNoise is not initialised (or was cleared)");
+        return -1;
+    }
     PyObject *arr = PyObject_CallNoArgs(self->refill);
     if (arr == NULL) return -1;
     Py_buffer view;
@@ -106,7 +110,21 @@ static int ftnoise_init(FtNoise *self, PyObject *args, PyObject *kwds) {
     return 0;
 }
 
+/* Garbage-collector support: `refill` is a bound method or closure of the Python object that
+   owns this one (WristForceNoise), a reference cycle only the collector can free. */
+static int ftnoise_traverse(FtNoise *self, visitproc visit, void *arg) {
+    Py_VISIT(self->refill);
+    Py_VISIT(self->block);
+    return 0;
+}
+
+static int ftnoise_clear(FtNoise *self) {
+    Py_CLEAR(self->refill); /* the block stays: `draws` points into it */
+    return 0;
+}
+
 static void ftnoise_dealloc(FtNoise *self) {
+    PyObject_GC_UnTrack(self);
     Py_XDECREF(self->refill);
     Py_XDECREF(self->block);
     Py_TYPE(self)->tp_free((PyObject *)self);
@@ -136,7 +154,10 @@ static PyGetSetDef ftnoise_getset[] = {
 static PyTypeObject FtNoiseType = {
     PyVarObject_HEAD_INIT(NULL, 0).tp_name = "orchestrator.world._native.FtNoise",
     .tp_basicsize = sizeof(FtNoise),
-    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
+    .tp_traverse = (traverseproc)ftnoise_traverse,
+    .tp_clear = (inquiry)ftnoise_clear,
+    .tp_free = PyObject_GC_Del,
     .tp_doc = "FtNoise(std_n, drift_n_per_sqrt_s, refill): WristForceNoise's stream in C.",
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)ftnoise_init,
@@ -180,7 +201,17 @@ typedef struct {
 
 static PyObject *time_str;
 
+/* 0 if `__init__` ran (the views are set), else -1 with an exception. */
+static int wf_ready(WristForce *self) {
+    if (self->data == NULL || self->f_site == NULL || self->rot == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "WristForce is not initialised");
+        return -1;
+    }
+    return 0;
+}
+
 static int wf_now(WristForce *self, double *now) {
+    if (wf_ready(self) < 0) return -1;
     if (self->time != NULL) {
         *now = *self->time;
         return 0;
@@ -287,7 +318,24 @@ static int wf_init(WristForce *self, PyObject *args, PyObject *kwds) {
     return 0;
 }
 
+/* Garbage-collector support: `fallback` is a bound method of the Context that owns this
+   object (a reference cycle while a sensor fault is in effect), `noise` an FtNoise. */
+static int wf_traverse(WristForce *self, visitproc visit, void *arg) {
+    Py_VISIT(self->data);
+    Py_VISIT(self->keep);
+    Py_VISIT(self->noise);
+    Py_VISIT(self->fallback);
+    return 0;
+}
+
+static int wf_clear(WristForce *self) {
+    Py_CLEAR(self->fallback); /* `data` and `keep` stay: the views point into them */
+    Py_CLEAR(self->noise);
+    return 0;
+}
+
 static void wf_dealloc(WristForce *self) {
+    PyObject_GC_UnTrack(self);
     Py_XDECREF(self->data);
     Py_XDECREF(self->keep);
     Py_XDECREF(self->noise);
@@ -312,6 +360,7 @@ static PyObject *wf_true_norm_sq_py(WristForce *self, PyObject *unused) {
 }
 
 static PyObject *wf_sensed_py(WristForce *self, PyObject *arg) {
+    if (wf_ready(self) < 0) return NULL;
     double now = PyFloat_AsDouble(arg);
     if (now == -1.0 && PyErr_Occurred()) return NULL;
     const double *r = wf_sensed(self, now);
@@ -319,6 +368,7 @@ static PyObject *wf_sensed_py(WristForce *self, PyObject *arg) {
 }
 
 static PyObject *wf_measured_py(WristForce *self, PyObject *arg) {
+    if (wf_ready(self) < 0) return NULL;
     double now = PyFloat_AsDouble(arg);
     if (now == -1.0 && PyErr_Occurred()) return NULL;
     double f[3];
@@ -365,7 +415,10 @@ static PyMethodDef wf_methods[] = {
 static PyTypeObject WristForceType = {
     PyVarObject_HEAD_INIT(NULL, 0).tp_name = "orchestrator.world._native.WristForce",
     .tp_basicsize = sizeof(WristForce),
-    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
+    .tp_traverse = (traverseproc)wf_traverse,
+    .tp_clear = (inquiry)wf_clear,
+    .tp_free = PyObject_GC_Del,
     .tp_doc = "WristForce(data, f_site, rot, bias, weight, noise): the wrist force in C.",
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)wf_init,
@@ -401,6 +454,10 @@ static void clock_dealloc(Clock *self) {
 }
 
 static PyObject *clock_now(Clock *self, PyObject *unused) {
+    if (self->time == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "Clock is not initialised");
+        return NULL;
+    }
     return PyFloat_FromDouble(*self->time);
 }
 
@@ -420,6 +477,8 @@ static PyTypeObject ClockType = {
 };
 
 /* ---------------------------------------------------------------- Envelope --------- */
+
+static const char zeros[64];
 
 typedef struct {
     const char *p;
@@ -516,6 +575,12 @@ static int env_init(Envelope *self, PyObject *args, PyObject *kwds) {
         parse_doubles(lo, &self->lo, self->n_values) < 0 ||
         parse_doubles(hi, &self->hi, self->n_values) < 0)
         return -1;
+    for (Py_ssize_t i = 0; i < self->n_zero; i++) {
+        if (self->zero[i].itemsize > (Py_ssize_t)sizeof zeros) {
+            PyErr_SetString(PyExc_ValueError, "zero views' items must be at most 64 bytes");
+            return -1;
+        }
+    }
     for (Py_ssize_t i = 0; i < self->n_bounded; i++) {
         if (self->bounded[i].itemsize != 8) {
             PyErr_SetString(PyExc_ValueError, "bounded views must be float64");
@@ -562,7 +627,27 @@ static int env_init(Envelope *self, PyObject *args, PyObject *kwds) {
     return 0;
 }
 
+/* Garbage-collector support: a scalar's reader is a method of the episode's Context (or its
+   WristForce), which reaches the executor that holds this bank: a reference cycle. */
+static int env_traverse(Envelope *self, visitproc visit, void *arg) {
+    for (Py_ssize_t i = 0; self->scalars != NULL && i < self->n_scalars; i++)
+        Py_VISIT(self->scalars[i].read);
+    Py_VISIT(self->keep);
+    return 0;
+}
+
+static int env_clear(Envelope *self) {
+    /* nothing is read any more: the views go with `keep` */
+    self->n_zero = self->n_bounded = self->n_equal = 0;
+    for (Py_ssize_t i = 0; self->scalars != NULL && i < self->n_scalars; i++)
+        Py_CLEAR(self->scalars[i].read);
+    self->n_scalars = 0;
+    Py_CLEAR(self->keep);
+    return 0;
+}
+
 static void env_dealloc(Envelope *self) {
+    PyObject_GC_UnTrack(self);
     for (Py_ssize_t i = 0; self->scalars != NULL && i < self->n_scalars; i++)
         Py_XDECREF(self->scalars[i].read);
     PyMem_Free(self->zero);
@@ -575,7 +660,6 @@ static void env_dealloc(Envelope *self) {
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
-static const char zeros[64];
 
 /* 1 inside, 0 outside, -1 error; tested in the order of `GuardBank.inside`. */
 static int env_inside(Envelope *self) {
@@ -638,7 +722,10 @@ static PyMethodDef env_methods[] = {
 static PyTypeObject EnvelopeType = {
     PyVarObject_HEAD_INIT(NULL, 0).tp_name = "orchestrator.world._native.Envelope",
     .tp_basicsize = sizeof(Envelope),
-    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
+    .tp_traverse = (traverseproc)env_traverse,
+    .tp_clear = (inquiry)env_clear,
+    .tp_free = PyObject_GC_Del,
     .tp_doc = "Envelope(zero, bounded, lo, hi, equal, scalars, keep): GuardBank.inside in C.",
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)env_init,

@@ -43,36 +43,27 @@ def native() -> ModuleType | None:
     return compiled
 
 
-_MARKS = (1234.5678125, -8765.4321875)
-"""Two values no field before `time` holds at rest, written to `time` to find it."""
-_SCAN_DOUBLES = 256
-"""How far past the start of the `timer` array `time` is looked for [doubles]."""
+_MARK = 1234.5678125
+"""A value written to `time` once, to check that the address found is `time`'s."""
 
 
 def time_address(data: mujoco.MjData) -> int:
-    """The address of `data.time` in memory, 0 if it cannot be found.
+    """The address of `data.time` in memory, 0 if it cannot be confirmed.
 
     The bindings return `time` as a new Python float on every read (~0.2 us, more with cold
-    caches); the compiled code reads the double in place instead. mjData keeps `time` a few
-    hundred bytes after its `timer` array (whose address numpy exposes), so the double is
-    found by writing two marker values to `time` and looking for both at the same place, the
-    search reading forwards from `timer` and stopping at the first hit (it never reads past the
-    field it looks for). The original value is restored.
+    caches); the compiled code reads the double in place instead. mjData declares
+    `mjtNum time; mjtNum energy[2];` back to back (every `mjdata.h` from MuJoCo 2 to 4), and
+    numpy exposes the address of `energy`: `time` is the double just before it, inside the
+    struct. That is checked by writing a marker value to `time` through the bindings and
+    reading it there; the original value is restored. Any other layout gives 0, and the
+    bindings are used.
     """
-    start = int(data.timer.duration.__array_interface__["data"][0])
+    address = int(data.energy.__array_interface__["data"][0]) - 8
+    cell = ctypes.c_double.from_address(address)
     before = data.time
-    found: set[int] = set()
     try:
-        for mark in _MARKS:
-            data.time = mark
-            cells = (ctypes.c_double * _SCAN_DOUBLES).from_address(start)
-            hit = next((i for i in range(_SCAN_DOUBLES) if cells[i] == mark), None)
-            if hit is None:
-                return 0
-            found.add(hit)
+        data.time = _MARK
+        found = cell.value == _MARK
     finally:
         data.time = before
-    if len(found) != 1:
-        return 0
-    address = start + 8 * found.pop()
-    return address if ctypes.c_double.from_address(address).value == before else 0
+    return address if found and cell.value == before else 0

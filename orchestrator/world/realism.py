@@ -18,6 +18,7 @@ deterministic.
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import TYPE_CHECKING
 
 import mujoco
@@ -93,7 +94,8 @@ class WristForceNoise:
         self._offset = (0.0, 0.0, 0.0)
         ext = native()
         self.compiled = (
-            ext.FtNoise(self.std, self.drift, lambda: self.rng.standard_normal(_BLOCK * 6))
+            # the refill reads the generator, not this object: no reference cycle to collect
+            ext.FtNoise(self.std, self.drift, partial(self.rng.standard_normal, _BLOCK * 6))
             if ext is not None
             else None
         )
