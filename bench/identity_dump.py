@@ -1,7 +1,9 @@
 """Dump the run JSON of a fixed set of episodes and fault matrices, to diff two checkouts.
 
 A change that only removes work (same arithmetic) must leave every result bit for bit the
-same: run this on both checkouts and diff the files (wall-clock fields are dropped).
+same: run this on both checkouts and diff the files (wall-clock fields are dropped; floats are
+compared as JSON prints them: every bit). A difference is reported with the first JSON paths
+where the two differ.
 
     python bench/identity_dump.py OUT.json            # on main, then on the branch
     python bench/identity_dump.py OUT.json --diff MAIN.json
@@ -64,14 +66,28 @@ def main() -> None:
     if args.diff is None:
         return
     other = json.loads(args.diff.read_text())
-    same = {
-        k: json.dumps(v, sort_keys=True) == json.dumps(other.get(k), sort_keys=True)
-        for k, v in results.items()
-    }
-    differ = [k for k, ok in same.items() if not ok]
-    for key in results:
-        print(f"{key:32s} {'DIFFERS' if key in differ else 'identical'}")
-    sys.exit(1 if differ else 0)
+    status = 0
+    for key, value in results.items():
+        found: list[str] = []
+        _differences(other.get(key), value, "", found)
+        if found:
+            status = 1
+            print(f"{key:32s} DIFFERS in {len(found)} places, first: " + "; ".join(found[:3]))
+        else:
+            print(f"{key:32s} identical")
+    sys.exit(status)
+
+
+def _differences(a: object, b: object, path: str, found: list[str]) -> None:
+    """Append to `found` the JSON paths where `a` and `b` differ."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in sorted(set(a) | set(b)):
+            _differences(a.get(key), b.get(key), f"{path}.{key}", found)
+    elif isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _differences(x, y, f"{path}[{i}]", found)
+    elif a != b or type(a) is not type(b):
+        found.append(f"{path}: {a!r} != {b!r}")
 
 
 if __name__ == "__main__":
