@@ -276,20 +276,8 @@ class Context:
         """Squared norm of the true external force on the wrist [N^2]: the noise-free sensor
         with the true weight of the hand and its tool removed (a perfect zero). Ground truth
         for the run's metrics, read every physics step; never what a skill or guard sees.
-
-        The runner calls it first after every `mj_step`: it rotates the raw reading into the
-        world frame for the instant (`_sensed_world` written out: one call less on the step),
-        and the measured force of the guards takes the rotated reading from here."""
-        now = self.data.time
-        if now == self._sensed_t:
-            rx, ry, rz = self._sensed
-        else:
-            f0, f1, f2 = self._f_site.tolist()
-            r0, r1, r2, r3, r4, r5, r6, r7, r8 = self._wrist_rot.tolist()
-            rx = r0 * f0 + r1 * f1 + r2 * f2
-            ry = r3 * f0 + r4 * f1 + r5 * f2
-            rz = r6 * f0 + r7 * f1 + r8 * f2
-            self._sensed, self._sensed_t = (rx, ry, rz), now
+        (The pure-Python path; where compiled, the context's `WristForce` answers it.)"""
+        rx, ry, rz = self._sensed_world(self.data.time)
         bx, by, bz = self._true_weight
         fx, fy, fz = bx - rx, by - ry, bz - rz
         return fx * fx + fy * fy + fz * fz
