@@ -31,15 +31,16 @@ import mujoco
 import numpy as np
 
 from ..engine.blackboard import Blackboard
+from ..engine.episode import make_controller
 from ..engine.runner import Observer, make_context
 from ..engine.safety_stop import SafetyStop
+from ..engine.step import StepLoop
 from ..exceptions import ConfigError
 from ..language.diagnostics import Diagnostic
 from ..language.load import load_scenario
 from ..language.machine import ESTOP, PAUSE, RESUME
 from ..language.overrides import parse_override
-from ..robots import Controller
-from ..world.world import World, as_index
+from ..world.world import World
 from .guardrail import GoalRejected, check_goals
 from .protocol import PRIORITY, Command, Reply
 from .task import Task
@@ -95,10 +96,11 @@ class Session:
         scn = self.loaded.scenario
         self.world = world = World.build(scn, seed)
         dt = float(world.model.opt.timestep)
-        self.controller = Controller(world.robot, dt)
-        self.controller.hold(world.home)
+        self.controller = make_controller(world, seed)
         self.n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
         self.ctx = make_context(world, self.controller, Blackboard({}), seed, self.n_sub * dt)
+        self.loop = StepLoop(self.ctx, self.n_sub)
+        """Steps the world, task or not: the same code as `orchestrator run`'s."""
         mujoco.mj_forward(world.model, world.data)
         self.publish: Publish = publish or (lambda leaf, msg: None)
         self.inbox: queue.SimpleQueue[tuple[int, int, Command, Any, int, float]] = (
@@ -189,7 +191,7 @@ class Session:
                 check_goals(loaded, keys, self.world, q_arm)
         except GoalRejected as exc:
             return f"goal rejected: {exc}", None
-        return None, Task(next(self._ids), loaded, self.ctx, machine)
+        return None, Task(next(self._ids), loaded, self.ctx, machine, self.loop)
 
     # -- the published state ------------------------------------------------------------
     @property
@@ -248,18 +250,19 @@ class Session:
             if self.shutting_down and self.task is None:
                 break
             if self.task is None and self.tasks and not (self.estopped or self.error):
-                self.task = self.tasks.popleft()
-                self.task.start()
-                if self.recorder is not None:
-                    assert self.task.executor is not None
-                    self._observer = self.recorder(self.task)
-                    self._observer.on_start(self.ctx, self.task.executor)
-                self.publish("events", {"event": "task_start", "task": self.task.id,
-                                        "machine": self.task.machine_ref})  # fmt: skip
+                self._start(self.tasks.popleft())
             self._tick()
             self._status_if_due()
             self._pace()
         self.publish("events", {"event": "shutdown"})
+
+    def _start(self, task: Task) -> None:
+        """Start `task` on the world (with its recorder, if the session records)."""
+        self.task = task
+        self._observer = self.recorder(task) if self.recorder is not None else None
+        task.start([self._observer] if self._observer is not None else [])
+        self.publish("events", {"event": "task_start", "task": task.id,
+                                "machine": task.machine_ref})  # fmt: skip
 
     def _drain(self) -> None:
         items = []
@@ -333,57 +336,42 @@ class Session:
         self.publish("events", {"event": "watchdog", "message": self.error})
 
     def _tick(self) -> None:
-        ctx, task = self.ctx, self.task
-        finished = task is not None and task.tick()
-        obs = self._observer
-        if obs is not None and task is not None and task.executor is not None:
-            obs.on_tick(ctx, task.executor)
-        if finished:
-            assert task is not None and task.executor is not None
-            result = task.result
-            assert result is not None
-            if obs is not None:
-                obs.on_end(ctx, task.executor, result)
-                self._observer = None
-            self.last_result = {
-                "task": task.id,
-                "machine": task.machine_ref,
-                **result.to_json_dict(),
-                "exit_code": result.exit_code,
-            }
-            self.publish(
-                "events", {"event": "task_end", "task": task.id, "result": self.last_result}
-            )
-            self.task = task = None
-        ex = task.executor if task is not None else None
-        stop = task.active_stop if task is not None else self.idle_stop
-        if stop is not None and not stop.active:
-            stop = None
-        checks = ex.active_checks if ex is not None else ()
-        ctx.advance_gripper(ex.rate if ex is not None else 1.0)
-        data, model = ctx.data, ctx.model
-        act = as_index(self.world.arm_act)
-        compute, read = self.controller.compute, ctx.encoders.read
-        # a conveyor runs with the physics, task or not: the belt carries parcels to its light
-        # barrier and the feed puts new ones on, as in a real cell (as run_episode steps it)
-        belt = self.world.conveyor.on_step if self.world.conveyor is not None else None
-        for _ in range(self.n_sub):
-            data.ctrl[act] = compute(*read())
-            mujoco.mj_step(model, data)
-            if belt is not None:
-                belt(ctx)
-            if stop is not None:
-                stop.step()
-                if not stop.active:
-                    stop = None
-            for check in checks:
-                violation = check(ctx)
-                if violation is not None and ex is not None:
-                    ex.abort(violation)
-                    checks, stop = (), ex.stop
-                    break
-        ctx.tick += 1
+        """One control tick: the task's (machine, end of task, physics), or the idle world's
+        physics (an e-stop's controlled stop, a conveyor that runs task or not)."""
+        task = self.task
+        stepped = False
+        if task is not None:
+            finished = task.tick()
+            assert task.episode is not None
+            stepped = not finished or task.episode.diverged is not None
+            if finished:
+                self._task_end(task)
+        if not stepped:
+            stop = self.idle_stop if self.idle_stop is not None and self.idle_stop.active else None
+            diverged = self.loop.tick(None, stop)
+            if diverged is not None and self.error is None:
+                self.error = diverged
         self.ticks += 1
+
+    def _task_end(self, task: Task) -> None:
+        result = task.result
+        assert result is not None and task.executor is not None
+        obs = self._observer
+        self.loop.set_observers([])  # the idle world is not recorded
+        if obs is not None:
+            obs.on_end(self.ctx, task.executor, result)
+            self._observer = None
+        self.last_result = {
+            "task": task.id,
+            "machine": task.machine_ref,
+            **result.to_json_dict(),
+            "exit_code": result.exit_code,
+        }
+        self.publish("events", {"event": "task_end", "task": task.id, "result": self.last_result})
+        diverged = task.episode.diverged if task.episode is not None else None
+        if diverged is not None and self.error is None:
+            self.error = diverged
+        self.task = None
 
     def _status_if_due(self) -> None:
         wall = time.perf_counter()

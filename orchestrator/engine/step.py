@@ -1,0 +1,178 @@
+"""The physics of one control tick: the one place the world is stepped.
+
+`orchestrator run`, batch workers and a live session all step the world through `StepLoop`:
+a per-step feature (a conveyor belt, a fault, the ground-truth probe of a trace, a recorder's
+per-step reading, the peak wrist force) is added here once and no caller can forget it.
+
+One control tick is `n_sub` physics steps. Each step: the controller turns the encoders'
+reading into joint torques (through an injected actuator fault, if any), `mj_step`, the true
+wrist force's peak, the per-step observers (the conveyor, a recorder, a trace's probe), faults
+that fall due, the controlled stop (if one runs), then the active guards — a violation aborts
+the machine from whatever state is active and its controlled stop starts on the next step.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+from ..world.world import as_index
+from .trace_truth import TraceTruth
+
+if TYPE_CHECKING:
+    from .context import Context
+    from .executor import Executor, Stopper
+    from .faults import FaultInjector
+
+__all__ = ["StepLoop"]
+
+_DIVERGED = tuple(
+    int(w)
+    for w in (
+        mujoco.mjtWarning.mjWARN_BADQACC,  # MuJoCo resets the state itself on these three,
+        mujoco.mjtWarning.mjWARN_BADQPOS,  # so a finite qpos alone does not prove health
+        mujoco.mjtWarning.mjWARN_BADQVEL,
+    )
+)
+_DIVERGED_INDEX = as_index(np.array(sorted(_DIVERGED)))
+"""The same warnings as one slice of `MjData.warning.number` (an index array if not adjacent)."""
+
+OnStep = Callable[["Context"], None]
+
+
+class StepLoop:
+    """Steps a world one control tick at a time, for an episode or a live session.
+
+    Args:
+        ctx: The context of the world (its controller, encoders, gripper, sensors).
+        n_sub: Physics steps per control tick.
+        injector: Faults and timed events of a run (None: none, as in a live session).
+
+    Attributes:
+        max_force_sq: Largest squared true wrist force of any step since `reset_peaks` [N^2]:
+            the reported peak is the true force of every step, not a per-tick sample.
+        trace_truth: The ground-truth probe of a contact skill's trace (its figures go to the
+            metrics of the run or task).
+    """
+
+    def __init__(self, ctx: Context, n_sub: int, injector: FaultInjector | None = None) -> None:
+        self.ctx = ctx
+        self.n_sub = n_sub
+        self.injector = injector
+        self.max_force_sq = 0.0
+        self.trace_truth = TraceTruth(ctx)
+        world = ctx.world
+        self._belt: list[OnStep] = [world.conveyor.on_step] if world.conveyor is not None else []
+        self._observer_steps: list[OnStep] = []
+        self._steppers: list[OnStep] = list(self._belt)
+        self._with_trace: list[OnStep] = [*self._belt, self.trace_truth.on_step]
+        # The physics step runs 500 times per simulated second: MjData's arrays are bound once
+        # (they are views that never move), so the loop does no attribute lookups through MjData.
+        data = ctx.data
+        self._act_idx = as_index(world.arm_act)
+        self._qpos = data.qpos
+        warnings = data.warning.number
+        self._diverged_warnings = (
+            warnings[_DIVERGED_INDEX].tolist  # a view, bound once
+            if isinstance(_DIVERGED_INDEX, slice)
+            else lambda: warnings[_DIVERGED_INDEX].tolist()  # noqa: PLW0108 (a copy: re-read)
+        )
+
+    def set_observers(self, observers: Iterable[object]) -> None:
+        """Observers whose `on_step(ctx)` runs after every physics step (a recorder, the
+        plant instrumentation of bench/physical_honesty.py); the others cost the step nothing."""
+        self._observer_steps = [obs.on_step for obs in observers if hasattr(obs, "on_step")]  # type: ignore[attr-defined]
+        # observers first, then the belt (the order the run has always had)
+        self._steppers = [*self._observer_steps, *self._belt]
+        self._with_trace = [*self._steppers, self.trace_truth.on_step]
+
+    def reset_peaks(self) -> None:
+        """Start a new peak wrist force and trace probe (a live session's next task)."""
+        self.max_force_sq = 0.0
+        self.trace_truth = TraceTruth(self.ctx)
+        self._with_trace = [*self._steppers, self.trace_truth.on_step]
+
+    def tick(self, executor: Executor | None, end_stop: Stopper | None = None) -> str | None:
+        """One control tick of physics: `n_sub` steps, guards checked after every one.
+
+        Args:
+            executor: The machine running (its guards, its abort and its controlled stop);
+                None for an idle live session.
+            end_stop: A controlled stop that outranks the executor's (the end of a run or
+                task, an idle session's e-stop); None: the executor's own, if one runs.
+
+        Returns:
+            None, or why the physics diverged (a NaN or MuJoCo's own reset warnings).
+        """
+        ctx = self.ctx
+        data, model = ctx.data, ctx.model
+        ctrl, act_idx = data.ctrl, self._act_idx
+        compute, read_encoders, mj_step = ctx.controller.compute, ctx.encoders.read, mujoco.mj_step
+        true_force_sq = ctx.true_wrist_force_norm_sq
+        max_force_sq = self.max_force_sq
+        injector = self.injector
+        inf = math.inf
+        stop = end_stop
+        if stop is None and executor is not None:
+            stop = executor.stop
+        if stop is not None and not stop.active:
+            stop = None
+        # states change in tick() or abort(), never between: bind the checks once per tick
+        checks = executor.active_checks if executor is not None else ()
+        # faults only schedule in tick(), fire_due() and abort(): read the due time there, and
+        # MjData's time (an attribute lookup through the bindings) only when one is due
+        due = injector.next_t if injector is not None else inf
+        # a trace (a contact skill) starts and ends in tick(): its ground-truth probe runs on
+        # the steps of the ticks it is running, nothing is called on the others
+        steppers = self._steppers if ctx.trace is None else self._with_trace
+        fault = ctx.actuator_fault  # set by a fault: only in fire_due()
+        ctx.advance_gripper(executor.rate if executor is not None else 1.0)
+        for _ in range(self.n_sub):
+            tau = compute(*read_encoders())
+            if fault is not None:
+                tau = fault.apply(tau)
+            ctrl[act_idx] = tau
+            mj_step(model, data)
+            force_sq = true_force_sq()
+            if force_sq > max_force_sq:  # noqa: PLR1730 (cheaper than max() per step)
+                max_force_sq = force_sq
+            for on_step in steppers:
+                on_step(ctx)
+            if due != inf and data.time >= due - 1e-9:
+                assert injector is not None and executor is not None
+                injector.fire_due(data.time)
+                fault = ctx.actuator_fault
+                checks = executor.active_checks
+                stop = executor.stop if end_stop is None else end_stop
+                due = injector.next_t
+            if stop is not None:
+                stop.step()
+                if not stop.active:
+                    stop = None
+            for check in checks:
+                violation = check(ctx)
+                if violation is not None:
+                    assert executor is not None
+                    executor.abort(violation)
+                    checks = executor.active_checks  # none while the safety response runs
+                    stop = executor.stop
+                    if injector is not None:
+                        due = injector.next_t
+                    break
+        self.max_force_sq = max_force_sq
+        ctx.tick += 1
+        return self.diverged(executor.leaf if executor is not None else "")
+
+    def diverged(self, leaf: str) -> str | None:
+        """Why the physics diverged after the last tick, or None."""
+        # a NaN or an inf anywhere makes the sum non-finite: the element-wise test only then
+        # (a sum of Python floats: a numpy reduction costs more in call overhead on ~20 values)
+        qpos = self._qpos
+        finite = math.isfinite(sum(qpos.tolist())) or bool(np.isfinite(qpos).all())
+        if not finite or any(self._diverged_warnings()):
+            return f"physics diverged at t={self.ctx.t:.3f} s (state {leaf})"
+        return None
