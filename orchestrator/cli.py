@@ -143,9 +143,12 @@ def _use_skills(paths: list[Path] | None) -> None:
 
 
 def _fail_config(exc: ConfigError, what: str = "nothing was simulated") -> None:
-    for diag in exc.diagnostics:
+    from .language.diagnostics import collapse
+
+    diagnostics = collapse(exc.diagnostics)  # one mistake said once, with where else it is
+    for diag in diagnostics:
         err.print(str(diag), markup=False, soft_wrap=True)
-    n = len(exc.diagnostics)
+    n = len(diagnostics)
     what = "the run was stopped" if exc.during_run else what
     err.print(f"{n} error{'s' if n != 1 else ''}; {what}.", style="red")
     raise typer.Exit(EXIT_INVALID)

@@ -100,9 +100,20 @@ def _make_skill(ex: Executor, node: MachineNode, at: tuple, spec: StateSpec | Br
     cls = get_skill(spec.skill)
     try:
         params = cls.Params.model_validate(ex.ctx.blackboard.resolve(spec.with_))
-    except (BlackboardError, ValidationError) as exc:
+    except BlackboardError as exc:
         raise ConfigError(
             [node.source.diag((*at, "with"), f"at t={ex.ctx.t:.3f} s: {exc}")], during_run=True
+        ) from None
+    except ValidationError as exc:  # a value read from the blackboard: each error, located
+        raise ConfigError(
+            [
+                node.source.diag(
+                    (*at, "with", *err["loc"]),
+                    f"at t={ex.ctx.t:.3f} s: {err['msg']}, got {err.get('input')!r}",
+                )
+                for err in exc.errors(include_url=False)
+            ],
+            during_run=True,
         ) from None
     return cls(params)
 

@@ -16,6 +16,7 @@ from .machine import guard_entries
 from .parcels import parcel_name
 from .refs import parse_ref
 from .scenario import Scenario
+from .validation import check_values
 from .yamlio import SourceMap
 
 __all__ = ["goal_keys", "check_faults", "check_scenario_refs", "check_scene_names", "scene_bodies"]
@@ -112,7 +113,9 @@ def check_scene_names(
             if cls is not None:
                 at = (*node.at, "states", s, "parallel", b, "with")
                 out += check(node.source, at, cls.Params, br.with_)
-    return out
+    # the scenario's values (and `--set`'s) through the parameters that read them
+    located = {key: (source, ("blackboard", key)) for key in scenario.blackboard}
+    return out + check_values(machine, values, located)
 
 
 def _missing_scene(source: SourceMap, at: tuple, cls: Any, scenario: Scenario) -> list[Diagnostic]:

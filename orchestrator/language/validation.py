@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 import re
 from collections.abc import Iterable
 from typing import Any
@@ -12,17 +11,29 @@ from pydantic import ValidationError
 from ..guards import GUARDS
 from ..skills import SKILLS, get_skill, skill_names
 from .blackboard_types import all_finite, check_type, sample_value
-from .diagnostics import Diagnostic
-from .loading import MachineNode
-from .machine import BUILTIN_EVENTS, BranchSpec, GuardRef, StateSpec, guard_entries
+from ..world.pose import Pose
+from .diagnostics import Diagnostic, did_you_mean, format_path
+from .loading import MachineNode, initial_values
+from .machine import (
+    BLACKBOARD_TYPES,
+    BUILTIN_EVENTS,
+    BranchSpec,
+    GuardRef,
+    StateSpec,
+    guard_entries,
+)
 from .pydantic_errors import diagnostics_from_validation
 from .refs import parse_ref
 from .yamlio import SourceMap
 
 __all__ = [
+    "RUN_OUTCOMES",
     "blackboard_keys",
     "blackboard_types",
     "branch_outcomes",
+    "check_values",
+    "pose_problem",
+    "ref_type",
     "skill_writes",
     "state_outcomes",
     "validate_guards",
@@ -123,7 +134,126 @@ def validate_machine(node: MachineNode, extra_keys: Iterable[str] = ()) -> list[
     types = blackboard_types(node)
     for key in extra_keys:
         types.setdefault(key, "any")
-    return _check(node, types, set())
+    out = _check(node, types, set())
+    if not out:  # the defaults, through the parameters that read them
+        out += check_values(node, initial_values(node, {}), _declared_at(node))
+    return out
+
+
+def _declared_at(node: MachineNode) -> dict[str, tuple[SourceMap, tuple]]:
+    """Where each blackboard key's default is declared (the outermost declaration wins, as
+    in `initial_values`)."""
+    where: dict[str, tuple[SourceMap, tuple]] = {}
+    for sub in reversed(list(node.nodes())):
+        for key in sub.blackboard:
+            where[key] = (sub.source, (*sub.at, "blackboard", key))
+    where.update({k: (node.source, (*node.at, "blackboard", k)) for k in node.blackboard})
+    return where
+
+
+def check_values(
+    node: MachineNode, values: dict[str, Any], located: dict[str, tuple[SourceMap, tuple]]
+) -> list[Diagnostic]:
+    """Values known before the run, through the skill parameters that read them.
+
+    A key no skill writes holds its initial value all run long, so a parameter that reads it
+    (`target: $place_at`) can be checked with that value now rather than when its state
+    starts, after the arm has moved: `--set place_at=[0.4, 0.25]` is refused before anything
+    moves. Each problem is said where the value is set (`located`: key -> source and path,
+    e.g. the scenario's `blackboard.place_at`, which `--set` writes) and names the state and
+    parameter that cannot take it.
+
+    Args:
+        node: The machine tree.
+        values: Initial blackboard values.
+        located: The keys to check, with where each one's value is written.
+    """
+    written = {k for sub in node.nodes() for k in skill_writes_of(sub)}
+    readers: dict[tuple[str, str, str], list[str]] = {}
+    """(key, its value, the problem) -> the parameters that cannot take the key's value."""
+    for sub in node.nodes():
+        for at, skill, params in _skill_params(sub):
+            cls = SKILLS.get(skill)
+            if cls is None:
+                continue
+            known = {}
+            for name, raw in params.items():
+                ref = parse_ref(raw)
+                if ref is None or ref[0] in written or ref[0] not in located:
+                    continue
+                try:
+                    known[name] = _read(values.get(ref[0]), ref[1])
+                except (KeyError, IndexError, TypeError, AttributeError):
+                    continue  # the reference check reports a path that cannot be read
+            for name, problem in _field_problems(cls.Params, params, known).items():
+                ref = parse_ref(params[name])
+                assert ref is not None
+                line, _ = sub.source.locate((*at, "with", name))
+                state = format_path(at[at.index("states") + 1 :] if "states" in at else at)
+                reader = f"`{params[name]}` in {state}.with.{name} ({sub.source.file}:{line})"
+                readers.setdefault((ref[0], repr(known[name]), problem), []).append(reader)
+    out = []
+    for (key, value, problem), where in readers.items():
+        src, path = located[key]
+        out.append(src.diag(path, f"{value} cannot be read by {', '.join(where)}: {problem}"))
+    return out
+
+
+def _skill_params(node: MachineNode) -> Iterable[tuple[tuple, str, dict]]:
+    """(path of the state or branch, skill, `with:`) of every skill this level runs."""
+    for name, st in node.states.items():
+        if st.skill is not None:
+            yield (*node.at, "states", name), st.skill, st.with_
+    for name, bname, branch in node.skill_branches():
+        yield (*node.at, "states", name, "parallel", bname), branch.skill or "", branch.with_
+
+
+def _read(value: Any, rest: list[str | int]) -> Any:
+    for part in rest:
+        value = value[part] if isinstance(part, int) or isinstance(value, dict) else None
+        if value is None:
+            raise KeyError(part)
+    if value is None:
+        raise KeyError("no value yet")
+    return value
+
+
+def _field_problems(model: type, params: dict, known: dict[str, Any]) -> dict[str, str]:
+    """Why each of the `known` values cannot be the parameter it is given to."""
+    if not known:
+        return {}
+    out: dict[str, str] = {}
+    concrete = {k: v for k, v in params.items() if not _has_ref(v)}
+    try:
+        model.model_validate({**concrete, **known})  # type: ignore[attr-defined]
+    except ValidationError as exc:
+        for err in exc.errors(include_url=False):
+            name = err["loc"][0] if err["loc"] else None
+            if name in known and name not in out:
+                where = ".".join(str(p) for p in err["loc"][1:])
+                out[name] = (f"{where}: " if where else "") + str(err["msg"])
+    fields = model.model_fields  # type: ignore[attr-defined]
+    for name, value in known.items():
+        extra = fields[name].json_schema_extra if name in fields else None
+        is_target = isinstance(extra, dict) and extra.get("scene_ref") == "target"
+        if name not in out and is_target and not isinstance(value, str):
+            problem = pose_problem(value)
+            if problem is not None:
+                out[name] = problem
+    return out
+
+
+def pose_problem(value: Any) -> str | None:
+    """Why `value` is not a pose a motion can go to (`[x, y, z]` [m] or `{pos, quat}`), or None."""
+    try:
+        Pose.coerce(value)
+    except ValidationError as exc:
+        err = exc.errors(include_url=False)[0]
+        where = ".".join(str(p) for p in err["loc"])
+        return f"not a pose: {where}: {err['msg']} (give [x, y, z] in metres or {{pos, quat}})"
+    except (TypeError, ValueError):
+        return "not a pose: give [x, y, z] in metres, {pos, quat}, or an object or marker name"
+    return None
 
 
 def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Diagnostic]:
@@ -134,15 +264,20 @@ def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Dia
     out: list[Diagnostic] = []
     names = tuple(node.states)
     if node.initial not in node.states:
-        out.append(src.diag((*at, "initial"), f"unknown state {node.initial!r}", names))
+        out.append(_unknown_state(src, (*at, "initial"), node.initial, names))
     if node.on_abort is not None:
         if node.on_abort not in node.states:
-            out.append(src.diag((*at, "on_abort"), f"unknown state {node.on_abort!r}", names))
+            out.append(_unknown_state(src, (*at, "on_abort"), node.on_abort, names))
     out += _check_events(node)
     out += validate_guards(node.guards, src, (*at, "guards"))
     for key, value in node.blackboard.items():
         kat = (*at, "blackboard", key)
         type_ = node.types.get(key, "any")
+        if type_ == "any":  # a short-form default: is it a typed declaration gone wrong?
+            bad = _bad_declaration(value, src, kat)
+            if bad is not None:
+                out.append(bad)
+                continue
         if not check_type(value, type_):
             out.append(src.diag(kat, f"default {value!r} is not a {type_}"))
         elif not all_finite(value):
@@ -162,6 +297,18 @@ def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Dia
             )
     for name, st in node.states.items():
         out += _check_state(node, name, st, types, names)
+        if node.top and st.final is not None and st.final not in RUN_OUTCOMES:
+            close = did_you_mean(st.final, RUN_OUTCOMES, cutoff=0.8)
+            if close:
+                out.append(
+                    src.diag(
+                        (*at, "states", name, "final"),
+                        f"{st.final!r} is not an outcome of a run{close}: the top-level "
+                        "machine's final states end the run `succeeded`, `failed` or `aborted` "
+                        "(any other outcome ends it `failed`)",
+                        RUN_OUTCOMES,
+                    )
+                )
     out += _check_graph(node)
     for child in node.children.values():
         out += _check(child, types, seen)
@@ -170,6 +317,28 @@ def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Dia
             if isinstance(branch, MachineNode):
                 out += _check(branch, types, seen)
     return out
+
+
+RUN_OUTCOMES = ("succeeded", "failed", "aborted")
+"""The outcomes a run ends with; the top-level machine's `final:` values name them."""
+_DECLARATION_KEYS = {"type", "default", "description"}
+
+
+def _bad_declaration(value: Any, src: SourceMap, at: tuple) -> Diagnostic | None:
+    """A short-form default that is a typed declaration gone wrong (`{type: strng, default:
+    cube}`): the long form's keys only, but no valid `type`. Said as the declaration's
+    mistake, not accepted as a mapping default that fails at run time."""
+    if not isinstance(value, dict) or "type" not in value or not set(value) <= _DECLARATION_KEYS:
+        return None
+    type_ = value["type"]
+    if type_ in BLACKBOARD_TYPES:
+        return None
+    return src.diag(
+        (*at, "type"),
+        f"unknown blackboard type {type_!r}{did_you_mean(type_, BLACKBOARD_TYPES)}: a "
+        "mapping of `type`, `default` and `description` declares a typed key",
+        BLACKBOARD_TYPES,
+    )
 
 
 def _check_events(node: MachineNode) -> list[Diagnostic]:
@@ -198,7 +367,7 @@ def _check_events(node: MachineNode) -> list[Diagnostic]:
                 )
             )
         if target not in node.states:
-            out.append(src.diag((*at, event), f"unknown state {target!r}", tuple(node.states)))
+            out.append(_unknown_state(src, (*at, event), target, tuple(node.states)))
     return out
 
 
@@ -212,9 +381,7 @@ def _check_state(
     if st.skill is not None:
         if st.skill not in SKILLS:
             known = False
-            out.append(
-                src.diag((*sat, "skill"), f"unknown skill {st.skill!r}", tuple(sorted(SKILLS)))
-            )
+            out.append(_unknown_skill(src, (*sat, "skill"), st.skill))
         else:
             out += _check_params(st.skill, st.with_, types, src, (*sat, "with"))
     if st.parallel is not None:
@@ -223,13 +390,7 @@ def _check_state(
                 bat = (*sat, "parallel", bname)
                 if branch.skill not in SKILLS:
                     known = False
-                    out.append(
-                        src.diag(
-                            (*bat, "skill"),
-                            f"unknown skill {branch.skill!r}",
-                            tuple(sorted(SKILLS)),
-                        )
-                    )
+                    out.append(_unknown_skill(src, (*bat, "skill"), branch.skill))
                 else:
                     out += _check_params(branch.skill, branch.with_, types, src, (*bat, "with"))
         known = known and set(node.branches.get(name, {})) == set(st.parallel)
@@ -266,13 +427,7 @@ def _check_state(
                 out.append(src.diag((*sat, "retry_on"), f"no outcome {outcome!r}", tuple(outcomes)))
     for outcome, target in st.transitions.items():
         if target not in node.states:
-            out.append(
-                src.diag(
-                    (*sat, "transitions", outcome),
-                    f"unknown state {target!r}{_did_you_mean(target, names)}",
-                    names,
-                )
-            )
+            out.append(_unknown_state(src, (*sat, "transitions", outcome), target, names))
     out += validate_guards(st.guards, src, (*sat, "guards"))
     return out
 
@@ -337,9 +492,13 @@ def _check_graph(node: MachineNode) -> list[Diagnostic]:
     return out
 
 
-def _did_you_mean(name: str, names: Iterable[str]) -> str:
-    close = difflib.get_close_matches(name, list(names), n=1, cutoff=0.6)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+def _unknown_state(src: SourceMap, at: tuple, name: str, names: tuple[str, ...]) -> Diagnostic:
+    return src.diag(at, f"unknown state {name!r}{did_you_mean(name, names)}", names)
+
+
+def _unknown_skill(src: SourceMap, at: tuple, name: str) -> Diagnostic:
+    names = tuple(sorted(SKILLS))
+    return src.diag(at, f"unknown skill {name!r}{did_you_mean(name, names)}", names)
 
 
 def _refs(value: Any, path: tuple) -> Iterable[tuple[tuple, str, list]]:
@@ -356,6 +515,44 @@ def _refs(value: Any, path: tuple) -> Iterable[tuple[tuple, str, list]]:
         yield path, value, []  # malformed reference
 
 
+_STEPS: dict[str, dict[str | int, str]] = {
+    "pose": {"pos": "vec3", "quat": "quat"},
+    "vec3": {0: "float", 1: "float", 2: "float"},
+    "quat": {0: "float", 1: "float", 2: "float", 3: "float"},
+}
+"""What a `.field` or `[i]` read of a value of each structured type gives."""
+_QUAT_SAMPLE = [1.0, 0.0, 0.0, 0.0]
+
+
+def ref_type(type_: str, rest: list[str | int], ref: str) -> tuple[str | None, str | None]:
+    """The type a `$key.field[i]` read gives, from the key's `type_` and the parts after it.
+
+    Returns:
+        (type, problem): the type read (None when it cannot be known: `any`, `list`, `dict`),
+        or a problem naming the first part that cannot be read, with the ones that can.
+    """
+    shown = ref.split(".")[0].split("[")[0]  # `$key`, then each part as it is read
+    for part in rest:
+        steps = _STEPS.get(type_)
+        if type_ in ("any", "list", "dict"):
+            return None, None
+        step = f".{part}" if isinstance(part, str) else f"[{part}]"
+        if steps is None:
+            return None, f"`{shown}` is a {type_}: it has no fields or items (not {step})"
+        if part not in steps:
+            if type_ == "pose":
+                return None, f"`{shown}` is a pose: read `.pos` or `.quat`, not {part!r}"
+            items = ", ".join(f"[{i}]" for i in steps)
+            return None, f"`{shown}` is a {type_}: index it with {items}, not {step}"
+        type_ = steps[part]
+        shown += step
+    return (None if type_ == "any" else type_), None
+
+
+def _sample(type_: str | None) -> Any:
+    return _QUAT_SAMPLE if type_ == "quat" else sample_value(type_ or "any")
+
+
 def _check_refs(value: Any, types: dict[str, str], src: SourceMap, path: tuple) -> list[Diagnostic]:
     out = []
     for p, key, rest in _refs(value, path):
@@ -364,36 +561,35 @@ def _check_refs(value: Any, types: dict[str, str], src: SourceMap, path: tuple) 
                 src.diag(p, f"malformed reference {key!r}: use `$key`, `$key.field` or `$key[0]`")
             )
         elif key not in types:
+            valid = tuple(sorted(types))
             out.append(
                 src.diag(
                     p,
                     f"`${key}` reads a blackboard key that is never declared or "
-                    "written: declare it under `blackboard:`",
-                    tuple(sorted(types)),
+                    f"written{did_you_mean(key, valid)}: declare it under `blackboard:`",
+                    valid,
                 )
             )
         elif rest:
-            type_ = types[key]
-            head = rest[0]
-            if type_ == "pose" and (not isinstance(head, str) or head not in POSE_FIELDS):
-                out.append(
-                    src.diag(
-                        p, f"`${key}` is a pose: read `.pos` or `.quat`, not {head!r}", POSE_FIELDS
-                    )
-                )
-            elif type_ == "vec3" and (not isinstance(head, int) or head > 2):
-                out.append(src.diag(p, f"`${key}` is a vec3: index it with [0], [1] or [2]"))
-            elif type_ in ("str", "int", "float", "bool"):
-                out.append(src.diag(p, f"`${key}` is a {type_}: it has no fields or items"))
+            _, problem = ref_type(types[key], rest, _ref_text(key, rest))
+            if problem is not None:
+                valid = POSE_FIELDS if "is a pose: read" in problem else ()
+                out.append(src.diag(p, problem, valid))
     return out
 
 
+def _ref_text(key: str, rest: list[str | int]) -> str:
+    return "$" + key + "".join(f".{r}" if isinstance(r, str) else f"[{r}]" for r in rest)
+
+
 def _substitute(value: Any, types: dict[str, str]) -> Any:
-    """Replace whole-value `$key` references by a sample of the key's type (None if unknown)."""
+    """Replace whole-value `$key` references by a sample of the type they read (None if it
+    cannot be known)."""
     ref = parse_ref(value)
     if ref is not None:
         key, rest = ref
-        return sample_value(types.get(key, "any")) if not rest else None
+        type_, problem = ref_type(types.get(key, "any"), rest, value)
+        return None if problem is not None else _sample(type_)
     if isinstance(value, dict):
         return {k: _substitute(v, types) for k, v in value.items()}
     if isinstance(value, list):
@@ -421,6 +617,14 @@ def _check_params(
             unknown_refs.add(k)  # untyped reference: checked when the state starts
         else:
             concrete[k] = sub
+    for name, info in cls.Params.model_fields.items():
+        extra = info.json_schema_extra
+        value = params.get(info.alias or name)
+        if isinstance(extra, dict) and extra.get("scene_ref") == "target":
+            if isinstance(value, (list, dict)) and not _has_ref(value):
+                problem = pose_problem(value)
+                if problem is not None:
+                    out.append(src.diag((*path, info.alias or name), f"{value!r} is {problem}"))
     try:
         cls.Params.model_validate(concrete)
     except ValidationError as exc:
@@ -432,7 +636,7 @@ def _check_params(
             if ref is not None and any(m in d.message for m in _RANGE_MESSAGES):
                 continue  # the sample of the key's type is out of range, not the key's value
             if ref is not None:  # a typed `$key` whose type does not fit the parameter
-                declared = types.get(ref[0], "any")
+                declared, _ = ref_type(types.get(ref[0], "any"), ref[1], params[leaf])
                 out.append(
                     src.diag(
                         (*path, leaf),
@@ -472,7 +676,8 @@ def validate_guards(refs: list[GuardRef] | dict, src: SourceMap, path: tuple) ->
     for pos, name, params in guard_entries(refs):
         gpath = (*path, pos)
         if name not in GUARDS:
-            out.append(src.diag(gpath, f"unknown guard {name!r}", tuple(sorted(GUARDS))))
+            valid = tuple(sorted(GUARDS))
+            out.append(src.diag(gpath, f"unknown guard {name!r}{did_you_mean(name, valid)}", valid))
             continue
         ppath = (*gpath, name) if isinstance(pos, int) else gpath
         if not isinstance(params, dict):
