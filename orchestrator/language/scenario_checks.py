@@ -13,10 +13,11 @@ from ..skills import SKILLS, skill_names
 from .diagnostics import Diagnostic
 from .loading import MachineNode, initial_values
 from .machine import guard_entries
+from .param_values import check_values
 from .parcels import parcel_name
 from .refs import parse_ref
 from .scenario import Scenario
-from .validation import check_values
+from .validation import written_keys
 from .yamlio import SourceMap
 
 __all__ = ["goal_keys", "check_faults", "check_scenario_refs", "check_scene_names", "scene_bodies"]
@@ -115,7 +116,7 @@ def check_scene_names(
                 out += check(node.source, at, cls.Params, br.with_)
     # the scenario's values (and `--set`'s) through the parameters that read them
     located = {key: (source, ("blackboard", key)) for key in scenario.blackboard}
-    return out + check_values(machine, values, located)
+    return out + check_values(machine, values, located, written_keys(machine))
 
 
 def _missing_scene(source: SourceMap, at: tuple, cls: Any, scenario: Scenario) -> list[Diagnostic]:

@@ -11,8 +11,7 @@ from pydantic import ValidationError
 from ..guards import GUARDS
 from ..skills import SKILLS, get_skill, skill_names
 from .blackboard_types import all_finite, check_type, sample_value
-from ..world.pose import Pose
-from .diagnostics import Diagnostic, did_you_mean, format_path
+from .diagnostics import Diagnostic, did_you_mean
 from .loading import MachineNode, initial_values
 from .machine import (
     BLACKBOARD_TYPES,
@@ -22,8 +21,9 @@ from .machine import (
     StateSpec,
     guard_entries,
 )
+from .param_values import check_values, declared_at, pose_problem
 from .pydantic_errors import diagnostics_from_validation
-from .refs import parse_ref
+from .refs import has_ref, iter_refs, parse_ref, ref_type
 from .yamlio import SourceMap
 
 __all__ = [
@@ -31,9 +31,7 @@ __all__ = [
     "blackboard_keys",
     "blackboard_types",
     "branch_outcomes",
-    "check_values",
-    "pose_problem",
-    "ref_type",
+    "written_keys",
     "skill_writes",
     "state_outcomes",
     "validate_guards",
@@ -136,124 +134,13 @@ def validate_machine(node: MachineNode, extra_keys: Iterable[str] = ()) -> list[
         types.setdefault(key, "any")
     out = _check(node, types, set())
     if not out:  # the defaults, through the parameters that read them
-        out += check_values(node, initial_values(node, {}), _declared_at(node))
+        out += check_values(node, initial_values(node, {}), declared_at(node), written_keys(node))
     return out
 
 
-def _declared_at(node: MachineNode) -> dict[str, tuple[SourceMap, tuple]]:
-    """Where each blackboard key's default is declared (the outermost declaration wins, as
-    in `initial_values`)."""
-    where: dict[str, tuple[SourceMap, tuple]] = {}
-    for sub in reversed(list(node.nodes())):
-        for key in sub.blackboard:
-            where[key] = (sub.source, (*sub.at, "blackboard", key))
-    where.update({k: (node.source, (*node.at, "blackboard", k)) for k in node.blackboard})
-    return where
-
-
-def check_values(
-    node: MachineNode, values: dict[str, Any], located: dict[str, tuple[SourceMap, tuple]]
-) -> list[Diagnostic]:
-    """Values known before the run, through the skill parameters that read them.
-
-    A key no skill writes holds its initial value all run long, so a parameter that reads it
-    (`target: $place_at`) can be checked with that value now rather than when its state
-    starts, after the arm has moved: `--set place_at=[0.4, 0.25]` is refused before anything
-    moves. Each problem is said where the value is set (`located`: key -> source and path,
-    e.g. the scenario's `blackboard.place_at`, which `--set` writes) and names the state and
-    parameter that cannot take it.
-
-    Args:
-        node: The machine tree.
-        values: Initial blackboard values.
-        located: The keys to check, with where each one's value is written.
-    """
-    written = {k for sub in node.nodes() for k in skill_writes_of(sub)}
-    readers: dict[tuple[str, str, str], list[str]] = {}
-    """(key, its value, the problem) -> the parameters that cannot take the key's value."""
-    for sub in node.nodes():
-        for at, skill, params in _skill_params(sub):
-            cls = SKILLS.get(skill)
-            if cls is None:
-                continue
-            known = {}
-            for name, raw in params.items():
-                ref = parse_ref(raw)
-                if ref is None or ref[0] in written or ref[0] not in located:
-                    continue
-                try:
-                    known[name] = _read(values.get(ref[0]), ref[1])
-                except (KeyError, IndexError, TypeError, AttributeError):
-                    continue  # the reference check reports a path that cannot be read
-            for name, problem in _field_problems(cls.Params, params, known).items():
-                ref = parse_ref(params[name])
-                assert ref is not None
-                line, _ = sub.source.locate((*at, "with", name))
-                state = format_path(at[at.index("states") + 1 :] if "states" in at else at)
-                reader = f"`{params[name]}` in {state}.with.{name} ({sub.source.file}:{line})"
-                readers.setdefault((ref[0], repr(known[name]), problem), []).append(reader)
-    out = []
-    for (key, value, problem), where in readers.items():
-        src, path = located[key]
-        out.append(src.diag(path, f"{value} cannot be read by {', '.join(where)}: {problem}"))
-    return out
-
-
-def _skill_params(node: MachineNode) -> Iterable[tuple[tuple, str, dict]]:
-    """(path of the state or branch, skill, `with:`) of every skill this level runs."""
-    for name, st in node.states.items():
-        if st.skill is not None:
-            yield (*node.at, "states", name), st.skill, st.with_
-    for name, bname, branch in node.skill_branches():
-        yield (*node.at, "states", name, "parallel", bname), branch.skill or "", branch.with_
-
-
-def _read(value: Any, rest: list[str | int]) -> Any:
-    for part in rest:
-        value = value[part] if isinstance(part, int) or isinstance(value, dict) else None
-        if value is None:
-            raise KeyError(part)
-    if value is None:
-        raise KeyError("no value yet")
-    return value
-
-
-def _field_problems(model: type, params: dict, known: dict[str, Any]) -> dict[str, str]:
-    """Why each of the `known` values cannot be the parameter it is given to."""
-    if not known:
-        return {}
-    out: dict[str, str] = {}
-    concrete = {k: v for k, v in params.items() if not _has_ref(v)}
-    try:
-        model.model_validate({**concrete, **known})  # type: ignore[attr-defined]
-    except ValidationError as exc:
-        for err in exc.errors(include_url=False):
-            name = err["loc"][0] if err["loc"] else None
-            if name in known and name not in out:
-                where = ".".join(str(p) for p in err["loc"][1:])
-                out[name] = (f"{where}: " if where else "") + str(err["msg"])
-    fields = model.model_fields  # type: ignore[attr-defined]
-    for name, value in known.items():
-        extra = fields[name].json_schema_extra if name in fields else None
-        is_target = isinstance(extra, dict) and extra.get("scene_ref") == "target"
-        if name not in out and is_target and not isinstance(value, str):
-            problem = pose_problem(value)
-            if problem is not None:
-                out[name] = problem
-    return out
-
-
-def pose_problem(value: Any) -> str | None:
-    """Why `value` is not a pose a motion can go to (`[x, y, z]` [m] or `{pos, quat}`), or None."""
-    try:
-        Pose.coerce(value)
-    except ValidationError as exc:
-        err = exc.errors(include_url=False)[0]
-        where = ".".join(str(p) for p in err["loc"])
-        return f"not a pose: {where}: {err['msg']} (give [x, y, z] in metres or {{pos, quat}})"
-    except (TypeError, ValueError):
-        return "not a pose: give [x, y, z] in metres, {pos, quat}, or an object or marker name"
-    return None
+def written_keys(node: MachineNode) -> set[str]:
+    """Blackboard keys some skill of the tree writes."""
+    return {key for sub in node.nodes() for key in skill_writes_of(sub)}
 
 
 def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Diagnostic]:
@@ -501,52 +388,7 @@ def _unknown_skill(src: SourceMap, at: tuple, name: str) -> Diagnostic:
     return src.diag(at, f"unknown skill {name!r}{did_you_mean(name, names)}", names)
 
 
-def _refs(value: Any, path: tuple) -> Iterable[tuple[tuple, str, list]]:
-    ref = parse_ref(value)
-    if ref is not None:
-        yield path, ref[0], ref[1]
-    elif isinstance(value, dict):
-        for k, v in value.items():
-            yield from _refs(v, (*path, k))
-    elif isinstance(value, list):
-        for i, v in enumerate(value):
-            yield from _refs(v, (*path, i))
-    elif isinstance(value, str) and value.startswith("$"):
-        yield path, value, []  # malformed reference
-
-
-_STEPS: dict[str, dict[str | int, str]] = {
-    "pose": {"pos": "vec3", "quat": "quat"},
-    "vec3": {0: "float", 1: "float", 2: "float"},
-    "quat": {0: "float", 1: "float", 2: "float", 3: "float"},
-}
-"""What a `.field` or `[i]` read of a value of each structured type gives."""
 _QUAT_SAMPLE = [1.0, 0.0, 0.0, 0.0]
-
-
-def ref_type(type_: str, rest: list[str | int], ref: str) -> tuple[str | None, str | None]:
-    """The type a `$key.field[i]` read gives, from the key's `type_` and the parts after it.
-
-    Returns:
-        (type, problem): the type read (None when it cannot be known: `any`, `list`, `dict`),
-        or a problem naming the first part that cannot be read, with the ones that can.
-    """
-    shown = ref.split(".")[0].split("[")[0]  # `$key`, then each part as it is read
-    for part in rest:
-        steps = _STEPS.get(type_)
-        if type_ in ("any", "list", "dict"):
-            return None, None
-        step = f".{part}" if isinstance(part, str) else f"[{part}]"
-        if steps is None:
-            return None, f"`{shown}` is a {type_}: it has no fields or items (not {step})"
-        if part not in steps:
-            if type_ == "pose":
-                return None, f"`{shown}` is a pose: read `.pos` or `.quat`, not {part!r}"
-            items = ", ".join(f"[{i}]" for i in steps)
-            return None, f"`{shown}` is a {type_}: index it with {items}, not {step}"
-        type_ = steps[part]
-        shown += step
-    return (None if type_ == "any" else type_), None
 
 
 def _sample(type_: str | None) -> Any:
@@ -555,7 +397,7 @@ def _sample(type_: str | None) -> Any:
 
 def _check_refs(value: Any, types: dict[str, str], src: SourceMap, path: tuple) -> list[Diagnostic]:
     out = []
-    for p, key, rest in _refs(value, path):
+    for p, key, rest in iter_refs(value, path):
         if key.startswith("$"):
             out.append(
                 src.diag(p, f"malformed reference {key!r}: use `$key`, `$key.field` or `$key[0]`")
@@ -571,15 +413,11 @@ def _check_refs(value: Any, types: dict[str, str], src: SourceMap, path: tuple) 
                 )
             )
         elif rest:
-            _, problem = ref_type(types[key], rest, _ref_text(key, rest))
+            _, problem = ref_type(types[key], rest, key)
             if problem is not None:
                 valid = POSE_FIELDS if "is a pose: read" in problem else ()
                 out.append(src.diag(p, problem, valid))
     return out
-
-
-def _ref_text(key: str, rest: list[str | int]) -> str:
-    return "$" + key + "".join(f".{r}" if isinstance(r, str) else f"[{r}]" for r in rest)
 
 
 def _substitute(value: Any, types: dict[str, str]) -> Any:
@@ -588,17 +426,13 @@ def _substitute(value: Any, types: dict[str, str]) -> Any:
     ref = parse_ref(value)
     if ref is not None:
         key, rest = ref
-        type_, problem = ref_type(types.get(key, "any"), rest, value)
+        type_, problem = ref_type(types.get(key, "any"), rest, key)
         return None if problem is not None else _sample(type_)
     if isinstance(value, dict):
         return {k: _substitute(v, types) for k, v in value.items()}
     if isinstance(value, list):
         return [_substitute(v, types) for v in value]
     return value
-
-
-def _has_ref(value: Any) -> bool:
-    return any(True for _ in _refs(value, ()))
 
 
 def _check_params(
@@ -609,7 +443,7 @@ def _check_params(
     concrete = {}
     unknown_refs = set()
     for k, v in params.items():
-        if not _has_ref(v):
+        if not has_ref(v):
             concrete[k] = v
             continue
         sub = _substitute(v, types)
@@ -621,7 +455,7 @@ def _check_params(
         extra = info.json_schema_extra
         value = params.get(info.alias or name)
         if isinstance(extra, dict) and extra.get("scene_ref") == "target":
-            if isinstance(value, (list, dict)) and not _has_ref(value):
+            if isinstance(value, (list, dict)) and not has_ref(value):
                 problem = pose_problem(value)
                 if problem is not None:
                     out.append(src.diag((*path, info.alias or name), f"{value!r} is {problem}"))
@@ -636,7 +470,7 @@ def _check_params(
             if ref is not None and any(m in d.message for m in _RANGE_MESSAGES):
                 continue  # the sample of the key's type is out of range, not the key's value
             if ref is not None:  # a typed `$key` whose type does not fit the parameter
-                declared, _ = ref_type(types.get(ref[0], "any"), ref[1], params[leaf])
+                declared, _ = ref_type(types.get(ref[0], "any"), ref[1], ref[0])
                 out.append(
                     src.diag(
                         (*path, leaf),
