@@ -15,6 +15,7 @@ from orchestrator.language.reference import (
 )
 from orchestrator.language.scenario import Scenario
 
+REPO = Path(__file__).resolve().parent.parent
 MACHINE = """\
 name: home_only
 initial: HOME
@@ -79,8 +80,26 @@ def test_show_guard_and_show_scenario(cli):
     assert res.exit_code == 0 and "| `max_n` |" in res.stdout
     res = cli("show", "scenario", "pick_place")
     assert res.exit_code == 0
-    assert '| `place_at` | any | "pad" |  |' in res.stdout
+    assert '| `place_at` | any | "pad" | machine `pick_place` |' in res.stdout
     assert "* `cube_on_target`: object_at `cube` at $place_at" in res.stdout
+
+
+def test_show_scenario_shows_the_values_the_scenario_really_uses(cli):
+    # sorting's own defaults, not those of the grasp machine it includes (outer levels win)
+    res = cli("show", "scenario", "sorting")
+    assert res.exit_code == 0
+    assert "| `approach_speed` | float | 0.6 | machine `sorting` |" in res.stdout
+    assert '| `object` | str | "*" | machine `sorting` |' in res.stdout
+    assert "| `yaw_symmetry_deg` | float | 180.0 | machine `sorting` |" in res.stdout
+    assert "| `lift` | vec3 | [0.0, 0.0, 0.05] | machine `grasp` |" in res.stdout
+
+
+def test_show_scenario_shows_a_value_the_scenario_sets(cli, tmp_path: Path):
+    text = (REPO / "scenarios" / "pick_place.yaml").read_text()
+    (tmp_path / "s.yaml").write_text(text + "blackboard: {place_at: [0.4, 0.25, 0.2]}\n")
+    res = cli("show", "scenario", str(tmp_path / "s.yaml"))
+    assert res.exit_code == 0, res.stderr
+    assert "| `place_at` | any | [0.4, 0.25, 0.2] | this scenario |" in res.stdout
 
 
 @pytest.mark.parametrize(

@@ -322,12 +322,27 @@ if __name__ == "__main__":
         print(f"wrote {p}")
 
 
+def _default_origins(machine: Any) -> dict[str, str]:
+    """Key -> `machine NAME` whose default a run starts with, in the order `initial_values`
+    applies them (nested machines first, so the outermost declaration wins)."""
+    origin: dict[str, str] = {}
+
+    def collect(node: Any) -> None:
+        for child in node.children.values():
+            collect(child)
+        origin.update(dict.fromkeys(node.blackboard, f"machine `{node.name}`"))
+
+    collect(machine)
+    return origin
+
+
 def scenario_summary(loaded: Any) -> str:
     """`orchestrator show scenario NAME`: what a scenario sets up and what it can be told.
 
     Args:
         loaded: A `LoadedScenario`.
     """
+    from .loading import initial_values
     from .validation import blackboard_types
 
     scn = loaded.scenario
@@ -354,15 +369,22 @@ def scenario_summary(loaded: Any) -> str:
     )
     lines.append("Guards: " + (", ".join(f"`{g}`" for g in guards) or "none") + ".")
     lines += ["", "## Blackboard (`--set KEY=VALUE`)", ""]
-    lines += ["| key | type | default | scenario sets |", "|---|---|---|---|"]
+    lines += [
+        "The values this scenario starts with: its own `blackboard:`, else the default of the "
+        "outermost machine that declares the key (a nested machine's defaults give way to "
+        "its parent's).",
+        "",
+        "| key | type | value | set by |",
+        "|---|---|---|---|",
+    ]
     types = blackboard_types(machine)
-    defaults: dict[str, Any] = {}
-    for node in machine.nodes():
-        defaults.update(node.blackboard)
+    values = initial_values(machine, scn.blackboard)
+    origin = _default_origins(machine)
+    origin.update(dict.fromkeys(scn.blackboard, "this scenario"))
     for key in sorted(types):
-        default = _value(defaults[key]) if key in defaults else ""
-        mine = _value(scn.blackboard[key]) if key in scn.blackboard else ""
-        lines.append(f"| `{key}` | {types[key]} | {default} | {mine} |")
+        value = _value(values[key]) if key in values else ""
+        by = origin.get(key, "a skill writes it")
+        lines.append(f"| `{key}` | {types[key]} | {value} | {by} |")
     lines += ["", "## Success checks", ""]
     for name, check in scn.success.items():
         extra = f" at {check.target}" if check.target is not None else ""
