@@ -206,9 +206,13 @@ def run(
     ] = None,
     allow_path: AllowPathOption = None,
     skills: SkillPaths = None,
+    debug: Annotated[
+        bool, typer.Option("--debug", help="A skill that raises: print its traceback too.")
+    ] = False,
 ) -> None:
     """Run one episode. Exit 0 succeeded, 1 failed (or stopped by --max-wall-s), 2 invalid
-    input, 3 aborted by a guard."""
+    input, 3 aborted by a guard, 4 a skill raised (outcome `error`: the arm is brought to rest;
+    the skill's file:line and exception are printed, the traceback with --debug)."""
     from .engine.runner import WallTimeExceeded, run_episode
     from .language.load import load_scenario
     from .language.validate_paths import file_kind
@@ -253,6 +257,8 @@ def run(
         sys.stdout.write(json.dumps(result.to_json_dict()) + "\n")
     else:
         _print_result(result)
+    if result.error is not None:
+        _print_skill_fault(result.error, debug)
     if rrd is not None:
         err.print(f"recording saved to {rrd} (open it with: rerun {rrd})", markup=False)
     raise typer.Exit(result.exit_code)
@@ -282,8 +288,22 @@ def _guard_goals(loaded, sets: list[str], seed: int) -> None:
         raise typer.Exit(EXIT_INVALID) from None
 
 
+def _print_skill_fault(error: dict, debug: bool) -> None:
+    """A skill raised: one line (skill, file:line, exception), the traceback with --debug."""
+    from .engine.skill_fault import SkillFault
+
+    fault = SkillFault(**error)
+    hint = "" if debug else "; --debug prints the traceback"
+    line = f"error: {fault.line()}; the arm was brought to rest and held (exit 4{hint})"
+    err.print(line, markup=False, soft_wrap=True)
+    if debug:
+        err.print(fault.traceback.rstrip(), markup=False, soft_wrap=True)
+
+
 def _print_result(result) -> None:
-    style = {"succeeded": "green", "failed": "yellow", "aborted": "red"}[result.outcome]
+    style = {"succeeded": "green", "failed": "yellow", "aborted": "red", "error": "red"}[
+        result.outcome
+    ]
     rtf = result.sim_time / max(result.wall_time, 1e-9)
     out.print(
         f"[bold]{escape(result.scenario)}[/] seed {result.seed}: [{style}]{result.outcome}[/] in "

@@ -314,6 +314,13 @@ def run_episode(
         metrics["error"] = diverged
     if wall_cut:
         metrics["error"] = wall_cut
+    if executor.fault is not None and end_stop is not None:
+        # a skill raised: no cycle was completed; the controlled stop that brought the arm to
+        # rest, as measured
+        metrics["cycle_time"] = None
+        if end_stop.stop_time_s is not None:
+            metrics["stop_time_s"] = round(end_stop.stop_time_s, 4)
+        metrics["stop_distance_mm"] = round(end_stop.distance_m * 1000.0, 3)
     wall = time.perf_counter() - wall0
     result = RunResult(
         scenario=scn.name,
@@ -329,6 +336,7 @@ def run_episode(
         retries=executor.retries,
         success_detail={name: text for name, (_, text) in judged.items()},
         tasks=None if tasks is None else [e.to_dict() for e in tasks],
+        error=executor.fault.to_dict() if executor.fault is not None else None,
     )
     for obs in observers:
         obs.on_end(ctx, executor, result)
