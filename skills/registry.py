@@ -65,8 +65,12 @@ def bundled_skill_names() -> list[str]:
     return sorted(n for n, c in SKILLS.items() if c.__module__.startswith(_PKG + "."))
 
 
-def register_skill_path(path: str | Path) -> list[str]:
+def register_skill_path(path: str | Path, require: bool = True) -> list[str]:
     """Register the skills of a local folder or `.py` file; returns their names.
+
+    Args:
+        path: The folder or file.
+        require: A path without any skill is an error (False: it may hold only success checks).
 
     Raises:
         SkillLoadError: The path cannot be loaded, or a skill's name is already taken by
@@ -74,7 +78,7 @@ def register_skill_path(path: str | Path) -> list[str]:
     """
     _discover()
     names = []
-    for cls in load_skill_path(path):
+    for cls in load_skill_path(path, require):
         other = SKILLS.get(cls.name)
         if other is not None and other is not cls:
             raise SkillLoadError(

@@ -14,6 +14,8 @@ from orchestrator.language.reference import (
     skills_reference,
 )
 from orchestrator.language.scenario import Scenario
+from orchestrator.success import CHECKS, bundled_check_kinds
+from orchestrator.success.params import CheckParams
 
 REPO = Path(__file__).resolve().parent.parent
 MACHINE = """\
@@ -44,9 +46,18 @@ def _all_models(model, seen=None):
     if model not in seen:
         seen.add(model)
         for row in param_rows(model):
-            if row.model is not None:
+            if row.model is not None and row.model is not CheckParams:  # per kind: skills.md
                 _all_models(row.model, seen)
     return seen
+
+
+def test_the_skills_page_has_every_key_of_every_success_check():
+    text = skills_reference()
+    for kind in bundled_check_kinds():
+        assert f"## `{kind}`" in text
+        for name in CHECKS[kind].Params.model_fields:
+            assert name == "kind" or f"| `{name}` |" in text, f"{kind}.{name}"
+    assert "| `gap_tol_m` | float | m | `0.003` | > 0, ≤ 0.1 |" in text
 
 
 def test_the_scenario_reference_has_every_key_of_every_scenario_model():
@@ -81,7 +92,10 @@ def test_show_guard_and_show_scenario(cli):
     res = cli("show", "scenario", "pick_place")
     assert res.exit_code == 0
     assert '| `place_at` | any | "pad" | machine `pick_place` |' in res.stdout
-    assert "* `cube_on_target`: object_at `cube` at $place_at" in res.stdout
+    assert (
+        '* `cube_on_target`: object_at (object "cube", target "$place_at", xy_tol_m 0.01, '
+        "upright_tol_deg 10.0)" in res.stdout
+    )
 
 
 def test_show_scenario_shows_the_values_the_scenario_really_uses(cli):
@@ -106,7 +120,8 @@ def test_show_scenario_shows_a_value_the_scenario_sets(cli, tmp_path: Path):
     ("args", "message"),
     [
         (("show", "skill", "mvoe"), "unknown skill 'mvoe' (valid: approach, check_tool, contact,"),
-        (("show", "robot", "panda"), "unknown kind 'robot' (valid: skill, guard, scenario, "),
+        (("show", "robot", "panda"), "unknown kind 'robot' (valid: skill, check, guard, "),
+        (("show", "check", "stakced"), "unknown check 'stakced' (valid: gripper_clear, held,"),
         (("list", "skils"), "unknown list 'skils' (valid: scenarios, machines, skills,"),
     ],
 )
