@@ -43,10 +43,13 @@ class SuccessCheck(abc.ABC):
     """
 
     kind: ClassVar[str]
+    """The name used in a scenario (`kind: stacked`); unique among the checks of a process."""
     Params: ClassVar[type[CheckParams]]
+    """Validates the scenario's entry (a `CheckParams` subclass; `kind` comes with it)."""
 
     def __init__(self, params: CheckParams) -> None:
         self.params = params
+        """The scenario's entry, validated by `Params`."""
 
     @abc.abstractmethod
     def evaluate(self, ctx: Context) -> Verdict:
