@@ -172,7 +172,7 @@ class _SkillActivity:
             self.skill = _make_skill(ex, node, at, spec)
         except ConfigError:
             raise
-        except Exception as exc:  # noqa: BLE001 - the skill's constructor: its own code
+        except Exception as exc:  # the skill's constructor: its own code
             self._raised(exc, "__init__")
         self.timeout = timeout
         self.t0 = ex.ctx.clock
@@ -188,7 +188,7 @@ class _SkillActivity:
             _start_skill(self.ex, self.node, self.at, self.skill)
         except ConfigError:
             raise
-        except Exception as exc:  # noqa: BLE001 - the skill's own code
+        except Exception as exc:  # the skill's own code
             self._raised(exc, "start")
 
     def tick(self) -> Finished | None:
@@ -202,7 +202,7 @@ class _SkillActivity:
             outcome = _step_skill(self.ex, self.node, self.at, self.skill)
         except ConfigError:
             raise
-        except Exception as exc:  # noqa: BLE001 - the skill's own code
+        except Exception as exc:  # the skill's own code
             self._raised(exc, "step")
             return None
         if outcome is None:
@@ -220,7 +220,7 @@ class _SkillActivity:
             return None
         try:
             return self.skill.explain(self.ex.ctx)
-        except Exception as exc:  # noqa: BLE001 - the skill's own code
+        except Exception as exc:  # the skill's own code
             self._raised(exc, "explain")
             return None
 
@@ -229,7 +229,7 @@ class _SkillActivity:
             return
         try:
             self.skill.stop(self.ex.ctx)
-        except Exception as exc:  # noqa: BLE001 - the skill's own code: the stop goes on
+        except Exception as exc:  # the skill's own code: the stop goes on
             self._raised(exc, "stop")
 
     def leaf(self) -> str:
