@@ -20,6 +20,7 @@ import sys
 import traceback
 from pathlib import Path
 from types import ModuleType
+from typing import TypeVar
 
 from orchestrator.exceptions import OrchestratorError
 
@@ -28,12 +29,15 @@ from .base import Skill
 __all__ = [
     "PLUGIN_WARNINGS",
     "SkillLoadError",
+    "classes_in",
+    "entry_point_classes",
     "entry_point_skills",
     "load_skill_path",
     "plugin_modules",
     "skill_origin",
 ]
 
+T = TypeVar("T")
 GROUP = "orchestrator.skills"
 """The entry-point group plugin packages declare their skills in."""
 PLUGIN_WARNINGS: list[str] = []
@@ -48,11 +52,13 @@ class SkillLoadError(OrchestratorError):
     """A local skill file or folder cannot be loaded (missing, fails to import, no skill)."""
 
 
-def entry_point_skills() -> list[type[Skill]]:
-    """The Skill classes of every installed `orchestrator.skills` entry point."""
-    classes: list[type[Skill]] = []
-    for ep in importlib.metadata.entry_points(group=GROUP):
-        where = f"plugin skill {ep.name!r} ({ep.value}"
+def entry_point_classes(group: str, base: type[T], what: str) -> list[type[T]]:
+    """The `base` subclasses every installed entry point of `group` names (`wait =
+    my_pkg.wait:Wait`). One that fails to import, or names something else, is skipped with a
+    one-line warning in `PLUGIN_WARNINGS` naming it as a plugin `what` (`skill`)."""
+    classes: list[type[T]] = []
+    for ep in importlib.metadata.entry_points(group=group):
+        where = f"plugin {what} {ep.name!r} ({ep.value}"
         dist = getattr(ep, "dist", None)
         where += f", from {dist.name})" if dist is not None else ")"
         try:
@@ -62,15 +68,33 @@ def entry_point_skills() -> list[type[Skill]]:
                 f"{where} failed to import and is skipped: {type(exc).__name__}: {exc}"
             )
             continue
-        if isinstance(obj, type) and issubclass(obj, Skill):
+        if isinstance(obj, type) and issubclass(obj, base):
             classes.append(obj)
         else:
             kind = "a module" if type(obj).__name__ == "module" else type(obj).__name__
             PLUGIN_WARNINGS.append(
-                f"{where} names {kind}, not a Skill class, and is skipped: write "
+                f"{where} names {kind}, not a {base.__name__} class, and is skipped: write "
                 f"'{ep.value.split(':')[0]}:ClassName'"
             )
     return classes
+
+
+def entry_point_skills() -> list[type[Skill]]:
+    """The Skill classes of every installed `orchestrator.skills` entry point."""
+    return entry_point_classes(GROUP, Skill, "skill")
+
+
+def classes_in(module: ModuleType, base: type[T]) -> list[type[T]]:
+    """The concrete `base` subclasses `module` defines (not those it imports)."""
+    return [
+        obj
+        for obj in vars(module).values()
+        if isinstance(obj, type)
+        and issubclass(obj, base)
+        and obj is not base
+        and obj.__module__ == module.__name__
+        and not getattr(obj, "__abstractmethods__", None)
+    ]
 
 
 def plugin_modules(path: str | Path) -> list[ModuleType]:
@@ -110,15 +134,7 @@ def load_skill_path(path: str | Path, require: bool = True) -> list[type[Skill]]
         SkillLoadError: The path cannot be imported (`plugin_modules`), or it defines no
             skill at all and `require` is set.
     """
-    classes = [
-        obj
-        for module in plugin_modules(path)
-        for obj in vars(module).values()
-        if isinstance(obj, type)
-        and issubclass(obj, Skill)
-        and obj.__module__ == module.__name__
-        and not getattr(obj, "__abstractmethods__", None)
-    ]
+    classes = [cls for module in plugin_modules(path) for cls in classes_in(module, Skill)]
     if not classes and require:
         raise SkillLoadError(
             f"{path}: defines no skill (a subclass of orchestrator.skills.Skill with a `name`)"

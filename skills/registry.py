@@ -12,7 +12,7 @@ from pathlib import Path
 from orchestrator.exceptions import OrchestratorError
 
 from .base import Skill
-from .plugins import SkillLoadError, entry_point_skills, load_skill_path
+from .plugins import SkillLoadError, classes_in, entry_point_skills, load_skill_path
 
 __all__ = [
     "SKILLS",
@@ -41,13 +41,7 @@ def _discover() -> None:
     for info in pkgutil.iter_modules(pkg_path):
         if info.name in _NOT_SKILLS or info.name.startswith("_"):
             continue
-        module = importlib.import_module(f"{_PKG}.{info.name}")
-        for obj in vars(module).values():
-            if isinstance(obj, type) and issubclass(obj, Skill) and obj is not Skill:
-                if obj.__module__ == module.__name__ and not getattr(
-                    obj, "__abstractmethods__", None
-                ):
-                    classes.append(obj)
+        classes += classes_in(importlib.import_module(f"{_PKG}.{info.name}"), Skill)
     classes += entry_point_skills()
     for cls in classes:
         SKILLS[cls.name] = cls

@@ -10,15 +10,13 @@ one folder may hold both.
 from __future__ import annotations
 
 import importlib
-import importlib.metadata
 import pkgutil
 import sys
 from pathlib import Path
-from types import ModuleType
 
 from ..exceptions import OrchestratorError
-from ..skills import PLUGIN_WARNINGS, SkillLoadError, register_skill_path
-from ..skills.plugins import LOCAL_PREFIX, plugin_modules
+from ..skills import SkillLoadError, register_skill_path
+from ..skills.plugins import LOCAL_PREFIX, classes_in, entry_point_classes, plugin_modules
 from .base import SuccessCheck
 
 __all__ = [
@@ -45,51 +43,16 @@ class UnknownCheckError(OrchestratorError):
     """No success check of that kind."""
 
 
-def _checks_of(module: ModuleType) -> list[type[SuccessCheck]]:
-    return [
-        obj
-        for obj in vars(module).values()
-        if isinstance(obj, type)
-        and issubclass(obj, SuccessCheck)
-        and obj.__module__ == module.__name__
-        and not getattr(obj, "__abstractmethods__", None)
-    ]
-
-
 def _discover() -> None:
     if CHECKS:
         return
     classes: list[type[SuccessCheck]] = []
     for info in pkgutil.iter_modules([str(Path(__file__).parent)]):
         if info.name not in _NOT_CHECKS and not info.name.startswith("_"):
-            classes += _checks_of(importlib.import_module(f"{_PKG}.{info.name}"))
-    classes += _entry_point_checks()
+            classes += classes_in(importlib.import_module(f"{_PKG}.{info.name}"), SuccessCheck)
+    classes += entry_point_classes(GROUP, SuccessCheck, "success check")
     for cls in classes:
         CHECKS[cls.kind] = cls
-
-
-def _entry_point_checks() -> list[type[SuccessCheck]]:
-    """The checks of every installed entry point; a broken one is skipped with a warning."""
-    classes: list[type[SuccessCheck]] = []
-    for ep in importlib.metadata.entry_points(group=GROUP):
-        dist = getattr(ep, "dist", None)
-        where = f"plugin success check {ep.name!r} ({ep.value}"
-        where += f", from {dist.name})" if dist is not None else ")"
-        try:
-            obj = ep.load()
-        except Exception as exc:  # any error in a third-party import: report, go on
-            PLUGIN_WARNINGS.append(
-                f"{where} failed to import and is skipped: {type(exc).__name__}: {exc}"
-            )
-            continue
-        if isinstance(obj, type) and issubclass(obj, SuccessCheck):
-            classes.append(obj)
-        else:
-            PLUGIN_WARNINGS.append(
-                f"{where} names {type(obj).__name__}, not a SuccessCheck class, and is "
-                f"skipped: write '{ep.value.split(':')[0]}:ClassName'"
-            )
-    return classes
 
 
 def check_kinds() -> list[str]:
@@ -125,7 +88,7 @@ def register_check_path(path: str | Path, require: bool = True) -> list[str]:
     _discover()
     kinds = []
     for module in plugin_modules(path):
-        for cls in _checks_of(module):
+        for cls in classes_in(module, SuccessCheck):
             other = CHECKS.get(cls.kind)
             if other is not None and other is not cls:
                 raise SkillLoadError(
