@@ -94,7 +94,8 @@ SkillPaths = Annotated[
     list[Path] | None,
     typer.Option(
         "--skills",
-        help="A folder (or .py file) of your own skill modules, no package needed. Repeatable.",
+        help="A folder (or .py file) of your own skill modules (and success checks), no "
+        "package needed. Repeatable.",
     ),
 ]
 
@@ -125,27 +126,33 @@ _warned = False
 
 
 def _use_skills(paths: list[Path] | None) -> None:
-    """Register `--skills` folders, discover plugins and say which plugins were skipped."""
+    """Register `--skills` folders (their skills and success checks), discover plugins and
+    say which plugins were skipped."""
     global _warned  # noqa: PLW0603 - print plugin warnings once per process
-    from .skills import PLUGIN_WARNINGS, SkillLoadError, register_skill_path, skill_names
+    from .skills import PLUGIN_WARNINGS, SkillLoadError, skill_names
+    from .success import check_kinds, register_plugin_path
 
     skill_names()
+    check_kinds()
     if not _warned:
         for warning in PLUGIN_WARNINGS:
             err.print(f"warning: {warning}", markup=False, soft_wrap=True)
         _warned = True
     for path in paths or []:
         try:
-            register_skill_path(path)
+            register_plugin_path(path)
         except SkillLoadError as exc:
             err.print(f"error: {exc}", markup=False, soft_wrap=True)
             raise typer.Exit(EXIT_INVALID) from None
 
 
 def _fail_config(exc: ConfigError, what: str = "nothing was simulated") -> None:
-    for diag in exc.diagnostics:
+    from .language.diagnostics import collapse
+
+    diagnostics = collapse(exc.diagnostics)  # one mistake said once, with where else it is
+    for diag in diagnostics:
         err.print(str(diag), markup=False, soft_wrap=True)
-    n = len(exc.diagnostics)
+    n = len(diagnostics)
     what = "the run was stopped" if exc.during_run else what
     err.print(f"{n} error{'s' if n != 1 else ''}; {what}.", style="red")
     raise typer.Exit(EXIT_INVALID)
@@ -203,9 +210,13 @@ def run(
     ] = None,
     allow_path: AllowPathOption = None,
     skills: SkillPaths = None,
+    debug: Annotated[
+        bool, typer.Option("--debug", help="A skill that raises: print its traceback too.")
+    ] = False,
 ) -> None:
     """Run one episode. Exit 0 succeeded, 1 failed (or stopped by --max-wall-s), 2 invalid
-    input, 3 aborted by a guard."""
+    input, 3 aborted by a guard, 4 a skill raised (outcome `error`: the arm is brought to rest;
+    the skill's file:line and exception are printed, the traceback with --debug)."""
     from .engine.runner import WallTimeExceeded, run_episode
     from .language.load import load_scenario
     from .language.validate_paths import file_kind
@@ -250,6 +261,8 @@ def run(
         sys.stdout.write(json.dumps(result.to_json_dict()) + "\n")
     else:
         _print_result(result)
+    if result.error is not None:
+        _print_skill_fault(result.error, debug)
     if rrd is not None:
         err.print(f"recording saved to {rrd} (open it with: rerun {rrd})", markup=False)
     raise typer.Exit(result.exit_code)
@@ -279,8 +292,22 @@ def _guard_goals(loaded, sets: list[str], seed: int) -> None:
         raise typer.Exit(EXIT_INVALID) from None
 
 
+def _print_skill_fault(error: dict, debug: bool) -> None:
+    """A skill raised: one line (skill, file:line, exception), the traceback with --debug."""
+    from .engine.skill_fault import SkillFault
+
+    fault = SkillFault(**error)
+    hint = "" if debug else "; --debug prints the traceback"
+    line = f"error: {fault.line()}; the arm was brought to rest and held (exit 4{hint})"
+    err.print(line, markup=False, soft_wrap=True)
+    if debug:
+        err.print(fault.traceback.rstrip(), markup=False, soft_wrap=True)
+
+
 def _print_result(result) -> None:
-    style = {"succeeded": "green", "failed": "yellow", "aborted": "red"}[result.outcome]
+    style = {"succeeded": "green", "failed": "yellow", "aborted": "red", "error": "red"}[
+        result.outcome
+    ]
     rtf = result.sim_time / max(result.wall_time, 1e-9)
     out.print(
         f"[bold]{escape(result.scenario)}[/] seed {result.seed}: [{style}]{result.outcome}[/] in "
@@ -444,22 +471,25 @@ def schema(
     sys.stdout.write(schema_text(kind))
 
 
-LISTS = ("scenarios", "machines", "skills", "guards", "robots")
+LISTS = ("scenarios", "machines", "skills", "checks", "guards", "robots")
 
 
 @app.command(name="list")
 def list_(
     what: Annotated[
-        str | None, typer.Argument(help="scenarios, machines, skills, guards or robots (all).")
+        str | None,
+        typer.Argument(help="scenarios, machines, skills, checks, guards or robots (all)."),
     ] = None,
     skills: SkillPaths = None,
 ) -> None:
-    """Bundled scenarios and machines, available skills (with plugins), guards and robots."""
+    """Bundled scenarios and machines, available skills and success checks (with plugins),
+    guards and robots."""
     from .guards import GUARDS
     from .language.bundled import bundled_names
     from .robots import ROBOTS
     from .skills import SKILLS
     from .skills.plugins import skill_origin
+    from .success import CHECKS, check_origin
 
     if what is not None and what not in LISTS:
         err.print(f"unknown list {what!r} (valid: {', '.join(LISTS)})", markup=False)
@@ -479,6 +509,17 @@ def list_(
             table.add_row(name, ", ".join(cls.outcomes), doc)
         out.print(table)
         out.print("`orchestrator show skill NAME`: parameters with types, units and defaults.")
+    if "checks" in show:
+        table = Table("success check", "description", box=None, pad_edge=False)
+        for kind in sorted(CHECKS):
+            cls = CHECKS[kind]
+            origin = check_origin(cls)
+            doc = _first_sentence(cls) + ("" if origin == "bundled" else f" ({origin})")
+            table.add_row(escape(kind), escape(doc))
+        out.print(table)
+        out.print(
+            "`orchestrator show check KIND`: its parameters; a scenario's `success:` uses it."
+        )
     if "guards" in show:
         out.print("[bold]guards[/]:    " + ", ".join(sorted(GUARDS)))
     if "robots" in show:
@@ -494,36 +535,37 @@ def _first_sentence(cls: type) -> str:
     return text.split(". ")[0].rstrip(".") + "." if text else ""
 
 
-SHOWS = ("skill", "guard", "scenario", "machine")
+SHOWS = ("skill", "check", "guard", "scenario", "machine")
 
 
 @app.command()
 def show(
-    kind: Annotated[str, typer.Argument(help="skill, guard, scenario or machine")],
+    kind: Annotated[str, typer.Argument(help="skill, check, guard, scenario or machine")],
     name: Annotated[str, typer.Argument(help="Its name (a scenario or machine: or a file).")],
     skills: SkillPaths = None,
 ) -> None:
-    """Describe one skill or guard (parameters: type, unit, default, range; outcomes;
-    blackboard writes), one scenario (scene, blackboard keys to --set, success checks) or
-    one machine (its graph in Mermaid)."""
+    """Describe one skill, success check or guard (parameters: type, unit, default, range;
+    outcomes; blackboard writes), one scenario (scene, the blackboard values it uses and
+    --set takes, success checks) or one machine (its graph in Mermaid)."""
     from .guards import GUARDS
     from .language import reference
     from .skills import SKILLS
+    from .success import CHECKS
 
     if kind not in SHOWS:
         err.print(f"unknown kind {kind!r} (valid: {', '.join(SHOWS)})", markup=False)
         raise typer.Exit(EXIT_INVALID)
     _use_skills(skills)
-    if kind in ("skill", "guard"):
-        table = SKILLS if kind == "skill" else GUARDS
+    if kind in ("skill", "check", "guard"):
+        table: dict = {"skill": SKILLS, "check": CHECKS, "guard": GUARDS}[kind]
         if name not in table:
             err.print(f"unknown {kind} {name!r} (valid: {', '.join(sorted(table))})", markup=False)
             raise typer.Exit(EXIT_INVALID)
-        page = (
-            reference.skill_markdown(SKILLS[name], level=1)
-            if kind == "skill"
-            else reference.guard_markdown(GUARDS[name], level=1)
-        )
+        page = {
+            "skill": reference.skill_markdown,
+            "check": reference.check_markdown,
+            "guard": reference.guard_markdown,
+        }[kind](table[name], level=1)
     elif kind == "scenario":
         from .language.load import load_scenario
 

@@ -97,6 +97,8 @@ class Controller:
         self._setpoint = np.zeros((2, self.n))
         """(q_d, qd_d) as the rows of one array: the setpoint advances with one call."""
         self.q_d = self._setpoint[0]
+        """The joint angles being tracked [rad]. Shape (n,); read it, set it through `hold` or
+        `set_joint_target`."""
         self.q_d[:] = robot.home
         self.qd_d = self._setpoint[1]
         self._qdd_full = np.zeros(self.model.nv)

@@ -22,7 +22,11 @@ SCENE_TARGET = {"scene_ref": "target"}
 
 
 class SkillParams(BaseModel):
-    """Base of every skill's `Params`: unknown keys are an error."""
+    """Base of every skill's `Params` (a pydantic model): unknown keys are an error, naming the
+    valid ones; NaN and infinity are refused. A field's `description` ending in a unit
+    (`"How long to hold [s]."`) gives the unit column of `orchestrator show skill`; a
+    `json_schema_extra` of `SCENE_OBJECT`, `GRIPPED_OBJECT` or `SCENE_TARGET` makes the
+    validator check the name against the scenario before anything moves."""
 
     model_config = ConfigDict(extra="forbid", arbitrary_types_allowed=True, allow_inf_nan=False)
 
@@ -43,15 +47,22 @@ class Skill(abc.ABC):
     """
 
     name: ClassVar[str]
+    """The name used in YAML (`skill: move`); unique among the skills of a process."""
     Params: ClassVar[type[SkillParams]]
+    """Validates the state's `with:` block (a `SkillParams` subclass)."""
     outcomes: ClassVar[tuple[str, ...]]
+    """Every outcome `step` can return; the first one is the success outcome."""
     writes: ClassVar[dict[str, str] | tuple[str, ...]] = {}
+    """Params field holding a blackboard key this skill writes -> the type it writes
+    (`{"into": "pose"}`); a tuple of field names means type `any`."""
     needs_scene: ClassVar[tuple[str, ...]] = ()
     """Keys of `scene` the skill cannot run without (e.g. `conveyor`): a scenario whose scene
     lacks one is an error naming the state, before anything moves."""
 
     def __init__(self, params: SkillParams) -> None:
         self.params = params
+        """The state's `with:` block, validated by `Params` (blackboard reads resolved when
+        the state was entered)."""
 
     def start(self, ctx: Context) -> None:  # noqa: B027 - optional hook
         """Capture the start state and set targets."""

@@ -12,7 +12,7 @@ from pathlib import Path
 from orchestrator.exceptions import OrchestratorError
 
 from .base import Skill
-from .plugins import SkillLoadError, entry_point_skills, load_skill_path
+from .plugins import SkillLoadError, classes_in, entry_point_skills, load_skill_path
 
 __all__ = [
     "SKILLS",
@@ -41,13 +41,7 @@ def _discover() -> None:
     for info in pkgutil.iter_modules(pkg_path):
         if info.name in _NOT_SKILLS or info.name.startswith("_"):
             continue
-        module = importlib.import_module(f"{_PKG}.{info.name}")
-        for obj in vars(module).values():
-            if isinstance(obj, type) and issubclass(obj, Skill) and obj is not Skill:
-                if obj.__module__ == module.__name__ and not getattr(
-                    obj, "__abstractmethods__", None
-                ):
-                    classes.append(obj)
+        classes += classes_in(importlib.import_module(f"{_PKG}.{info.name}"), Skill)
     classes += entry_point_skills()
     for cls in classes:
         SKILLS[cls.name] = cls
@@ -65,8 +59,12 @@ def bundled_skill_names() -> list[str]:
     return sorted(n for n, c in SKILLS.items() if c.__module__.startswith(_PKG + "."))
 
 
-def register_skill_path(path: str | Path) -> list[str]:
+def register_skill_path(path: str | Path, require: bool = True) -> list[str]:
     """Register the skills of a local folder or `.py` file; returns their names.
+
+    Args:
+        path: The folder or file.
+        require: A path without any skill is an error (False: it may hold only success checks).
 
     Raises:
         SkillLoadError: The path cannot be loaded, or a skill's name is already taken by
@@ -74,7 +72,7 @@ def register_skill_path(path: str | Path) -> list[str]:
     """
     _discover()
     names = []
-    for cls in load_skill_path(path):
+    for cls in load_skill_path(path, require):
         other = SKILLS.get(cls.name)
         if other is not None and other is not cls:
             raise SkillLoadError(

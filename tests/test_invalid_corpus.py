@@ -1,11 +1,16 @@
 """A corpus of invalid machines and scenarios: each is reported at the exact file:line, with
-the expected message, exit code 2 and no traceback; the JSON Schema rejects the ones that
-are schema-level mistakes and accepts every bundled file."""
+the expected message, exit code 2, no traceback and no pydantic URL; the JSON Schema rejects
+the ones that are schema-level mistakes and accepts every bundled file.
+
+A case's header: `# expect: LINE: fragment`, `# schema: reject|accept|skip`, and optionally
+`# run: ARGS` — then it is `orchestrator run FILE ARGS` (a bad `--set` value), refused before
+anything moves: the message names FILE:LINE of the parameter that cannot take the value."""
 
 from __future__ import annotations
 
 import json
 import re
+import shlex
 from pathlib import Path
 
 import jsonschema
@@ -28,6 +33,12 @@ def _header(path: Path) -> tuple[int, str, str]:
     return int(m.group(1)), m.group(2), s.group(1)
 
 
+def _run_args(path: Path) -> list[str] | None:
+    """The `# run: ARGS` of a case answered by `run` rather than `validate`."""
+    third = path.read_text().splitlines()[2]
+    return shlex.split(third.removeprefix("# run: ")) if third.startswith("# run: ") else None
+
+
 def test_the_corpus_has_at_least_25_cases():
     assert len(FILES) >= 25
 
@@ -35,10 +46,16 @@ def test_the_corpus_has_at_least_25_cases():
 @pytest.mark.parametrize("path", FILES, ids=lambda p: p.stem)
 def test_invalid_file_is_reported_at_its_line(cli, path):
     line, fragment, _ = _header(path)
-    res = cli("validate", str(path))
+    args = _run_args(path)
+    res = cli("validate", str(path)) if args is None else cli("run", str(path), *args)
     assert res.exit_code == 2, res.stdout
     assert res.exception is None and "Traceback" not in res.stderr
-    located = [ln for ln in res.stderr.splitlines() if ln.startswith(f"{path}:{line}:")]
+    assert "pydantic" not in res.stderr  # neither its URLs nor its class names
+    if args is None:
+        located = [ln for ln in res.stderr.splitlines() if ln.startswith(f"{path}:{line}:")]
+    else:  # the value is the command line's; the message points at the parameter
+        located = [ln for ln in res.stderr.splitlines() if f"({path}:{line})" in ln]
+        assert "nothing was simulated" in res.stderr and not res.stdout
     assert any(fragment in ln for ln in located), res.stderr
 
 
@@ -108,6 +125,15 @@ def test_a_misspelled_state_is_one_error_not_a_cascade(cli):
     errors = [ln for ln in res.stderr.splitlines() if "m_misspelled_state.yaml:" in ln]
     assert len(errors) == 1, res.stderr
     assert "did you mean 'PLACE'?" in errors[0]
+
+
+def test_one_mistake_repeated_is_said_once_with_a_count(cli):
+    # deleting FAILED strands four transitions: one line, the count, the other lines
+    res = cli("validate", str(CORPUS / "m_deleted_state.yaml"))
+    assert res.exit_code == 2
+    errors = [ln for ln in res.stderr.splitlines() if "m_deleted_state.yaml:" in ln]
+    assert len(errors) == 1, res.stderr
+    assert res.stderr.splitlines()[-1] == "1 error; nothing was simulated."
 
 
 def test_validate_a_folder_checks_every_yaml_in_it(cli):

@@ -27,14 +27,17 @@ SOURCES = {"orchestrator": REPO / "orchestrator", "orchestrator.skills": REPO / 
 
 ALLOWED: dict[str, set[str]] = {
     "cli": {
-        "batch", "live", "recording", "engine", "language", "skills", "guards", "perception",
-        "world", "robots", "exceptions",
+        "batch", "live", "recording", "engine", "language", "success", "skills", "guards",
+        "perception", "world", "robots", "exceptions",
     },
     "batch": {"recording", "engine", "language", "world", "robots", "exceptions"},
     "live": {"recording", "engine", "language", "world", "robots", "exceptions"},
     "recording": {"engine", "language", "guards", "world", "robots", "exceptions"},
-    "engine": {"language", "skills", "guards", "perception", "world", "robots", "exceptions"},
-    "language": {"skills", "guards", "perception", "world", "robots", "exceptions"},
+    "engine": {
+        "language", "success", "skills", "guards", "perception", "world", "robots", "exceptions",
+    },
+    "language": {"success", "skills", "guards", "perception", "world", "robots", "exceptions"},
+    "success": {"skills", "perception", "world", "robots", "exceptions"},
     "skills": {"perception", "world", "robots", "exceptions"},
     "guards": {"world", "robots", "exceptions"},
     "perception": {"world", "robots", "exceptions"},

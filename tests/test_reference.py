@@ -14,7 +14,10 @@ from orchestrator.language.reference import (
     skills_reference,
 )
 from orchestrator.language.scenario import Scenario
+from orchestrator.success import CHECKS, bundled_check_kinds
+from orchestrator.success.params import CheckParams
 
+REPO = Path(__file__).resolve().parent.parent
 MACHINE = """\
 name: home_only
 initial: HOME
@@ -43,9 +46,18 @@ def _all_models(model, seen=None):
     if model not in seen:
         seen.add(model)
         for row in param_rows(model):
-            if row.model is not None:
+            if row.model is not None and row.model is not CheckParams:  # per kind: skills.md
                 _all_models(row.model, seen)
     return seen
+
+
+def test_the_skills_page_has_every_key_of_every_success_check():
+    text = skills_reference()
+    for kind in bundled_check_kinds():
+        assert f"## `{kind}`" in text
+        for name in CHECKS[kind].Params.model_fields:
+            assert name == "kind" or f"| `{name}` |" in text, f"{kind}.{name}"
+    assert "| `gap_tol_m` | float | m | `0.003` | > 0, ≤ 0.1 |" in text
 
 
 def test_the_scenario_reference_has_every_key_of_every_scenario_model():
@@ -79,15 +91,37 @@ def test_show_guard_and_show_scenario(cli):
     assert res.exit_code == 0 and "| `max_n` |" in res.stdout
     res = cli("show", "scenario", "pick_place")
     assert res.exit_code == 0
-    assert '| `place_at` | any | "pad" |  |' in res.stdout
-    assert "* `cube_on_target`: object_at `cube` at $place_at" in res.stdout
+    assert '| `place_at` | any | "pad" | machine `pick_place` |' in res.stdout
+    assert (
+        '* `cube_on_target`: object_at (object "cube", target "$place_at", xy_tol_m 0.01, '
+        "upright_tol_deg 10.0)" in res.stdout
+    )
+
+
+def test_show_scenario_shows_the_values_the_scenario_really_uses(cli):
+    # sorting's own defaults, not those of the grasp machine it includes (outer levels win)
+    res = cli("show", "scenario", "sorting")
+    assert res.exit_code == 0
+    assert "| `approach_speed` | float | 0.6 | machine `sorting` |" in res.stdout
+    assert '| `object` | str | "*" | machine `sorting` |' in res.stdout
+    assert "| `yaw_symmetry_deg` | float | 180.0 | machine `sorting` |" in res.stdout
+    assert "| `lift` | vec3 | [0.0, 0.0, 0.05] | machine `grasp` |" in res.stdout
+
+
+def test_show_scenario_shows_a_value_the_scenario_sets(cli, tmp_path: Path):
+    text = (REPO / "scenarios" / "pick_place.yaml").read_text()
+    (tmp_path / "s.yaml").write_text(text + "blackboard: {place_at: [0.4, 0.25, 0.2]}\n")
+    res = cli("show", "scenario", str(tmp_path / "s.yaml"))
+    assert res.exit_code == 0, res.stderr
+    assert "| `place_at` | any | [0.4, 0.25, 0.2] | this scenario |" in res.stdout
 
 
 @pytest.mark.parametrize(
     ("args", "message"),
     [
         (("show", "skill", "mvoe"), "unknown skill 'mvoe' (valid: approach, check_tool, contact,"),
-        (("show", "robot", "panda"), "unknown kind 'robot' (valid: skill, guard, scenario, "),
+        (("show", "robot", "panda"), "unknown kind 'robot' (valid: skill, check, guard, "),
+        (("show", "check", "stakced"), "unknown check 'stakced' (valid: gripper_clear, held,"),
         (("list", "skils"), "unknown list 'skils' (valid: scenarios, machines, skills,"),
     ],
 )

@@ -100,3 +100,63 @@ def test_the_readme_set_example_moves_the_cube_and_the_check_follows(cli):
     assert res.exit_code == 0, res.stdout
     detail = res.json["success_detail"]["cube_on_target"]
     assert "mm from [0.4, 0.28]" in detail, detail
+
+
+def _cell_guards(page: Path, section: str | None) -> dict:
+    import yaml
+
+    files = dict(_steps(page, section))
+    return yaml.safe_load(files["my_cell.yaml"])["guards"]
+
+
+@pytest.mark.parametrize(
+    ("page", "section"),
+    [(PAGES[0], None), (PAGES[1], "## Your first flow")],
+    ids=["tutorial", "readme"],
+)
+def test_the_pages_cells_have_the_guards_of_the_default_scene(page, section):
+    # a skill that passes `run my_flow.yaml` (the default scene) is held to the same limits
+    from orchestrator.language.default_scene import DEFAULT_SCENARIO
+
+    assert _cell_guards(page, section) == DEFAULT_SCENARIO["guards"]
+
+
+WAIT_ONLY = """\
+name: wait_only
+initial: WAIT
+states:
+  WAIT:
+    skill: {skill}
+    with: {{seconds: 1.0}}
+    transitions: {{done: DONE}}
+  DONE: {{final: succeeded}}
+"""
+
+
+def _wait_ends(cli, folder: Path, skill: str) -> tuple[float, dict]:
+    (folder / "m.yaml").write_text(WAIT_ONLY.format(skill=skill))
+    res = cli(
+        "run", str(folder / "m.yaml"), "--skills", str(folder / "my_skills"), "--json",
+        "--event", "0.8:pause", "--event", "2.8:resume",
+    )  # fmt: skip
+    assert res.exit_code == 0, res.stderr
+    (end,) = [t["t"] for t in res.json["transitions"] if t["from"] == "WAIT"]
+    return end, res.json["metrics"]
+
+
+def test_the_pages_wait_stands_still_while_the_run_is_paused(cli, tmp_path):
+    # the tutorial's own `wait`, paused at 0.8 s for 2 s: it waits 1 s of the skills' clock
+    body = dict(_steps(PAGES[0], None))["my_skills/wait.py"]
+    (tmp_path / "my_skills").mkdir()
+    (tmp_path / "my_skills" / "wait.py").write_text(body)
+    end, metrics = _wait_ends(cli, tmp_path, "wait")
+    assert metrics["paused_s"] == pytest.approx(2.0, abs=0.011)  # up to a control tick
+    assert 1.0 + metrics["paused_s"] <= end + 1e-9 <= 1.0 + metrics["paused_s"] + 0.011
+    # the same skill on simulated time (`ctx.t`) ends during the pause: what the clock fixes
+    on_t = body.replace("ctx.clock", "ctx.t").replace(
+        'name: ClassVar[str] = "wait"', 'name: ClassVar[str] = "wait_t"'
+    )
+    (tmp_path / "on_t" / "my_skills").mkdir(parents=True)
+    (tmp_path / "on_t" / "my_skills" / "wait.py").write_text(on_t)
+    end_t, _ = _wait_ends(cli, tmp_path / "on_t", "wait_t")
+    assert 0.8 < end_t < 2.8, end_t

@@ -61,24 +61,41 @@ class Context:
         dt_control: float,
     ) -> None:
         self.world = world
+        """The episode's MuJoCo world: its objects (`world.objects`), markers, table height."""
         self.model: mujoco.MjModel = world.model
+        """MuJoCo's model of the scene (ground truth: what the robot cannot know)."""
         self.data: mujoco.MjData = world.data
+        """MuJoCo's state of the scene (ground truth; the framework steps it, never a skill)."""
         self.robot: Robot = world.robot
+        """The robot: joints, limits, gains, home configuration (`robot.home`)."""
         self.scenario: Scenario = world.scenario
+        """The validated scenario of the run."""
         self.controller = controller
+        """The torque controller a skill commands: `hold(q)`, `set_joint_target(q, qd, qdd)`,
+        `set_cartesian_target(pos, rot)`, `hold_setpoint()`."""
         self.blackboard = blackboard
+        """The run's shared values: `blackboard[key]`, `blackboard[key] = value`,
+        `blackboard.resolve("$key")`."""
         self.rng = rng
+        """The episode's random generator (seeded: a skill's noise is the same every run)."""
         self.dt_control = dt_control
+        """Control period: the time between two `step` calls [s] (0.01 at 100 Hz)."""
         self.dt_physics = float(world.model.opt.timestep)
+        """Physics step [s] (0.002 at 500 Hz)."""
         self.tick = 0
+        """Control ticks run so far."""
         self.clock_offset = 0.0
         """Simulated time pauses have taken off the skills' clock [s] (the executor's)."""
         self.clock_rate = 1.0
         """Speed of the skills' clock this tick (1 running, 0 held by a pause): a skill that
         advances per tick rather than on `clock` scales its increment by it."""
         self.gripper_target = world.robot.gripper_open_m
+        """Each finger's commanded opening [m] (`set_gripper` sets it; the fingers travel to it
+        at the gripper's speed)."""
         self.events: list[Event] = []
+        """Every event `log` recorded, in order."""
         self.listeners: list[Callable[[Event], None]] = []
+        """Called with each event as it is logged (the recorder, a live session)."""
         # Views read every control tick or physics step, bound once (MjData never reallocates;
         # a fresh view through MjData's attributes costs more than the arithmetic done on it).
         d = self.data
@@ -103,9 +120,9 @@ class Context:
         self._f_site = d.sensordata[world.force_adr : world.force_adr + 3]
         self._wrist_rot = d.site_xmat[world.wrist_site]
         self.metrics: dict[str, Any] = {}
+        """Figures skills add to the result's `metrics` (e.g. force RMS error of a trace)."""
         self.tasks = TaskLog()
         """The task log the task skills (`next_task`, `end_task`) report to."""
-        """Figures skills add to the result's `metrics` (e.g. force RMS error of a trace)."""
         self.ik: Any = None
         """The IK solver motion skills share (`orchestrator.skills.ik.IKSolver`)."""
         self.ik_target: Pose | None = None

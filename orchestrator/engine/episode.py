@@ -262,6 +262,14 @@ class Episode:
                 metrics["time_limit_detail"] = f"{final_state}: {ex.halt_detail}"
         if diverged:
             metrics["error"] = diverged
+        end_stop = self.end_stop
+        if ex.fault is not None and end_stop is not None:
+            # a skill raised: no cycle was completed; the controlled stop that brought the arm
+            # to rest, as measured
+            metrics["cycle_time"] = None
+            if end_stop.stop_time_s is not None:
+                metrics["stop_time_s"] = round(end_stop.stop_time_s, 4)
+            metrics["stop_distance_mm"] = round(end_stop.distance_m * 1000.0, 3)
         return RunResult(
             scenario=scn.name,
             seed=seed,
@@ -276,4 +284,5 @@ class Episode:
             retries=ex.retries,
             success_detail={name: text for name, (_, text) in judged.items()},
             tasks=None if tasks is None else [e.to_dict() for e in tasks],
+            error=ex.fault.to_dict() if ex.fault is not None else None,
         )

@@ -42,6 +42,7 @@ from ..skills import Skill, get_skill
 from .blackboard import BlackboardError
 from .context import Context
 from .pause import PauseControl
+from .skill_fault import SkillFault
 
 __all__ = ["Executor"]
 
@@ -96,15 +97,28 @@ class _Model:
 
 
 def _make_skill(ex: Executor, node: MachineNode, at: tuple, spec: StateSpec | BranchSpec) -> Skill:
+    """The state's skill, its parameters read from the blackboard now (a value that does not
+    fit is a ConfigError located at the state's `with:`)."""
     assert spec.skill is not None
     cls = get_skill(spec.skill)
     try:
         params = cls.Params.model_validate(ex.ctx.blackboard.resolve(spec.with_))
-    except (BlackboardError, ValidationError) as exc:
+    except BlackboardError as exc:
         raise ConfigError(
             [node.source.diag((*at, "with"), f"at t={ex.ctx.t:.3f} s: {exc}")], during_run=True
         ) from None
-    return cls(params)
+    except ValidationError as exc:  # a value read from the blackboard: each error, located
+        raise ConfigError(
+            [
+                node.source.diag(
+                    (*at, "with", *err["loc"]),
+                    f"at t={ex.ctx.t:.3f} s: {err['msg']}, got {err.get('input')!r}",
+                )
+                for err in exc.errors(include_url=False)
+            ],
+            during_run=True,
+        ) from None
+    return cls(params)  # a skill whose constructor raises: see _SkillActivity
 
 
 def _start_skill(ex: Executor, node: MachineNode, at: tuple, skill: Skill) -> None:
@@ -132,7 +146,13 @@ def _step_skill(ex: Executor, node: MachineNode, at: tuple, skill: Skill) -> str
 
 
 class _SkillActivity:
-    """The skill of a state, or a single-skill parallel branch (with its own timeout)."""
+    """The skill of a state, or a single-skill parallel branch (with its own timeout).
+
+    Whatever the skill's own code raises (but a `SkillError`, a misuse said as a located
+    ConfigError) is caught here and handed to the executor as a `SkillFault`; the activity
+    then stands still (its `tick` reports nothing more) and the executor ends the run with
+    outcome `error` once the current call is over.
+    """
 
     def __init__(
         self,
@@ -144,19 +164,47 @@ class _SkillActivity:
         timeout: float | None = None,
     ) -> None:
         self.ex, self.node, self.at, self.path = ex, node, at, path
-        self.skill = _make_skill(ex, node, at, spec)
+        self.failed = False
+        """The skill raised: it is not called again (but for `stop`)."""
+        self.skill: Skill | None = None
+        self.cls = get_skill(spec.skill or "")
+        try:
+            self.skill = _make_skill(ex, node, at, spec)
+        except ConfigError:
+            raise
+        except Exception as exc:  # the skill's constructor: its own code
+            self._raised(exc, "__init__")
         self.timeout = timeout
         self.t0 = ex.ctx.clock
 
+    def _raised(self, exc: Exception, method: str) -> None:
+        self.failed = True
+        self.ex.skill_raised(SkillFault.of(self.cls, method, self.path, self.ex.ctx.t, exc))
+
     def start(self) -> None:
-        _start_skill(self.ex, self.node, self.at, self.skill)
+        if self.skill is None or self.failed:
+            return
+        try:
+            _start_skill(self.ex, self.node, self.at, self.skill)
+        except ConfigError:
+            raise
+        except Exception as exc:  # the skill's own code
+            self._raised(exc, "start")
 
     def tick(self) -> Finished | None:
+        if self.skill is None or self.failed:
+            return None  # the executor ends the run at the end of this call
         if self.timeout is not None and self.ex.ctx.clock - self.t0 >= self.timeout - _EPS:
             self.ex.explain(self, f"timeout after {self.timeout} s")
             self.stop()
             return "timeout", self.path
-        outcome = _step_skill(self.ex, self.node, self.at, self.skill)
+        try:
+            outcome = _step_skill(self.ex, self.node, self.at, self.skill)
+        except ConfigError:
+            raise
+        except Exception as exc:  # the skill's own code
+            self._raised(exc, "step")
+            return None
         if outcome is None:
             return None
         if outcome != type(self.skill).outcomes[0]:
@@ -168,10 +216,21 @@ class _SkillActivity:
 
     def detail(self) -> str | None:
         """The skill's own account of why it is ending (its `explain`)."""
-        return self.skill.explain(self.ex.ctx)
+        if self.skill is None or self.failed:
+            return None
+        try:
+            return self.skill.explain(self.ex.ctx)
+        except Exception as exc:  # the skill's own code
+            self._raised(exc, "explain")
+            return None
 
     def stop(self) -> None:
-        self.skill.stop(self.ex.ctx)
+        if self.skill is None:
+            return
+        try:
+            self.skill.stop(self.ex.ctx)
+        except Exception as exc:  # the skill's own code: the stop goes on
+            self._raised(exc, "stop")
 
     def leaf(self) -> str:
         return self.path
@@ -476,6 +535,9 @@ class Executor:
         self._pending: list[tuple[str, str]] = []
         self.events: list[dict[str, Any]] = []
         """Every event delivered: `{t, event, source}`, plus `ignored` (why) if it had no effect."""
+        self.fault: SkillFault | None = None
+        """The first skill that raised, if any: the run ends `error` (engine/skill_fault.py)."""
+        self._fault_handled = False
         self._addresses: Addresses = {}
         """Where the guards' watched views start in memory, for every bank of the episode."""
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
@@ -565,10 +627,16 @@ class Executor:
         self.region = _Region(self, self.root, "")
         finished = self.region.start(None, None)
         self._check_end(finished)
+        self._check_fault()
 
     def tick(self) -> None:
         """One control tick: timeouts (outer first), then every active skill's step. During
-        the controlled stop of an abort nothing runs but the stop."""
+        the controlled stop of an abort nothing runs but the stop. A skill that raised in it
+        ends the run `error` (`skill_raised`)."""
+        self._tick()
+        self._check_fault()
+
+    def _tick(self) -> None:
         if self.done:
             return
         if self._pending:
@@ -645,6 +713,10 @@ class Executor:
     def abort(self, violation: Violation) -> None:
         """A guard fired: stop every activity, brake the arm to rest (SAFE_STOP), then go to
         `on_abort` or hold and end. Later violations are ignored; an e-stop is not."""
+        self._abort(violation)
+        self._check_fault()  # a skill's `stop` that raised on the way
+
+    def _abort(self, violation: Violation) -> None:
         if self.done or self.region is None:
             return
         if self.violation is not None and (
@@ -757,8 +829,31 @@ class Executor:
         else:
             self._finish("succeeded" if outcome == "succeeded" else "failed", path)
 
+    def skill_raised(self, fault: SkillFault) -> None:
+        """A skill's own code raised (its activity caught it): the first fault is the run's;
+        the run ends `error` when the executor's current call is over (`_check_fault`)."""
+        self.ctx.log("error", fault.line(), level="ERROR", skill=fault.skill, where=fault.where)
+        if self.fault is None:
+            self.fault = fault
+
+    def _check_fault(self) -> None:
+        """End the run `error` if a skill raised: every activity is stopped (their `stop`s
+        leave setpoints behind; one that raises too is logged) and the runner brings the arm
+        to rest with the controlled stop, as at any end of a run, and holds it."""
+        if self.fault is None or self._fault_handled:
+            return
+        self._fault_handled = True
+        if self.done:  # a skill's `stop` raised as the run ended
+            self.outcome, self.final_state = "error", self.fault.state
+            return
+        if self.region is not None and self.final_state != SAFE_STOP:
+            self.region.stop()
+        self._finish("error", self.fault.state)
+
     def _finish(self, outcome: str, state: str) -> None:
         self.done = True
+        if self.fault is not None:  # a raising skill outranks how the machine ended
+            outcome, state = "error", self.fault.state
         self.outcome = outcome
         self.final_state = state
         self.final_t = self.ctx.t

@@ -8,9 +8,10 @@ from pydantic import BaseModel, Field
 
 __all__ = ["Outcome", "RunResult"]
 
-Outcome = Literal["succeeded", "failed", "aborted"]
+Outcome = Literal["succeeded", "failed", "aborted", "error"]
 
-EXIT_CODES: dict[str, int] = {"succeeded": 0, "failed": 1, "aborted": 3}
+EXIT_CODES: dict[str, int] = {"succeeded": 0, "failed": 1, "aborted": 3, "error": 4}
+"""`run`'s exit code per outcome (2 is invalid input; `error`: a skill raised)."""
 
 
 class RunResult(BaseModel):
@@ -33,6 +34,11 @@ class RunResult(BaseModel):
         default_factory=dict,
         description="Per success check, what it measured against its limit (why it failed).",
     )
+    error: dict[str, Any] | None = Field(
+        default=None,
+        description="Outcome `error`: the skill that raised (`skill`, `method`, `state`, `t`, "
+        "`type`, `message`, `where` as file:line, `traceback`); absent otherwise.",
+    )
     tasks: list[dict[str, Any]] | None = Field(
         default=None,
         description="The task log of a run with parcels: one entry per parcel (engine/tasks.py)"
@@ -47,4 +53,6 @@ class RunResult(BaseModel):
         out = self.model_dump(mode="json")
         if out["tasks"] is None:
             del out["tasks"]  # runs without parcels print what they always printed
+        if out["error"] is None:
+            del out["error"]  # only a run whose skill raised has one
         return out

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import difflib
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-__all__ = ["Diagnostic", "clip", "format_path"]
+__all__ = ["Diagnostic", "clip", "collapse", "did_you_mean", "format_path"]
 
 MAX_QUOTED = 80
 """Longest quoted user value a message shows [characters]; longer ones are cut in the middle."""
@@ -30,6 +31,14 @@ def _clip_quoted(message: str) -> str:
     if len(message) <= MAX_QUOTED:
         return message
     return _QUOTED.sub(lambda m: m.group()[0] + clip(m.group()[1:-1]) + m.group()[0], message)
+
+
+def did_you_mean(name: object, names: Iterable[str], cutoff: float = 0.7) -> str:
+    """` (did you mean 'X'?)` for the closest of `names` to a misspelled `name`, else ``."""
+    if not isinstance(name, str):
+        return ""
+    close = difflib.get_close_matches(name, [str(n) for n in names], n=1, cutoff=cutoff)
+    return f" (did you mean {close[0]!r}?)" if close and close[0] != name else ""
 
 
 def format_path(path: Iterable[str | int]) -> str:
@@ -79,3 +88,33 @@ class Diagnostic:
         if self.valid:
             text += f" (valid: {', '.join(self.valid)})"
         return text
+
+
+_LISTED_LINES = 12
+"""Most other lines a collapsed diagnostic names."""
+
+
+def collapse(diagnostics: Iterable[Diagnostic]) -> list[Diagnostic]:
+    """Repeated identical problems said once, with a count and the other lines they are on.
+
+    Deleting a state that eleven transitions lead to is one mistake: it is reported at its
+    first place, `... (11 places: also lines 15, 19, ...)`, not as eleven lines. Problems are
+    identical when file, message and valid options are; the first keeps its place in the order.
+    """
+    groups: dict[tuple[str, str, tuple[str, ...]], list[Diagnostic]] = {}
+    for d in diagnostics:
+        groups.setdefault((d.file, d.message, d.valid), []).append(d)
+    out = []
+    for same in groups.values():
+        first = same[0]
+        if len(same) == 1:
+            out.append(first)
+            continue
+        lines = sorted({d.line for d in same[1:] if d.line and d.line != first.line})
+        also = ", ".join(str(n) for n in lines[:_LISTED_LINES])
+        if len(lines) > _LISTED_LINES:
+            also += ", ..."
+        where = f": also line{'s' if len(lines) > 1 else ''} {also}" if lines else ""
+        message = f"{first.message} ({len(same)} places{where})"
+        out.append(Diagnostic(first.file, first.line, first.col, first.path, message, first.valid))
+    return out

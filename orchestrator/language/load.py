@@ -12,7 +12,8 @@ from typing import Any
 from pydantic import ValidationError
 
 from ..exceptions import ConfigError
-from ..skills import SkillLoadError, register_skill_path
+from ..skills import SkillLoadError
+from ..success import register_plugin_path
 from .blackboard_types import all_finite, check_type
 from .bundled import bundled_names, resolve_file
 from .default_scene import is_machine_data, scenario_for_machine
@@ -26,6 +27,7 @@ from .overrides import Override, apply_override, parcels_alias, parse_override
 from .pydantic_errors import diagnostics_from_validation
 from .scenario import Scenario
 from .scenario_checks import check_faults, check_scenario_refs, check_scene_names
+from .success import typed_success, validate_success
 from .validation import blackboard_types, validate_guards, validate_machine
 from .yamlio import SourceMap, load_yaml
 
@@ -160,6 +162,12 @@ def load_scenario(
             if not p.path.startswith("guards.") and not p.path.startswith("guards[")
         ]
         problems += validate_guards(raw_guards, doc.source, ("guards",))
+    if "success" in data:  # kinds and their parameters, said with the valid kinds
+        problems = [p for p in problems if p.path.split(".")[0] != "success"]
+        wrong = validate_success(data["success"], doc.source)
+        problems += wrong
+        if scenario is not None and not wrong:
+            scenario.success = typed_success(scenario.success)  # each as its kind's Params
     if scenario is not None and node is not None and not problems:
         problems += check_scene_names(node, scenario, doc.source)
         problems += check_faults(node, scenario, doc.source, _arm_joints(scenario))
@@ -269,7 +277,7 @@ def _register_skills(entries: object, base: Path, source: SourceMap) -> list[Dia
         if not isinstance(entry, str):
             continue
         try:
-            register_skill_path(base / entry)
+            register_plugin_path(base / entry)  # its skills and success checks
         except SkillLoadError as exc:
             problems.append(source.diag(("skills", i), str(exc)))
     return problems

@@ -102,7 +102,11 @@ def diagnostics_from_validation(
             expected = str(err.get("ctx", {}).get("expected", ""))
             valid = tuple(v.strip().strip("'") for v in expected.replace(" or ", ",").split(","))
             msg = f"invalid value {err.get('input')!r}"
-        elif "input" in err and kind not in ("model_type", "dict_type"):
+        elif (
+            "input" in err
+            and kind not in ("model_type", "dict_type")
+            and not (kind == "value_error" and isinstance(err["input"], dict))  # the whole entry
+        ):
             msg = f"{msg}, got {err['input']!r}"
         full = (*prefix, *loc)
         if full in by_path:

@@ -19,11 +19,14 @@ from pydantic_core import PydanticUndefined
 from ..guards import bundled_guards
 from ..guards.base import Guard
 from ..skills import SKILLS, Skill, bundled_skill_names
+from ..success import CHECKS, SuccessCheck, bundled_check_kinds
+from ..success.params import CheckParams
 from .scenario import Scenario
 
 __all__ = [
     "DOCS_DIR",
     "ParamRow",
+    "check_markdown",
     "guard_markdown",
     "param_rows",
     "scenario_reference",
@@ -191,6 +194,17 @@ def skill_markdown(cls: type[Skill], level: int = 2) -> str:
     return "\n".join(lines)
 
 
+def check_markdown(cls: type[SuccessCheck], level: int = 2) -> str:
+    """One success check's reference: what it judges and its parameters (besides `kind`)."""
+    lines = [f"{'#' * level} `{cls.kind}`", "", _doc(cls), ""]
+    rows = [r for r in param_rows(cls.Params) if r.name != "kind"]
+    example = {"kind": cls.kind} | {r.name: "..." for r in rows if r.default == "required"}
+    shown = ", ".join(f"{k}: {v}" for k, v in example.items())
+    lines += [f"In a scenario: `success: {{NAME: {{{shown}}}}}`.", ""]
+    lines += [*_table(rows), ""] if rows else ["No parameters.", ""]
+    return "\n".join(lines)
+
+
 def guard_markdown(cls: type[Guard], level: int = 2) -> str:
     """One guard's reference: what it watches and its parameters."""
     lines = [f"{'#' * level} `{cls.name}`", "", _doc(cls), ""]
@@ -232,6 +246,18 @@ def skills_reference() -> str:
     ]
     for cls in bundled_guards().values():  # not a test's or a plugin's guard
         lines.append(guard_markdown(cls))
+    lines += [
+        "# Success checks",
+        "",
+        "A scenario's `success:` names checks judged once at the end of a run (`{placed: "
+        "{kind: object_at, object: cube, target: $place_at}}`); a failing one makes the run "
+        "`failed` and says by how much in `success_detail`. `orchestrator list checks` shows "
+        "every kind, with plugins and `--skills` folders; how to write one: "
+        "[success-checks.md](success-checks.md).",
+        "",
+    ]
+    for kind in bundled_check_kinds():
+        lines.append(check_markdown(CHECKS[kind]))
     return "\n".join(lines).rstrip() + "\n"
 
 
@@ -268,6 +294,15 @@ def scenario_reference() -> str:
         lines += [f"## {title}", "", _doc(model) if model.__doc__ else "", ""]
         lines += [*_table(rows), ""]
         for r in rows:
+            if r.model is CheckParams:  # one section per kind, in docs/skills.md
+                lines += [
+                    f"`{r.name}.NAME` is `{{kind: KIND, ...}}`: the keys of each kind are in "
+                    "[skills.md](skills.md#success-checks) (bundled: "
+                    + ", ".join(f"`{k}`" for k in bundled_check_kinds())
+                    + ").",
+                    "",
+                ]
+                continue
             if r.model is not None and r.model not in seen:
                 sub = f"{path}.{r.name}" if path else r.name
                 if "[]" in r.kind:
@@ -322,12 +357,27 @@ if __name__ == "__main__":
         print(f"wrote {p}")
 
 
+def _default_origins(machine: Any) -> dict[str, str]:
+    """Key -> `machine NAME` whose default a run starts with, in the order `initial_values`
+    applies them (nested machines first, so the outermost declaration wins)."""
+    origin: dict[str, str] = {}
+
+    def collect(node: Any) -> None:
+        for child in node.children.values():
+            collect(child)
+        origin.update(dict.fromkeys(node.blackboard, f"machine `{node.name}`"))
+
+    collect(machine)
+    return origin
+
+
 def scenario_summary(loaded: Any) -> str:
     """`orchestrator show scenario NAME`: what a scenario sets up and what it can be told.
 
     Args:
         loaded: A `LoadedScenario`.
     """
+    from .loading import initial_values
     from .validation import blackboard_types
 
     scn = loaded.scenario
@@ -354,19 +404,28 @@ def scenario_summary(loaded: Any) -> str:
     )
     lines.append("Guards: " + (", ".join(f"`{g}`" for g in guards) or "none") + ".")
     lines += ["", "## Blackboard (`--set KEY=VALUE`)", ""]
-    lines += ["| key | type | default | scenario sets |", "|---|---|---|---|"]
+    lines += [
+        "The values this scenario starts with: its own `blackboard:`, else the default of the "
+        "outermost machine that declares the key (a nested machine's defaults give way to "
+        "its parent's).",
+        "",
+        "| key | type | value | set by |",
+        "|---|---|---|---|",
+    ]
     types = blackboard_types(machine)
-    defaults: dict[str, Any] = {}
-    for node in machine.nodes():
-        defaults.update(node.blackboard)
+    values = initial_values(machine, scn.blackboard)
+    origin = _default_origins(machine)
+    origin.update(dict.fromkeys(scn.blackboard, "this scenario"))
     for key in sorted(types):
-        default = _value(defaults[key]) if key in defaults else ""
-        mine = _value(scn.blackboard[key]) if key in scn.blackboard else ""
-        lines.append(f"| `{key}` | {types[key]} | {default} | {mine} |")
+        value = _value(values[key]) if key in values else ""
+        by = origin.get(key, "a skill writes it")
+        lines.append(f"| `{key}` | {types[key]} | {value} | {by} |")
     lines += ["", "## Success checks", ""]
     for name, check in scn.success.items():
-        extra = f" at {check.target}" if check.target is not None else ""
-        lines.append(f"* `{name}`: {check.kind} `{check.object}`{extra}")
+        entry = check.model_dump() if isinstance(check, BaseModel) else dict(check)
+        kind = entry.pop("kind", "?")
+        given = ", ".join(f"{k} {_value(v)}" for k, v in entry.items())
+        lines.append(f"* `{name}`: {kind}" + (f" ({given})" if given else ""))
     if not scn.success:
         lines.append("None: the machine's final outcome decides.")
     return "\n".join(lines) + "\n"

@@ -7,6 +7,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validator
 
+from ..success.params import CheckParams
 from ..world.pool import pool_body_name
 from .conveyor_scene import Conveyor
 from .events import ScheduledEvent
@@ -30,7 +31,7 @@ __all__ = [
     "SafeStop",
     "Scenario",
     "SceneSpec",
-    "SuccessCheck",
+    "SuccessEntry",
     "Table",
     "ToolSpec",
     "Zone",
@@ -459,63 +460,9 @@ class Physics(_Strict):
         return self
 
 
-class SuccessCheck(_Strict):
-    """A named success criterion, evaluated once at the end of the run.
-
-    `object_at`: the object rests on the table within `xy_tol_m` of the target and is upright
-    within `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and
-    its fingers are at least `min_distance_m` from it. `held`: both fingers touch the object and
-    it is at least `min_lift_m` above where it started. `trace`: a contact trace ran to the end
-    of its path on the real surface — measured every physics step against the true path (not
-    the registered one): cross-track error within `cross_track_max_mm` at every step, the tip
-    within `end_tol_mm` of the true path's end along it, the true normal force within
-    `force_rms_max_n` RMS of the target and never above `force_peak_max_n`. `parcels_sorted`:
-    every parcel of `scene.parcels` ended in the bin of its class or was rejected by the flow
-    with a reason (the task log's verdicts: none missorted, dropped or left unsorted). A failed
-    check says by how much in the result's `success_detail`.
-    """
-
-    kind: Literal["object_at", "gripper_clear", "held", "trace", "parcels_sorted"]
-    object: str | None = Field(
-        default=None, description="`object_at`, `gripper_clear`: the scene object judged."
-    )
-    target: str | Vec3 | None = Field(
-        default=None,
-        description="`object_at`: a marker or object name, `[x, y, z]` [m], or `$key` to "
-        "follow the blackboard (where the flow was told to place, e.g. `$place_at`).",
-    )
-    xy_tol_m: float = Field(default=0.01, gt=0.0, le=10.0, description="Horizontal tolerance [m].")
-    upright_tol_deg: float = Field(
-        default=10.0, gt=0.0, le=180.0, description="Largest tilt [deg]."
-    )
-    min_distance_m: float = Field(
-        default=0.01, ge=0.0, le=10.0, description="`gripper_clear`: finger clearance [m]."
-    )
-    min_lift_m: float = Field(
-        default=0.05, ge=0.0, le=3.0, description="`held`: lifted at least this high [m]."
-    )
-    cross_track_max_mm: PositiveFloat = Field(
-        default=1.0,
-        le=1000.0,
-        description="`trace`: largest lateral error from the true path [mm].",
-    )
-    end_tol_mm: PositiveFloat = Field(
-        default=2.0, le=1000.0, description="`trace`: tip within this of the true path's end [mm]."
-    )
-    force_rms_max_n: PositiveFloat = Field(
-        default=0.5, le=1000.0, description="`trace`: RMS error of the true normal force [N]."
-    )
-    force_peak_max_n: PositiveFloat = Field(
-        default=5.0, le=1000.0, description="`trace`: largest true wrist force while tracing [N]."
-    )
-
-    @model_validator(mode="after")
-    def _target(self) -> SuccessCheck:
-        if self.kind == "object_at" and self.target is None:
-            raise ValueError("`object_at` needs a `target` (a marker name, [x, y, z] or $key)")
-        if self.kind in ("object_at", "gripper_clear") and self.object is None:
-            raise ValueError(f"`{self.kind}` needs an `object` (a scene object name)")
-        return self
+SuccessEntry = CheckParams | dict[str, Any]
+"""One named success criterion: `{kind: KIND, ...its parameters}` (orchestrator/success/);
+`load_scenario` validates it by its kind and keeps it as that kind's `Params`."""
 
 
 class ToolSpec(_Strict):
@@ -576,9 +523,10 @@ class Scenario(_Strict):
         description="Guards active for the whole run: `{name: {params}}` or a list of names "
         "(docs/skills.md#guards).",
     )
-    success: dict[str, SuccessCheck] = Field(
+    success: dict[str, SuccessEntry] = Field(
         default_factory=dict,
-        description="Named checks judged at the end; any failing one makes the run `failed`.",
+        description="Named checks judged at the end, each `{kind: KIND, ...}`; any failing one "
+        "makes the run `failed` (kinds: docs/skills.md#success-checks).",
     )
     physics: Physics = Field(default_factory=Physics, description="Rates and time limit.")
     perception: Perception = Field(default_factory=Perception, description="Noise of `search`.")

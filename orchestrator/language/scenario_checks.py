@@ -13,9 +13,12 @@ from ..skills import SKILLS, skill_names
 from .diagnostics import Diagnostic
 from .loading import MachineNode, initial_values
 from .machine import guard_entries
+from .param_values import check_values
 from .parcels import parcel_name
 from .refs import parse_ref
 from .scenario import Scenario
+from .success import check_success_names
+from .validation import written_keys
 from .yamlio import SourceMap
 
 __all__ = ["goal_keys", "check_faults", "check_scenario_refs", "check_scene_names", "scene_bodies"]
@@ -112,7 +115,9 @@ def check_scene_names(
             if cls is not None:
                 at = (*node.at, "states", s, "parallel", b, "with")
                 out += check(node.source, at, cls.Params, br.with_)
-    return out
+    # the scenario's values (and `--set`'s) through the parameters that read them
+    located = {key: (source, ("blackboard", key)) for key in scenario.blackboard}
+    return out + check_values(machine, values, located, written_keys(machine))
 
 
 def _missing_scene(source: SourceMap, at: tuple, cls: Any, scenario: Scenario) -> list[Diagnostic]:
@@ -169,35 +174,9 @@ def check_scenario_refs(
 ) -> list[Diagnostic]:
     """Success checks name existing objects and markers (or, with `$key`, a blackboard key of
     the machine, `keys`); the robot is a registered one."""
-    out = []
     objects = object_names(scenario)
     markers = [m.name for m in scenario.scene.markers]
-    for name, check in scenario.success.items():
-        if check.object is not None and check.object not in objects:
-            out.append(
-                src.diag(
-                    ("success", name, "object"), f"no scene object {check.object!r}", tuple(objects)
-                )
-            )
-        target = check.target
-        ref = parse_ref(target)
-        if ref is not None:
-            if keys is not None and ref[0] not in keys:
-                out.append(
-                    src.diag(
-                        ("success", name, "target"),
-                        f"the machine has no blackboard key {ref[0]!r}",
-                        tuple(sorted(keys)),
-                    )
-                )
-        elif isinstance(target, str) and target not in markers + objects:
-            out.append(
-                src.diag(
-                    ("success", name, "target"),
-                    f"no marker or object {target!r}",
-                    tuple(markers + objects),
-                )
-            )
+    out = check_success_names(scenario.success, src, objects, markers, keys)
     if scenario.robot.name not in ROBOTS:
         out.append(
             src.diag(

@@ -15,6 +15,7 @@ from pydantic import BaseModel
 
 from ..guards import GUARDS, bundled_guards
 from ..skills import SKILLS, bundled_skill_names, skill_names
+from ..success import CHECKS, bundled_check_kinds, check_kinds
 from .machine import MachineSpec
 from .scenario import Scenario
 
@@ -65,6 +66,23 @@ def _guard_schema(defs: dict[str, Any], bundled_only: bool = False) -> dict:
     return {"anyOf": [{"type": "string", "enum": sorted(guards)}, one]}
 
 
+def _success_schema(defs: dict[str, Any], bundled_only: bool = False) -> dict:
+    """`success:`: named checks, each `{kind: KIND, ...}` with that kind's parameters."""
+    kinds = bundled_check_kinds() if bundled_only else check_kinds()
+    entries = []
+    for kind in kinds:
+        params = _model_schema(CHECKS[kind].Params, defs, prefix=f"check_{kind}_")
+        params["properties"]["kind"] = {"const": kind, "description": "Which check."}
+        params["required"] = ["kind", *(r for r in params.get("required", []) if r != "kind")]
+        entries.append(params)
+    return {
+        "type": "object",
+        "description": "Named checks judged at the end of the run; any failing one makes it "
+        "`failed`.",
+        "additionalProperties": {"anyOf": entries},
+    }
+
+
 def _skill_conditions(defs: dict[str, Any], names: list[str]) -> list[dict]:
     conditions = []
     for name in names:
@@ -110,6 +128,8 @@ def scenario_schema(bundled_only: bool = False) -> dict:
         "properties": guard["anyOf"][1]["properties"],
     }
     schema["properties"]["guards"] = {"anyOf": [{"type": "array", "items": guard}, mapping]}
+    schema["properties"]["success"] = _success_schema(defs, bundled_only)
+    defs.pop("CheckParams", None)  # the model's own placeholder for an entry
     return _finish(schema, defs, "embodied-orchestrator scenario")
 
 

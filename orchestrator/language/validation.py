@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 import re
 from collections.abc import Iterable
 from typing import Any
@@ -12,17 +11,27 @@ from pydantic import ValidationError
 from ..guards import GUARDS
 from ..skills import SKILLS, get_skill, skill_names
 from .blackboard_types import all_finite, check_type, sample_value
-from .diagnostics import Diagnostic
-from .loading import MachineNode
-from .machine import BUILTIN_EVENTS, BranchSpec, GuardRef, StateSpec, guard_entries
+from .diagnostics import Diagnostic, did_you_mean
+from .loading import MachineNode, initial_values
+from .machine import (
+    BLACKBOARD_TYPES,
+    BUILTIN_EVENTS,
+    BranchSpec,
+    GuardRef,
+    StateSpec,
+    guard_entries,
+)
+from .param_values import check_values, declared_at, pose_problem
 from .pydantic_errors import diagnostics_from_validation
-from .refs import parse_ref
+from .refs import has_ref, iter_refs, parse_ref, ref_type
 from .yamlio import SourceMap
 
 __all__ = [
+    "RUN_OUTCOMES",
     "blackboard_keys",
     "blackboard_types",
     "branch_outcomes",
+    "written_keys",
     "skill_writes",
     "state_outcomes",
     "validate_guards",
@@ -123,7 +132,15 @@ def validate_machine(node: MachineNode, extra_keys: Iterable[str] = ()) -> list[
     types = blackboard_types(node)
     for key in extra_keys:
         types.setdefault(key, "any")
-    return _check(node, types, set())
+    out = _check(node, types, set())
+    if not out:  # the defaults, through the parameters that read them
+        out += check_values(node, initial_values(node, {}), declared_at(node), written_keys(node))
+    return out
+
+
+def written_keys(node: MachineNode) -> set[str]:
+    """Blackboard keys some skill of the tree writes."""
+    return {key for sub in node.nodes() for key in skill_writes_of(sub)}
 
 
 def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Diagnostic]:
@@ -134,15 +151,20 @@ def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Dia
     out: list[Diagnostic] = []
     names = tuple(node.states)
     if node.initial not in node.states:
-        out.append(src.diag((*at, "initial"), f"unknown state {node.initial!r}", names))
+        out.append(_unknown_state(src, (*at, "initial"), node.initial, names))
     if node.on_abort is not None:
         if node.on_abort not in node.states:
-            out.append(src.diag((*at, "on_abort"), f"unknown state {node.on_abort!r}", names))
+            out.append(_unknown_state(src, (*at, "on_abort"), node.on_abort, names))
     out += _check_events(node)
     out += validate_guards(node.guards, src, (*at, "guards"))
     for key, value in node.blackboard.items():
         kat = (*at, "blackboard", key)
         type_ = node.types.get(key, "any")
+        if type_ == "any":  # a short-form default: is it a typed declaration gone wrong?
+            bad = _bad_declaration(value, src, kat)
+            if bad is not None:
+                out.append(bad)
+                continue
         if not check_type(value, type_):
             out.append(src.diag(kat, f"default {value!r} is not a {type_}"))
         elif not all_finite(value):
@@ -162,6 +184,18 @@ def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Dia
             )
     for name, st in node.states.items():
         out += _check_state(node, name, st, types, names)
+        if node.top and st.final is not None and st.final not in RUN_OUTCOMES:
+            close = did_you_mean(st.final, RUN_OUTCOMES, cutoff=0.8)
+            if close:
+                out.append(
+                    src.diag(
+                        (*at, "states", name, "final"),
+                        f"{st.final!r} is not an outcome of a run{close}: the top-level "
+                        "machine's final states end the run `succeeded`, `failed` or `aborted` "
+                        "(any other outcome ends it `failed`)",
+                        RUN_OUTCOMES,
+                    )
+                )
     out += _check_graph(node)
     for child in node.children.values():
         out += _check(child, types, seen)
@@ -170,6 +204,28 @@ def _check(node: MachineNode, types: dict[str, str], seen: set[int]) -> list[Dia
             if isinstance(branch, MachineNode):
                 out += _check(branch, types, seen)
     return out
+
+
+RUN_OUTCOMES = ("succeeded", "failed", "aborted")
+"""The outcomes a run ends with; the top-level machine's `final:` values name them."""
+_DECLARATION_KEYS = {"type", "default", "description"}
+
+
+def _bad_declaration(value: Any, src: SourceMap, at: tuple) -> Diagnostic | None:
+    """A short-form default that is a typed declaration gone wrong (`{type: strng, default:
+    cube}`): the long form's keys only, but no valid `type`. Said as the declaration's
+    mistake, not accepted as a mapping default that fails at run time."""
+    if not isinstance(value, dict) or "type" not in value or not set(value) <= _DECLARATION_KEYS:
+        return None
+    type_ = value["type"]
+    if type_ in BLACKBOARD_TYPES:
+        return None
+    return src.diag(
+        (*at, "type"),
+        f"unknown blackboard type {type_!r}{did_you_mean(type_, BLACKBOARD_TYPES)}: a "
+        "mapping of `type`, `default` and `description` declares a typed key",
+        BLACKBOARD_TYPES,
+    )
 
 
 def _check_events(node: MachineNode) -> list[Diagnostic]:
@@ -198,7 +254,7 @@ def _check_events(node: MachineNode) -> list[Diagnostic]:
                 )
             )
         if target not in node.states:
-            out.append(src.diag((*at, event), f"unknown state {target!r}", tuple(node.states)))
+            out.append(_unknown_state(src, (*at, event), target, tuple(node.states)))
     return out
 
 
@@ -212,9 +268,7 @@ def _check_state(
     if st.skill is not None:
         if st.skill not in SKILLS:
             known = False
-            out.append(
-                src.diag((*sat, "skill"), f"unknown skill {st.skill!r}", tuple(sorted(SKILLS)))
-            )
+            out.append(_unknown_skill(src, (*sat, "skill"), st.skill))
         else:
             out += _check_params(st.skill, st.with_, types, src, (*sat, "with"))
     if st.parallel is not None:
@@ -223,13 +277,7 @@ def _check_state(
                 bat = (*sat, "parallel", bname)
                 if branch.skill not in SKILLS:
                     known = False
-                    out.append(
-                        src.diag(
-                            (*bat, "skill"),
-                            f"unknown skill {branch.skill!r}",
-                            tuple(sorted(SKILLS)),
-                        )
-                    )
+                    out.append(_unknown_skill(src, (*bat, "skill"), branch.skill))
                 else:
                     out += _check_params(branch.skill, branch.with_, types, src, (*bat, "with"))
         known = known and set(node.branches.get(name, {})) == set(st.parallel)
@@ -266,13 +314,7 @@ def _check_state(
                 out.append(src.diag((*sat, "retry_on"), f"no outcome {outcome!r}", tuple(outcomes)))
     for outcome, target in st.transitions.items():
         if target not in node.states:
-            out.append(
-                src.diag(
-                    (*sat, "transitions", outcome),
-                    f"unknown state {target!r}{_did_you_mean(target, names)}",
-                    names,
-                )
-            )
+            out.append(_unknown_state(src, (*sat, "transitions", outcome), target, names))
     out += validate_guards(st.guards, src, (*sat, "guards"))
     return out
 
@@ -337,72 +379,60 @@ def _check_graph(node: MachineNode) -> list[Diagnostic]:
     return out
 
 
-def _did_you_mean(name: str, names: Iterable[str]) -> str:
-    close = difflib.get_close_matches(name, list(names), n=1, cutoff=0.6)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+def _unknown_state(src: SourceMap, at: tuple, name: str, names: tuple[str, ...]) -> Diagnostic:
+    return src.diag(at, f"unknown state {name!r}{did_you_mean(name, names)}", names)
 
 
-def _refs(value: Any, path: tuple) -> Iterable[tuple[tuple, str, list]]:
-    ref = parse_ref(value)
-    if ref is not None:
-        yield path, ref[0], ref[1]
-    elif isinstance(value, dict):
-        for k, v in value.items():
-            yield from _refs(v, (*path, k))
-    elif isinstance(value, list):
-        for i, v in enumerate(value):
-            yield from _refs(v, (*path, i))
-    elif isinstance(value, str) and value.startswith("$"):
-        yield path, value, []  # malformed reference
+def _unknown_skill(src: SourceMap, at: tuple, name: str) -> Diagnostic:
+    names = tuple(sorted(SKILLS))
+    return src.diag(at, f"unknown skill {name!r}{did_you_mean(name, names)}", names)
+
+
+_QUAT_SAMPLE = [1.0, 0.0, 0.0, 0.0]
+
+
+def _sample(type_: str | None) -> Any:
+    return _QUAT_SAMPLE if type_ == "quat" else sample_value(type_ or "any")
 
 
 def _check_refs(value: Any, types: dict[str, str], src: SourceMap, path: tuple) -> list[Diagnostic]:
     out = []
-    for p, key, rest in _refs(value, path):
+    for p, key, rest in iter_refs(value, path):
         if key.startswith("$"):
             out.append(
                 src.diag(p, f"malformed reference {key!r}: use `$key`, `$key.field` or `$key[0]`")
             )
         elif key not in types:
+            valid = tuple(sorted(types))
             out.append(
                 src.diag(
                     p,
                     f"`${key}` reads a blackboard key that is never declared or "
-                    "written: declare it under `blackboard:`",
-                    tuple(sorted(types)),
+                    f"written{did_you_mean(key, valid)}: declare it under `blackboard:`",
+                    valid,
                 )
             )
         elif rest:
-            type_ = types[key]
-            head = rest[0]
-            if type_ == "pose" and (not isinstance(head, str) or head not in POSE_FIELDS):
-                out.append(
-                    src.diag(
-                        p, f"`${key}` is a pose: read `.pos` or `.quat`, not {head!r}", POSE_FIELDS
-                    )
-                )
-            elif type_ == "vec3" and (not isinstance(head, int) or head > 2):
-                out.append(src.diag(p, f"`${key}` is a vec3: index it with [0], [1] or [2]"))
-            elif type_ in ("str", "int", "float", "bool"):
-                out.append(src.diag(p, f"`${key}` is a {type_}: it has no fields or items"))
+            _, problem = ref_type(types[key], rest, key)
+            if problem is not None:
+                valid = POSE_FIELDS if "is a pose: read" in problem else ()
+                out.append(src.diag(p, problem, valid))
     return out
 
 
 def _substitute(value: Any, types: dict[str, str]) -> Any:
-    """Replace whole-value `$key` references by a sample of the key's type (None if unknown)."""
+    """Replace whole-value `$key` references by a sample of the type they read (None if it
+    cannot be known)."""
     ref = parse_ref(value)
     if ref is not None:
         key, rest = ref
-        return sample_value(types.get(key, "any")) if not rest else None
+        type_, problem = ref_type(types.get(key, "any"), rest, key)
+        return None if problem is not None else _sample(type_)
     if isinstance(value, dict):
         return {k: _substitute(v, types) for k, v in value.items()}
     if isinstance(value, list):
         return [_substitute(v, types) for v in value]
     return value
-
-
-def _has_ref(value: Any) -> bool:
-    return any(True for _ in _refs(value, ()))
 
 
 def _check_params(
@@ -413,7 +443,7 @@ def _check_params(
     concrete = {}
     unknown_refs = set()
     for k, v in params.items():
-        if not _has_ref(v):
+        if not has_ref(v):
             concrete[k] = v
             continue
         sub = _substitute(v, types)
@@ -421,6 +451,14 @@ def _check_params(
             unknown_refs.add(k)  # untyped reference: checked when the state starts
         else:
             concrete[k] = sub
+    for name, info in cls.Params.model_fields.items():
+        extra = info.json_schema_extra
+        value = params.get(info.alias or name)
+        if isinstance(extra, dict) and extra.get("scene_ref") == "target":
+            if isinstance(value, (list, dict)) and not has_ref(value):
+                problem = pose_problem(value)
+                if problem is not None:
+                    out.append(src.diag((*path, info.alias or name), f"{value!r} is {problem}"))
     try:
         cls.Params.model_validate(concrete)
     except ValidationError as exc:
@@ -432,7 +470,7 @@ def _check_params(
             if ref is not None and any(m in d.message for m in _RANGE_MESSAGES):
                 continue  # the sample of the key's type is out of range, not the key's value
             if ref is not None:  # a typed `$key` whose type does not fit the parameter
-                declared = types.get(ref[0], "any")
+                declared, _ = ref_type(types.get(ref[0], "any"), ref[1], ref[0])
                 out.append(
                     src.diag(
                         (*path, leaf),
@@ -472,7 +510,8 @@ def validate_guards(refs: list[GuardRef] | dict, src: SourceMap, path: tuple) ->
     for pos, name, params in guard_entries(refs):
         gpath = (*path, pos)
         if name not in GUARDS:
-            out.append(src.diag(gpath, f"unknown guard {name!r}", tuple(sorted(GUARDS))))
+            valid = tuple(sorted(GUARDS))
+            out.append(src.diag(gpath, f"unknown guard {name!r}{did_you_mean(name, valid)}", valid))
             continue
         ppath = (*gpath, name) if isinstance(pos, int) else gpath
         if not isinstance(params, dict):

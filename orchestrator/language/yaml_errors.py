@@ -50,7 +50,8 @@ def explain_yaml_error(exc: yaml.MarkedYAMLError, text: str) -> tuple[int, int, 
             f"with no key above it ({above}); indent it exactly like the key it belongs beside "
             "(if the line above is the one out of place, fix that one)",
         )
-    if problem == "mapping values are not allowed here" and 0 <= row < len(lines):
+    # PyYAML says "here", libyaml (the C parser) "in this context": the same mistake
+    if problem.startswith("mapping values are not allowed") and 0 <= row < len(lines):
         prev = _previous(lines, row)
         if prev is not None and _indent(lines[row]) > _indent(lines[prev]) and ":" in lines[row]:
             if not lines[prev].rstrip().endswith(":"):

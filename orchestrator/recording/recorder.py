@@ -32,7 +32,7 @@ __all__ = ["APPLICATION_ID", "RerunRecorder"]
 APPLICATION_ID = "embodied_orchestrator"
 """Rerun application id of every recording: the viewer keeps one blueprint per application."""
 
-_RESULT_LEVEL = {"succeeded": "INFO", "failed": "WARN", "aborted": "ERROR"}
+_RESULT_LEVEL = {"succeeded": "INFO", "failed": "WARN", "aborted": "ERROR", "error": "ERROR"}
 
 
 class RerunRecorder:

@@ -1,0 +1,66 @@
+"""docs/skill-api.md is generated from the docstrings, is not stale, and is complete: every
+public member of `Context` and `Skill` has a docstring and a row saying where it may be used
+and what it costs."""
+
+from __future__ import annotations
+
+import pytest
+from orchestrator.skills import Skill
+
+from orchestrator.engine.context import Context
+from orchestrator.engine.skill_api import (
+    PAGE,
+    SECTIONS,
+    member_doc,
+    public_members,
+    skill_api,
+)
+
+
+def test_the_page_is_not_stale():
+    assert PAGE.read_text() == skill_api(), (
+        "docs/skill-api.md is stale: run `python -m orchestrator.engine.skill_api`"
+    )
+
+
+@pytest.mark.parametrize("cls", [Context, Skill], ids=lambda c: c.__name__)
+def test_every_public_member_has_a_docstring_and_a_row(cls):
+    listed = [m.name for s in SECTIONS if s.cls is cls for m in s.members]
+    assert len(listed) == len(set(listed)), "a member is listed twice"
+    members = public_members(cls)
+    assert members - set(listed) == set(), "public members the page does not list"
+    assert set(listed) - members == set(), "rows for members that do not exist"
+    assert sorted(n for n in members if not member_doc(cls, n).strip()) == []
+    page = PAGE.read_text()
+    prefix = "ctx." if cls is Context else "self."
+    for name in members:
+        assert f"| `{prefix}{name}` |" in page, name
+
+
+def test_every_row_has_its_docstring():
+    page = PAGE.read_text()
+    for section in SECTIONS:
+        for m in section.members:
+            doc = member_doc(section.cls, m.name)
+            assert doc.strip(), f"{section.cls.__name__}.{m.name} has no docstring"
+            assert " ".join(doc.split()).replace("|", "\\|") in page
+
+
+class _Grown(Context):
+    """A Context that grew members without docstrings (the check must see them)."""
+
+    def __init__(self) -> None:  # never called: only its source is read
+        self.fresh = 1
+        self.documented = 2
+        """Has one."""
+
+    @property
+    def bare(self) -> int:
+        return 0
+
+
+def test_the_completeness_check_sees_a_member_without_a_docstring():
+    members = public_members(_Grown)
+    assert {"fresh", "documented", "bare"} <= members
+    assert member_doc(_Grown, "fresh") == "" and member_doc(_Grown, "bare") == ""
+    assert member_doc(_Grown, "documented") == "Has one."
