@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import json
 import math
+import os
 import sys
 from pathlib import Path
 from typing import Annotated, Literal
@@ -51,6 +51,18 @@ AllowPathOption = Annotated[
 ]
 
 
+def _strict_json(value: object) -> str:
+    """`value` as strict JSON: non-finite numbers as null (engine/strict_json.py)."""
+    from .engine.strict_json import dumps
+
+    return dumps(value)
+
+
+def _json_line(value: object) -> None:
+    """Print one strict JSON document on stdout (what every `--json` prints)."""
+    sys.stdout.write(_strict_json(value) + "\n")
+
+
 def _fail(message: str) -> None:
     """One clean line on stderr, exit 2."""
     err.print(f"error: {message}", markup=False, soft_wrap=True)
@@ -71,15 +83,25 @@ def _check_wall(max_wall_s: float | None) -> None:
         _fail(f"--max-wall-s {max_wall_s}: give a finite number of seconds (omit it for no limit)")
 
 
+def _is_dir(path: Path) -> bool:
+    """`path.is_dir()`, False for names the system refuses (too long, a NUL byte)."""
+    try:
+        return path.is_dir()
+    except (OSError, ValueError):
+        return False
+
+
 def _check_writable(path: Path, option: str) -> None:
-    """Refuse an output file that cannot be written, before anything runs."""
-    if path.is_dir():
+    """Refuse an output file that cannot be written, before anything runs. Its folder must
+    exist: a mistyped path is said, never created (`/nonexistent/dir` is not made)."""
+    if _is_dir(path):
         _fail(f"{option} {path}: is a directory; give a file name, e.g. {path / 'run.rrd'}")
     parent = path.parent if str(path.parent) else Path(".")
-    try:
-        parent.mkdir(parents=True, exist_ok=True)  # as the recorder would, but before the run
-    except OSError as exc:
-        _fail(f"{option} {path}: cannot create the directory {parent} ({exc.strerror})")
+    if not _is_dir(parent):
+        if os.path.exists(parent):  # False, not an error, for a name the system refuses
+            _fail(f"{option} {path}: {parent} is not a folder; give a file in a folder")
+        _fail(f"{option} {path}: the folder {parent} does not exist: create it first, or give "
+              "a file in a folder that exists")  # fmt: skip
     existed = path.exists()
     try:
         with path.open("ab"):
@@ -240,14 +262,14 @@ def run(
             line = exc.result.to_json_dict()
             line["outcome"] = "error"
             line["error"] = {"type": type(exc).__name__, "message": str(exc), "traceback": None}
-            sys.stdout.write(json.dumps(line) + "\n")
+            _json_line(line)
         err.print(f"error: {exc}", markup=False, soft_wrap=True)
         raise typer.Exit(1) from None
     except OrchestratorError as exc:
         err.print(f"error: {exc}", markup=False)
         raise typer.Exit(EXIT_INVALID) from None
     if as_json:
-        sys.stdout.write(json.dumps(result.to_json_dict()) + "\n")
+        _json_line(result.to_json_dict())
     else:
         _print_result(result)
     if rrd is not None:
@@ -342,7 +364,7 @@ def faults(
         _fail_config(exc)
         return
     if as_json:
-        sys.stdout.write(json.dumps([r.to_dict() for r in rows]) + "\n")
+        _json_line([r.to_dict() for r in rows])
     else:
         table = Table(
             "fault", "expected", "guard", "exit", "detect [s]", "stop [s]", "stop [mm]", "",
@@ -639,7 +661,7 @@ def batch(
         )
         raise typer.Exit(130) from None
     if as_json:
-        sys.stdout.write(json.dumps(summary.to_json_dict()) + "\n")
+        _json_line(summary.to_json_dict())
     else:
         print_summary(summary, out)
     raise typer.Exit(1 if summary.errors else 0)
@@ -765,12 +787,12 @@ def send(
         return
     if not reply.accepted:
         if as_json:
-            sys.stdout.write(reply.model_dump_json() + "\n")
+            _json_line(reply.model_dump(mode="json"))
         err.print(f"rejected: {reply.reason}", markup=False, soft_wrap=True)
         raise typer.Exit(EXIT_INVALID)
     if result is not None:
         if as_json:
-            sys.stdout.write(json.dumps(result) + "\n")
+            _json_line(result)
         else:
             out.print(f"task {result['task']} {result['machine']}: {result['outcome']} "
                       f"in {result['final_state']} after {result['sim_time']:.2f} s")  # fmt: skip
@@ -778,9 +800,9 @@ def send(
     if wait:  # the session ended or refused to start the task
         _live_error(RuntimeError(f"task {reply.task} did not run"))
     if as_json:
-        sys.stdout.write(reply.model_dump_json() + "\n")
+        _json_line(reply.model_dump(mode="json"))
     elif reply.status is not None:
-        out.print_json(json.dumps(reply.status))
+        out.print_json(_strict_json(reply.status))
     else:
         out.print(f"accepted{f': task {reply.task}' if reply.task else ''}")
 
@@ -820,10 +842,9 @@ def ask(
         _live_error(exc)
         return
     if as_json:
-        sys.stdout.write(json.dumps({"proposal": proposal, "reply": reply.model_dump(),
-                                     "result": result}) + "\n")  # fmt: skip
+        _json_line({"proposal": proposal, "reply": reply.model_dump(mode="json"), "result": result})
     else:
-        out.print(f"planner proposes: {json.dumps(proposal)}")
+        out.print(f"planner proposes: {_strict_json(proposal)}", markup=False)
     if not reply.accepted:
         err.print(f"rejected: {reply.reason}", markup=False, soft_wrap=True)
         raise typer.Exit(EXIT_INVALID)
