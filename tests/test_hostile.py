@@ -166,14 +166,30 @@ def test_many_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory
         (["--set", "physics.timestep_s=!!python/object/apply:os.system [ls]"], "unknown YAML tag"),
         (["--set", "guards=&a [*a]"], "recursive alias"),
         (["--allow-path", "/nonexistent-issue10"], "does not exist"),
-        (["--rrd", "/proc/issue10/x.rrd"], "cannot create the directory"),
+        (["--rrd", "/proc/issue10/x.rrd"], "the folder /proc/issue10 does not exist"),
         (["--set", "physics.control_hz=1e-6"], "physics.control_hz"),
         (["--set", "physics.timestep_s=1e-300"], "physics.timestep_s"),
         (["--set", "physics.time_limit_s=1e300"], "physics.time_limit_s"),
         (["--set", "machine=" + "a" * 5000], "machine"),
         (["--set", "machine=../../etc/passwd"], "machine"),
+        # overflow and NaN in a fault, an event or a goal: named with the option, no traceback
+        (["--fault", "perception_offset:offset_m=[1e308,0,0]@0"],
+         "faults[0].offset_m[0]: Input should be less than or equal to 10, got '1e308' (from "
+         "--fault perception_offset:offset_m=[1e308,0,0]@0)"),
+        (["--fault", "push:object=cube,force_n=[1.0e+308,0,0]@0.5"],
+         "less than or equal to 1000, got 1e+308 (from --fault push"),
+        (["--fault", "ft_bias:force_n=[0,0,.nan]@0"], "finite number, got nan (from --fault"),
+        (["--fault", "perception_miss:count=" + "1" * 5000 + "@0"],
+         "<--fault>: perception_miss:count=111"),
+        (["--fault", "push:force_n=" + "[" * 3000 + "]" * 3000 + "@0"],
+         "nested deeper than 64 levels"),
+        (["--fault", "estop@1e400"], "<--fault>: faults[0].at: Input should be a finite number"),
+        (["--event", "1e400:estop"], "<--event>: 1e400:estop: time '1e400' must be a finite"),
+        (["--event", "nan:estop"], "<--event>: nan:estop"),
+        (["--set", "place_at=[1.0e+308,0,0.3]"], "<--set>: goal rejected: place_at"),
+        (["--set", "place_at=NaN"], "<--set>: blackboard.place_at: 'NaN' is not finite"),
     ],
-)
+)  # fmt: skip
 def test_bad_run_invocations_exit_2_before_simulating(cli, args, fragment):
     t0 = time.perf_counter()
     res = cli("run", "pick_place", *args)
@@ -189,6 +205,14 @@ def test_rrd_pointing_at_a_directory_is_refused_before_the_episode_runs(cli, tmp
     assert res.exit_code == 2
     assert "is a directory" in res.stderr and "run.rrd" in res.stderr
     assert "succeeded" not in res.stdout  # refused before, not after, the episode
+
+
+def test_rrd_into_a_missing_folder_is_refused_and_the_folder_never_made(cli, tmp_path):
+    target = tmp_path / "no" / "such" / "x.rrd"
+    res = cli("run", "pick_place", "--rrd", str(target))
+    assert res.exit_code == 2
+    assert f"--rrd {target}: the folder {target.parent} does not exist" in res.stderr
+    assert not (tmp_path / "no").exists()
 
 
 def test_set_machine_chooses_the_machine():

@@ -4,6 +4,7 @@ points of the language."""
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,7 +26,7 @@ from .loading import MachineNode, load_machine_file
 from .overrides import Override, apply_override, parcels_alias, parse_override
 from .pydantic_errors import diagnostics_from_validation
 from .scenario import Scenario
-from .scenario_checks import check_faults, check_scenario_refs, check_scene_names
+from .scenario_checks import check_faults, check_scenario_refs, check_scene_names, goal_keys
 from .validation import blackboard_types, validate_guards, validate_machine
 from .yamlio import SourceMap, load_yaml
 
@@ -160,37 +161,14 @@ def load_scenario(
             if not p.path.startswith("guards.") and not p.path.startswith("guards[")
         ]
         problems += validate_guards(raw_guards, doc.source, ("guards",))
+    if scenario is not None and node is not None:  # before the names it may hold are looked up
+        problems += _check_blackboard(scenario, node, types, doc.source)
     if scenario is not None and node is not None and not problems:
         problems += check_scene_names(node, scenario, doc.source)
         problems += check_faults(node, scenario, doc.source, _arm_joints(scenario))
         problems += check_events(node, scenario.events, doc.source)
     if scenario is not None:
         problems += check_scenario_refs(scenario, doc.source, keys if node else None)
-        if node is not None:
-            for key, value in scenario.blackboard.items():
-                if key not in keys:
-                    problems.append(
-                        doc.source.diag(
-                            ("blackboard", key),
-                            f"the machine has no blackboard key {key!r}",
-                            tuple(sorted(keys)),
-                        )
-                    )
-                elif not check_type(value, types[key]):
-                    problems.append(
-                        doc.source.diag(
-                            ("blackboard", key),
-                            f"{value!r} is not a {types[key]}, the type the "
-                            "machine declares for this key",
-                        )
-                    )
-                elif not all_finite(value):
-                    problems.append(
-                        doc.source.diag(
-                            ("blackboard", key),
-                            f"{value!r} holds NaN or infinity: give finite numbers",
-                        )
-                    )
     if node is not None:
         problems += validate_machine(node)
     if scenario is not None and not problems:
@@ -258,6 +236,52 @@ def _append_options(
             overridden[f"{key}[{len(listed)}]"] = f"{option} {text}"
             listed.append(raw)
     return problems
+
+
+def _check_blackboard(
+    scenario: Scenario, node: MachineNode, types: dict[str, str], source: SourceMap
+) -> list[Diagnostic]:
+    """The scenario's `blackboard:` values (with `--set` ones): keys the machine declares,
+    finite numbers, goals that are numbers and not text, values of the declared type."""
+    goals = goal_keys(node)
+    problems = []
+    for key, value in scenario.blackboard.items():
+        at = ("blackboard", key)
+        if key not in types:
+            want = f"the machine has no blackboard key {key!r}"
+            problems.append(source.diag(at, want, tuple(sorted(types))))
+        elif not all_finite(value):
+            problems.append(source.diag(at, f"{value!r} is not finite: give finite numbers"))
+        elif key in goals and (why := _number_as_text(value)) is not None:
+            problems.append(source.diag(at, why))
+        elif not check_type(value, types[key]):
+            problems.append(
+                source.diag(
+                    at,
+                    f"{value!r} is not a {types[key]}, the type the machine declares for this key",
+                )
+            )
+    return problems
+
+
+def _number_as_text(value: object) -> str | None:
+    """Why a goal (a target the arm moves to) holding a number spelled as text is refused:
+    `NaN` and `inf` are text in YAML, and so is `1e308` (YAML wants `1.0e+308`); as text they
+    would be looked up as object or marker names."""
+    for item in value if isinstance(value, list) else [value]:
+        if not isinstance(item, str):
+            continue
+        try:
+            number = float(item)
+        except ValueError:
+            continue
+        if not math.isfinite(number):
+            return f"{item!r} is not finite: give finite numbers [m]"
+        return (
+            f"{item!r} is text, not a number: YAML reads an exponent only with a decimal point "
+            f"and a sign (write {number:.1e}), or give a name of an object or marker"
+        )
+    return None
 
 
 def _register_skills(entries: object, base: Path, source: SourceMap) -> list[Diagnostic]:

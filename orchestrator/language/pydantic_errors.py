@@ -70,6 +70,8 @@ def _clean_loc(loc: tuple, data: Any) -> tuple:
         elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
             out.append(part)
             node = node[part]
+        elif isinstance(node, dict) and part == node.get("kind"):
+            continue  # the tag of a discriminated union (`faults[0].push.force_n`)
         elif isinstance(node, dict) and not isinstance(part, int) and "[" not in str(part):
             out.append(part)  # a missing or extra key: keep it, it is the subject
             node = None
