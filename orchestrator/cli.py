@@ -45,8 +45,9 @@ AllowPathOption = Annotated[
     list[Path] | None,
     typer.Option(
         "--allow-path",
-        help="A directory whose machine files `machine:` may include, besides the including "
-        "file's own directory tree and the bundled machines. Repeatable.",
+        help="A directory whose machine files (`machine:`) and skill folders (`skills:`) a "
+        "file may name, besides the file's own directory tree (and the bundled machines). "
+        "Repeatable.",
     ),
 ]
 
@@ -116,7 +117,8 @@ SkillPaths = Annotated[
     list[Path] | None,
     typer.Option(
         "--skills",
-        help="A folder (or .py file) of your own skill modules, no package needed. Repeatable.",
+        help="A folder (or .py file) of your own skill modules, no package needed: imported "
+        "(its code runs), as you name it. Repeatable.",
     ),
 ]
 
@@ -395,7 +397,8 @@ def validate(
     allow_path: AllowPathOption = None,
     skills: SkillPaths = None,
 ) -> None:
-    """Check machines and scenarios without simulating: all errors at once, exit 2 if any."""
+    """Check machines and scenarios without simulating: all errors at once, exit 2 if any.
+    Runs no code a file names: a scenario's `skills:` are not imported (pass --skills DIR)."""
     from .language.validate_paths import validate_paths
 
     _use_skills(skills)
@@ -432,7 +435,7 @@ def graph(
     try:
         kind = file_kind(machine) if Path(machine).is_file() else None
         if kind is not None and kind[0] == "scenario":
-            loaded = load_scenario(machine, allow_paths=_allowed(allow_path))
+            loaded = load_scenario(machine, allow_paths=_allowed(allow_path), import_skills=False)
             err.print(
                 f"{machine} is a scenario: drawing its machine {loaded.scenario.machine!r}",
                 markup=False,
@@ -550,7 +553,7 @@ def show(
         from .language.load import load_scenario
 
         try:
-            page = reference.scenario_summary(load_scenario(name))
+            page = reference.scenario_summary(load_scenario(name, import_skills=False))
         except ConfigError as exc:
             _fail_config(exc, "nothing to show")
             return

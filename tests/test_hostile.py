@@ -215,6 +215,93 @@ def test_rrd_into_a_missing_folder_is_refused_and_the_folder_never_made(cli, tmp
     assert not (tmp_path / "no").exists()
 
 
+# --- skills: a scenario's Python stays in its tree, and only runs when the scenario runs ------
+
+MARKER_SKILL = """import pathlib
+from typing import ClassVar
+from orchestrator.skills import Skill, SkillParams
+
+pathlib.Path({marker!r}).write_text("this module ran")
+
+
+class Mark(Skill):
+    \"\"\"Finish at once.\"\"\"
+
+    name: ClassVar[str] = {name!r}
+    Params: ClassVar[type[SkillParams]] = SkillParams
+    outcomes: ClassVar[tuple[str, ...]] = ("done",)
+
+    def step(self, ctx):
+        return "done"
+"""
+
+
+def _marker_cell(root: Path, entry: str, skill: str = "mark") -> tuple[Path, Path]:
+    """A scenario in root/proj/deep naming `entry` in its `skills:`, a machine that runs the
+    skill `skill`, and a skill module root/outside/mark.py that writes a marker when imported.
+    Returns (the scenario, the marker)."""
+    marker = root / "MARKER"
+    (root / "outside").mkdir()
+    (root / "outside" / "mark.py").write_text(MARKER_SKILL.format(marker=str(marker), name=skill))
+    deep = root / "proj" / "deep"
+    deep.mkdir(parents=True)
+    (deep / "m.yaml").write_text(
+        f"name: m\ninitial: A\nstates:\n  A: {{skill: {skill}, transitions: {{done: B}}}}\n"
+        "  B: {final: succeeded}\n"
+    )
+    (deep / "s.yaml").write_text(f"name: s\nmachine: m.yaml\nskills:\n  - {entry}\n")
+    (deep / "link").symlink_to(root / "outside")
+    return deep / "s.yaml", marker
+
+
+@pytest.mark.parametrize("how", ["absolute", "dotdot", "symlink"])
+def test_skills_outside_the_tree_are_refused_and_never_executed(cli, tmp_path, how):
+    entry = {"absolute": str(tmp_path / "outside"), "dotdot": "../../outside", "symlink": "link"}
+    scenario, marker = _marker_cell(tmp_path, entry[how])
+    for command in ("validate", "run", "graph"):
+        res = cli(command, str(scenario))
+        assert res.exception is None, repr(res.exception)
+        assert res.exit_code == 2, (command, res.stdout)
+        assert f"{scenario}:4:5: skills[0]: " in res.stderr
+        assert "outside" in res.stderr and "--allow-path DIR" in res.stderr, res.stderr
+        assert not marker.exists(), f"{command} executed the module a file named"
+
+
+def test_validate_imports_no_skill_a_file_names_even_inside_its_tree(cli, tmp_path):
+    scenario, marker = _marker_cell(tmp_path, "mine", skill="mark_intree")
+    (scenario.parent / "mine").mkdir()
+    (tmp_path / "outside" / "mark.py").rename(scenario.parent / "mine" / "mark.py")
+    res = cli("validate", str(scenario))
+    assert res.exit_code == 2
+    assert "states.A.skill: unknown skill 'mark_intree'; the scenario's skills: are not " in (
+        res.stderr
+    )
+    assert f"pass --skills {scenario.parent / 'mine'}" in res.stderr
+    assert not marker.exists()
+
+
+def test_skills_the_user_names_or_allows_do_run(cli_process, tmp_path):
+    scenario, marker = _marker_cell(tmp_path, "../../outside", skill="mark_allowed")
+    res = cli_process("validate", str(scenario), "--skills", str(tmp_path / "outside"))
+    assert res.exit_code == 0, res.stderr  # named on the command line: the user's own choice
+    assert marker.read_text() == "this module ran"
+    marker.unlink()
+    res = cli_process("run", str(scenario), "--allow-path", str(tmp_path / "outside"))
+    assert res.exit_code == 0, res.stderr  # `run` imports what the tree (widened) holds
+    assert marker.exists()
+
+
+def test_a_module_that_fails_to_import_is_named_by_type_and_line_never_quoted(cli, tmp_path):
+    (tmp_path / "s.yaml").write_text("name: s\nmachine: pick_place\nskills: [notes.py]\n")
+    (tmp_path / "notes.py").write_text("# my notes\n\nhunter2_SECRET_password\n")
+    res = cli("run", str(tmp_path / "s.yaml"))
+    assert res.exit_code == 2
+    assert f"{tmp_path / 'notes.py'}:3: the skill module fails to import: NameError " in (
+        res.stderr
+    )
+    assert "hunter2" not in res.stderr + res.stdout
+
+
 def test_set_machine_chooses_the_machine():
     loaded = load_scenario("pick_place", ["machine=surgical"])
     assert loaded.scenario.machine == "surgical"

@@ -13,7 +13,6 @@ from typing import Any
 from pydantic import ValidationError
 
 from ..exceptions import ConfigError
-from ..skills import SkillLoadError, register_skill_path
 from .blackboard_types import all_finite, check_type
 from .bundled import bundled_names, resolve_file
 from .default_scene import is_machine_data, scenario_for_machine
@@ -27,6 +26,7 @@ from .overrides import Override, apply_override, parcels_alias, parse_override
 from .pydantic_errors import diagnostics_from_validation
 from .scenario import Scenario
 from .scenario_checks import check_faults, check_scenario_refs, check_scene_names, goal_keys
+from .scenario_skills import hint_unimported, register_scenario_skills
 from .validation import blackboard_types, validate_guards, validate_machine
 from .yamlio import SourceMap, load_yaml
 
@@ -54,6 +54,7 @@ def load_scenario(
     allow_paths: Sequence[Path | str] = (),
     events: list[str] | None = None,
     machine: str | None = None,
+    import_skills: bool = True,
 ) -> LoadedScenario:
     """Load and validate a scenario by path or bundled name.
 
@@ -68,6 +69,10 @@ def load_scenario(
             of its own (a live session's task); the scenario's `blackboard:` keeps only the
             keys this machine declares, and its `success:` criteria (written for its own
             machine) are dropped: the machine's outcome judges the task.
+        import_skills: Import the scenario's `skills:` folders (commands that run it). False
+            for commands that only read it (`validate`, `graph`, `show`): nothing a file names
+            is executed, and a skill only those folders define is reported as unknown with
+            the fix (`scenario_skills.py`).
 
     Raises:
         ConfigError: With every problem found in the scenario, its machine and the overrides.
@@ -111,7 +116,10 @@ def load_scenario(
                 continue
             data["machine"] = ov.value
             overridden["machine"] = f"--set {ov.text}"
-    problems += _register_skills(data.get("skills"), path.parent, doc.source)
+    skill_problems, unimported = register_scenario_skills(
+        data.get("skills"), path, allow, doc.source, limits, import_skills
+    )
+    problems += skill_problems
     node: MachineNode | None = None
     machine_ref = machine if machine is not None else data.get("machine")
     if isinstance(machine_ref, str):
@@ -174,6 +182,7 @@ def load_scenario(
     if scenario is not None and not problems:
         problems += _compiles(scenario, doc.source)
     if problems:
+        problems = [hint_unimported(d, unimported) for d in problems]
         raise ConfigError([_attribute(d, overridden, doc.source.file) for d in problems])
     assert scenario is not None and node is not None
     return LoadedScenario(scenario, node, path, doc.source)
@@ -282,21 +291,6 @@ def _number_as_text(value: object) -> str | None:
             f"and a sign (write {number:.1e}), or give a name of an object or marker"
         )
     return None
-
-
-def _register_skills(entries: object, base: Path, source: SourceMap) -> list[Diagnostic]:
-    """Register the scenario's own skill folders/files (`skills:`) before its machine is read."""
-    if not isinstance(entries, list):
-        return []  # absent, or the model reports the wrong type
-    problems = []
-    for i, entry in enumerate(entries):
-        if not isinstance(entry, str):
-            continue
-        try:
-            register_skill_path(base / entry)
-        except SkillLoadError as exc:
-            problems.append(source.diag(("skills", i), str(exc)))
-    return problems
 
 
 def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagnostic:

@@ -565,7 +565,10 @@ class Scenario(_Strict):
     skills: list[str] = Field(
         default_factory=list,
         description="Your own skills: folders of skill modules or `.py` files, relative to "
-        "this file. Every Skill subclass they define is available by its `name`.",
+        "this file and inside its directory tree (or an `--allow-path` directory). Every Skill "
+        "subclass they define is available by its `name`. Imported when the scenario runs "
+        "(`run`, `batch`, `faults`, `serve`), never by `validate`, `graph` or `show` "
+        "(pass `--skills DIR` to check against them).",
     )
     blackboard: dict[str, Any] = Field(
         default_factory=dict,
