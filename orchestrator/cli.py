@@ -166,6 +166,16 @@ def _use_skills(paths: list[Path] | None) -> None:
             raise typer.Exit(EXIT_INVALID) from None
 
 
+def _note_entry(ref: str) -> None:
+    """Say which one a SCENARIO argument means when it could mean a file or a bundled name
+    (the rule: language/entries.py)."""
+    from .language.entries import entry_note
+
+    note = entry_note(ref)
+    if note is not None:
+        err.print(f"note: {note}", markup=False, soft_wrap=True)
+
+
 def _fail_config(exc: ConfigError, what: str = "nothing was simulated") -> None:
     for diag in exc.diagnostics:
         err.print(str(diag), markup=False, soft_wrap=True)
@@ -231,13 +241,14 @@ def run(
     """Run one episode. Exit 0 succeeded, 1 failed (or stopped by --max-wall-s), 2 invalid
     input, 3 aborted by a guard."""
     from .engine.runner import WallTimeExceeded, run_episode
+    from .language.entries import file_kind
     from .language.load import load_scenario
-    from .language.validate_paths import file_kind
 
     _check_wall(max_wall_s)
     if rrd is not None:
         _check_writable(rrd, "--rrd")
     _use_skills(skills)
+    _note_entry(scenario)
     if file_kind(scenario) == ("machine", scenario):
         err.print(
             f"{scenario} is a machine: running it in the default scene (Panda, table, cube "
@@ -356,6 +367,8 @@ def faults(
     Exit 0 when every row met its expectation, 1 otherwise, 2 invalid input."""
     from .batch.fault_matrix import RowResult, run_matrix
 
+    _note_entry(scenario)
+
     def progress(row: RowResult) -> None:
         if not as_json:
             err.print(f"  {row.fault}: {row.outcome}", markup=False)
@@ -424,17 +437,22 @@ def graph(
     skills: SkillPaths = None,
 ) -> None:
     """Draw a machine: states, outcome-labelled transitions, nested clusters, the abort path."""
+    from .language.entries import file_kind, unknown_entry
     from .language.graph import to_dot, to_mermaid
     from .language.load import load_machine, load_scenario
-    from .language.validate_paths import file_kind
 
     if fmt not in ("mermaid", "dot"):
         err.print(f"--format: unknown format {fmt[:80]!r} (valid: mermaid, dot)", markup=False)
         raise typer.Exit(EXIT_INVALID)
     _use_skills(skills)
+    _note_entry(machine)
     try:
-        kind = file_kind(machine) if Path(machine).is_file() else None
-        if kind is not None and kind[0] == "scenario":
+        kind = file_kind(machine)
+        if kind is None:
+            raise ConfigError([unknown_entry(machine, "<machine>")])
+        if kind[0] == "scenario" and not Path(machine).is_file():  # a bundled scenario
+            node = load_scenario(machine, import_skills=False).machine
+        elif kind[0] == "scenario":
             loaded = load_scenario(machine, allow_paths=_allowed(allow_path), import_skills=False)
             err.print(
                 f"{machine} is a scenario: drawing its machine {loaded.scenario.machine!r}",
@@ -620,6 +638,7 @@ def batch(
     from .batch.report import print_summary
 
     _check_wall(max_wall_s)
+    _note_entry(scenario)
     if seed_base + episodes - 1 > MAX_SEED:
         _fail(f"--seed-base {seed_base} + -n {episodes} runs past the largest seed {MAX_SEED}")
     if resume and out_dir is None:

@@ -172,7 +172,9 @@ def test_bad_set_value_type_is_invalid_input(cli):
 def test_unknown_scenario_lists_the_bundled_ones(cli):
     res = cli("run", "pick_plaec")
     assert res.exit_code == 2
-    assert "valid: mobile_search, pick_place" in res.stderr
+    assert "(did you mean 'pick_place'?) (valid: grasp, home, mobile_search, pick_place" in (
+        res.stderr
+    )
 
 
 def test_validate_accepts_the_bundled_files(cli):

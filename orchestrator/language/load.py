@@ -17,6 +17,7 @@ from .blackboard_types import all_finite, check_type
 from .bundled import bundled_names, resolve_file
 from .default_scene import is_machine_data, scenario_for_machine
 from .diagnostics import Diagnostic
+from .entries import entry_file, unknown_entry
 from .events import check_events, parse_event_spec
 from .faults import parse_fault_spec
 from .includes import resolve_include
@@ -59,7 +60,8 @@ def load_scenario(
     """Load and validate a scenario by path or bundled name.
 
     Args:
-        ref: A scenario file or a bundled name.
+        ref: A scenario or machine file, or a bundled scenario or machine name (the rule of
+            `entries.py`; a machine runs in the default scene).
         overrides: `--set KEY=VALUE` texts.
         faults: `--fault SPEC` texts, added to the scenario's `faults:`.
         allow_paths: Directories outside the scenario's own tree that `machine:` may name
@@ -77,20 +79,9 @@ def load_scenario(
     Raises:
         ConfigError: With every problem found in the scenario, its machine and the overrides.
     """
-    path = resolve_file(ref, "scenarios")
+    path = entry_file(ref)  # a file, else a bundled scenario, else a bundled machine
     if path is None:
-        raise ConfigError(
-            [
-                Diagnostic(
-                    ref,
-                    0,
-                    0,
-                    "<scenario>",
-                    "no such scenario file or bundled scenario",
-                    tuple(bundled_names("scenarios")),
-                )
-            ]
-        )
+        raise ConfigError([unknown_entry(ref)])
     limits = current_limits()
     allow = tuple(Path(a) for a in allow_paths)
     doc = load_yaml(path, limits)
