@@ -25,6 +25,7 @@ from .limits import current_limits
 from .loading import MachineNode, load_machine_file
 from .overrides import Override, apply_override, parcels_alias, parse_override
 from .pydantic_errors import diagnostics_from_validation
+from .robot_gains import check_gains
 from .scenario import Scenario
 from .scenario_checks import check_faults, check_scenario_refs, check_scene_names, goal_keys
 from .scenario_skills import hint_unimported, register_scenario_skills
@@ -168,6 +169,7 @@ def load_scenario(
         problems += check_events(node, scenario.events, doc.source)
     if scenario is not None:
         problems += check_scenario_refs(scenario, doc.source, keys if node else None)
+        problems += check_gains(scenario.robot.name, scenario.robot.gains, doc.source)
     if node is not None:
         problems += validate_machine(node)
     if scenario is not None and not problems:

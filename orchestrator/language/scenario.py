@@ -14,10 +14,12 @@ from .faults import Fault
 from .machine import GuardRef
 from .parcels import draw_parcels
 from .perception import CameraSpec, Perception
+from .robot_gains import CartesianGainsSpec, RobotGains
 from .sorting_scene import Bin, Parcels, bin_walls
 
 __all__ = [
     "CameraSpec",
+    "CartesianGainsSpec",
     "Marker",
     "ObjectSpec",
     "Obstacle",
@@ -26,6 +28,7 @@ __all__ = [
     "PhantomStiffening",
     "Physics",
     "Realism",
+    "RobotGains",
     "RobotRef",
     "SafeStop",
     "Scenario",
@@ -60,13 +63,18 @@ class _Strict(BaseModel):
 
 
 class RobotRef(_Strict):
-    """Which robot, and where its base stands."""
+    """Which robot, where its base stands, and its controller gains."""
 
     name: str = Field(
         default="panda", description="A registered robot (`orchestrator list robots`)."
     )
     base_pos: Vec3 = Field(
         default_factory=lambda: [0.0, 0.0, 0.0], description="Base position in the world [m]."
+    )
+    gains: RobotGains | None = Field(
+        default=None,
+        description="Controller gains replacing the robot's defaults: joint `kp`, `kd` and the "
+        "default `cartesian` impedance (docs/robots.md#gains).",
     )
 
 
