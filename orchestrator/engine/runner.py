@@ -135,7 +135,11 @@ def run_episode(
     n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
     dt_control = n_sub * dt
     ctx = make_context(
-        world, controller, initial_blackboard(loaded.machine, scn.blackboard), seed, dt_control
+        world,
+        controller,
+        initial_blackboard(loaded.machine, world.scenario.blackboard),
+        seed,
+        dt_control,
     )
     safe_stop = scn.physics.safe_stop
     executor = Executor(

@@ -25,6 +25,7 @@ from .limits import current_limits
 from .loading import MachineNode, load_machine_file
 from .overrides import Override, apply_override, parcels_alias, parse_override
 from .pydantic_errors import diagnostics_from_validation
+from .random_goals import check_random_goals
 from .robot_gains import check_gains
 from .scenario import Scenario
 from .scenario_checks import check_faults, check_scenario_refs, check_scene_names, goal_keys
@@ -147,6 +148,7 @@ def load_scenario(
             overridden[
                 "blackboard." + dotted if len(ov.path) == 1 and dotted in keys else dotted
             ] = f"--set {ov.text}"
+    _fix_randomized(data, overridden)
     scenario: Scenario | None = None
     try:
         scenario = Scenario.model_validate(data)
@@ -170,6 +172,11 @@ def load_scenario(
     if scenario is not None:
         problems += check_scenario_refs(scenario, doc.source, keys if node else None)
         problems += check_gains(scenario.robot.name, scenario.robot.gains, doc.source)
+        if node is not None and not problems:  # the box is checked as goals are
+            r = scenario.robot
+            problems += check_random_goals(
+                scenario.randomize, types, scenario.guards, r.name, r.base_pos, doc.source
+            )
     if node is not None:
         problems += validate_machine(node)
     if scenario is not None and not problems:
@@ -284,6 +291,18 @@ def _number_as_text(value: object) -> str | None:
             f"and a sign (write {number:.1e}), or give a name of an object or marker"
         )
     return None
+
+
+def _fix_randomized(data: dict, overridden: dict[str, str]) -> None:
+    """A blackboard key set with `--set` is that value in every seed: not drawn any more."""
+    randomize = data.get("randomize")
+    drawn = randomize.get("blackboard") if isinstance(randomize, dict) else None
+    if not isinstance(drawn, dict):
+        return
+    for path in overridden:
+        key = path.removeprefix("blackboard.")
+        if path.startswith("blackboard.") and key in drawn:
+            del drawn[key]
 
 
 def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagnostic:

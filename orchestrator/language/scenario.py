@@ -14,6 +14,7 @@ from .faults import Fault
 from .machine import GuardRef
 from .parcels import draw_parcels
 from .perception import CameraSpec, Perception
+from .random_goals import DrawnValues, draw_goals
 from .robot_gains import CartesianGainsSpec, RobotGains
 from .sorting_scene import Bin, Parcels, bin_walls
 
@@ -603,6 +604,11 @@ class Scenario(_Strict):
         default_factory=list,
         description="Events sent into the run at simulated times (see docs/live.md).",
     )
+    randomize: DrawnValues = Field(
+        default_factory=DrawnValues,
+        description="Blackboard values drawn per seed (a reach test's target: "
+        "`randomize: {blackboard: {target: {x: [..], y: [..], z: [..]}}}`).",
+    )
 
     @model_validator(mode="after")
     def _shift_time(self) -> Scenario:
@@ -614,8 +620,16 @@ class Scenario(_Strict):
         return self
 
     def for_seed(self, seed: int) -> tuple[Scenario, dict[str, str]]:
-        """This scenario with what is drawn per seed as scene objects (the parcels of
-        `scene.parcels`), and the class of each parcel by name."""
+        """This scenario with what is drawn per seed: the blackboard values of
+        `randomize.blackboard`, and as scene objects the parcels of `scene.parcels` (with the
+        class of each parcel by name)."""
+        drawn = draw_goals(self.randomize, seed)
+        scn = self
+        if drawn:
+            scn = self.model_copy(update={"blackboard": {**self.blackboard, **drawn}})
+        return scn._with_parcels(seed)
+
+    def _with_parcels(self, seed: int) -> tuple[Scenario, dict[str, str]]:
         if self.scene.conveyor is not None:
             return self._with_pool(self.scene.conveyor), {}
         p = self.scene.parcels
