@@ -25,7 +25,7 @@ from .limits import current_limits
 from .loading import MachineNode, load_machine_file
 from .overrides import Override, apply_override, parcels_alias, parse_override
 from .pydantic_errors import diagnostics_from_validation
-from .random_goals import check_random_goals
+from .random_goal_checks import check_random_goals
 from .robot_gains import check_gains
 from .scenario import Scenario
 from .scenario_checks import check_faults, check_scenario_refs, check_scene_names, goal_keys
