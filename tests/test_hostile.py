@@ -258,8 +258,8 @@ def _marker_cell(root: Path, entry: str, skill: str = "mark") -> tuple[Path, Pat
 def test_skills_outside_the_tree_are_refused_and_never_executed(cli, tmp_path, how):
     entry = {"absolute": str(tmp_path / "outside"), "dotdot": "../../outside", "symlink": "link"}
     scenario, marker = _marker_cell(tmp_path, entry[how])
-    for command in ("validate", "run", "graph"):
-        res = cli(command, str(scenario))
+    for command in (["validate"], ["run"], ["graph"], ["show", "scenario"]):
+        res = cli(*command, str(scenario))
         assert res.exception is None, repr(res.exception)
         assert res.exit_code == 2, (command, res.stdout)
         assert f"{scenario}:4:5: skills[0]: " in res.stderr
