@@ -45,7 +45,12 @@ def _bad_invocations(scratch: Path) -> list[list[str]]:
         runs.append(["--seed", seed])
     for wall in ["0", "-1", "nan", "inf", "abc"]:
         runs.append(["--max-wall-s", wall])
-    for rrd in [str(scratch / "dir.rrd"), "/proc/issue10/x.rrd", "/proc/version"]:
+    for rrd in [
+        str(scratch / "dir.rrd"),
+        "/proc/issue10/x.rrd",
+        "/proc/version",
+        str(scratch / "no" / "such" / "x.rrd"),  # issue 26: refused, never created
+    ]:
         runs.append(["--rrd", rrd])
     for allow in ["/nonexistent", "/etc/passwd"]:
         runs.append(["--allow-path", allow])
@@ -72,10 +77,22 @@ def _bad_invocations(scratch: Path) -> list[list[str]]:
         "physics.timestep_s=" + "1" * 5000,
         "guards=&a [*a]",
         "physics.timestep_s=\x00",
+        "place_at=NaN",  # issue 26: goals spelled as text
+        "place_at=[1e308,0,0.3]",
+        "place_at=[1.0e+308,0,0.3]",
     ]:
         runs.append(["--set", override])
-    for fault in ["bogus@1", "estop@nan", "estop@-1", "estop@1e300", "ft_bias", "@", "x" * 5000]:
+    for fault in [
+        "bogus@1", "estop@nan", "estop@-1", "estop@1e300", "ft_bias", "@", "x" * 5000,
+        # issue 26: overflow and parser bombs in fault values
+        "perception_offset:offset_m=[1e308,0,0]@0",
+        "push:object=cube,force_n=[1.0e+308,0,0]@0.5",
+        "perception_miss:count=" + "1" * 5000 + "@0",
+        "push:object=cube,force_n=" + "[" * 3000 + "]" * 3000 + "@0",
+    ]:  # fmt: skip
         runs.append(["--fault", fault])
+    for event in ["1e400:estop", "nan:estop", "-1:pause"]:
+        runs.append(["--event", event])
     cases = [["run", "pick_place", *r] for r in runs]
     for scenario in [
         "nonexistent",

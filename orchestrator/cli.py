@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import json
 import math
+import os
 import sys
 from pathlib import Path
 from typing import Annotated, Literal
@@ -45,10 +45,23 @@ AllowPathOption = Annotated[
     list[Path] | None,
     typer.Option(
         "--allow-path",
-        help="A directory whose machine files `machine:` may include, besides the including "
-        "file's own directory tree and the bundled machines. Repeatable.",
+        help="A directory whose machine files (`machine:`) and skill folders (`skills:`) a "
+        "file may name, besides the file's own directory tree (and the bundled machines). "
+        "Repeatable.",
     ),
 ]
+
+
+def _strict_json(value: object) -> str:
+    """`value` as strict JSON: non-finite numbers as null (engine/strict_json.py)."""
+    from .engine.strict_json import dumps
+
+    return dumps(value)
+
+
+def _json_line(value: object) -> None:
+    """Print one strict JSON document on stdout (what every `--json` prints)."""
+    sys.stdout.write(_strict_json(value) + "\n")
 
 
 def _fail(message: str) -> None:
@@ -71,15 +84,25 @@ def _check_wall(max_wall_s: float | None) -> None:
         _fail(f"--max-wall-s {max_wall_s}: give a finite number of seconds (omit it for no limit)")
 
 
+def _is_dir(path: Path) -> bool:
+    """`path.is_dir()`, False for names the system refuses (too long, a NUL byte)."""
+    try:
+        return path.is_dir()
+    except (OSError, ValueError):
+        return False
+
+
 def _check_writable(path: Path, option: str) -> None:
-    """Refuse an output file that cannot be written, before anything runs."""
-    if path.is_dir():
+    """Refuse an output file that cannot be written, before anything runs. Its folder must
+    exist: a mistyped path is said, never created (`/nonexistent/dir` is not made)."""
+    if _is_dir(path):
         _fail(f"{option} {path}: is a directory; give a file name, e.g. {path / 'run.rrd'}")
     parent = path.parent if str(path.parent) else Path(".")
-    try:
-        parent.mkdir(parents=True, exist_ok=True)  # as the recorder would, but before the run
-    except OSError as exc:
-        _fail(f"{option} {path}: cannot create the directory {parent} ({exc.strerror})")
+    if not _is_dir(parent):
+        if os.path.exists(parent):  # False, not an error, for a name the system refuses
+            _fail(f"{option} {path}: {parent} is not a folder; give a file in a folder")
+        _fail(f"{option} {path}: the folder {parent} does not exist: create it first, or give "
+              "a file in a folder that exists")  # fmt: skip
     existed = path.exists()
     try:
         with path.open("ab"):
@@ -95,7 +118,7 @@ SkillPaths = Annotated[
     typer.Option(
         "--skills",
         help="A folder (or .py file) of your own skill modules (and success checks), no "
-        "package needed. Repeatable.",
+        "package needed: imported (its code runs), as you name it. Repeatable.",
     ),
 ]
 
@@ -144,6 +167,16 @@ def _use_skills(paths: list[Path] | None) -> None:
         except SkillLoadError as exc:
             err.print(f"error: {exc}", markup=False, soft_wrap=True)
             raise typer.Exit(EXIT_INVALID) from None
+
+
+def _note_entry(ref: str) -> None:
+    """Say which one a SCENARIO argument means when it could mean a file or a bundled name
+    (the rule: language/entries.py)."""
+    from .language.entries import entry_note
+
+    note = entry_note(ref)
+    if note is not None:
+        err.print(f"note: {note}", markup=False, soft_wrap=True)
 
 
 def _fail_config(exc: ConfigError, what: str = "nothing was simulated") -> None:
@@ -218,13 +251,14 @@ def run(
     input, 3 aborted by a guard, 4 a skill raised (outcome `error`: the arm is brought to rest;
     the skill's file:line and exception are printed, the traceback with --debug)."""
     from .engine.runner import WallTimeExceeded, run_episode
+    from .language.entries import file_kind
     from .language.load import load_scenario
-    from .language.validate_paths import file_kind
 
     _check_wall(max_wall_s)
     if rrd is not None:
         _check_writable(rrd, "--rrd")
     _use_skills(skills)
+    _note_entry(scenario)
     if file_kind(scenario) == ("machine", scenario):
         err.print(
             f"{scenario} is a machine: running it in the default scene (Panda, table, cube "
@@ -251,14 +285,14 @@ def run(
             line = exc.result.to_json_dict()
             line["outcome"] = "error"
             line["error"] = {"type": type(exc).__name__, "message": str(exc), "traceback": None}
-            sys.stdout.write(json.dumps(line) + "\n")
+            _json_line(line)
         err.print(f"error: {exc}", markup=False, soft_wrap=True)
         raise typer.Exit(1) from None
     except OrchestratorError as exc:
         err.print(f"error: {exc}", markup=False)
         raise typer.Exit(EXIT_INVALID) from None
     if as_json:
-        sys.stdout.write(json.dumps(result.to_json_dict()) + "\n")
+        _json_line(result.to_json_dict())
     else:
         _print_result(result)
     if result.error is not None:
@@ -359,6 +393,8 @@ def faults(
     Exit 0 when every row met its expectation, 1 otherwise, 2 invalid input."""
     from .batch.fault_matrix import RowResult, run_matrix
 
+    _note_entry(scenario)
+
     def progress(row: RowResult) -> None:
         if not as_json:
             err.print(f"  {row.fault}: {row.outcome}", markup=False)
@@ -369,7 +405,7 @@ def faults(
         _fail_config(exc)
         return
     if as_json:
-        sys.stdout.write(json.dumps([r.to_dict() for r in rows]) + "\n")
+        _json_line([r.to_dict() for r in rows])
     else:
         table = Table(
             "fault", "expected", "guard", "exit", "detect [s]", "stop [s]", "stop [mm]", "",
@@ -400,7 +436,8 @@ def validate(
     allow_path: AllowPathOption = None,
     skills: SkillPaths = None,
 ) -> None:
-    """Check machines and scenarios without simulating: all errors at once, exit 2 if any."""
+    """Check machines and scenarios without simulating: all errors at once, exit 2 if any.
+    Runs no code a file names: a scenario's `skills:` are not imported (pass --skills DIR)."""
     from .language.validate_paths import validate_paths
 
     _use_skills(skills)
@@ -426,18 +463,23 @@ def graph(
     skills: SkillPaths = None,
 ) -> None:
     """Draw a machine: states, outcome-labelled transitions, nested clusters, the abort path."""
+    from .language.entries import file_kind, unknown_entry
     from .language.graph import to_dot, to_mermaid
     from .language.load import load_machine, load_scenario
-    from .language.validate_paths import file_kind
 
     if fmt not in ("mermaid", "dot"):
         err.print(f"--format: unknown format {fmt[:80]!r} (valid: mermaid, dot)", markup=False)
         raise typer.Exit(EXIT_INVALID)
     _use_skills(skills)
+    _note_entry(machine)
     try:
-        kind = file_kind(machine) if Path(machine).is_file() else None
-        if kind is not None and kind[0] == "scenario":
-            loaded = load_scenario(machine, allow_paths=_allowed(allow_path))
+        kind = file_kind(machine)
+        if kind is None:
+            raise ConfigError([unknown_entry(machine, "<machine>")])
+        if kind[0] == "scenario" and not Path(machine).is_file():  # a bundled scenario
+            node = load_scenario(machine, import_skills=False).machine
+        elif kind[0] == "scenario":
+            loaded = load_scenario(machine, allow_paths=_allowed(allow_path), import_skills=False)
             err.print(
                 f"{machine} is a scenario: drawing its machine {loaded.scenario.machine!r}",
                 markup=False,
@@ -570,7 +612,7 @@ def show(
         from .language.load import load_scenario
 
         try:
-            page = reference.scenario_summary(load_scenario(name))
+            page = reference.scenario_summary(load_scenario(name, import_skills=False))
         except ConfigError as exc:
             _fail_config(exc, "nothing to show")
             return
@@ -637,6 +679,7 @@ def batch(
     from .batch.report import print_summary
 
     _check_wall(max_wall_s)
+    _note_entry(scenario)
     if seed_base + episodes - 1 > MAX_SEED:
         _fail(f"--seed-base {seed_base} + -n {episodes} runs past the largest seed {MAX_SEED}")
     if resume and out_dir is None:
@@ -681,7 +724,7 @@ def batch(
         )
         raise typer.Exit(130) from None
     if as_json:
-        sys.stdout.write(json.dumps(summary.to_json_dict()) + "\n")
+        _json_line(summary.to_json_dict())
     else:
         print_summary(summary, out)
     raise typer.Exit(1 if summary.errors else 0)
@@ -807,12 +850,12 @@ def send(
         return
     if not reply.accepted:
         if as_json:
-            sys.stdout.write(reply.model_dump_json() + "\n")
+            _json_line(reply.model_dump(mode="json"))
         err.print(f"rejected: {reply.reason}", markup=False, soft_wrap=True)
         raise typer.Exit(EXIT_INVALID)
     if result is not None:
         if as_json:
-            sys.stdout.write(json.dumps(result) + "\n")
+            _json_line(result)
         else:
             out.print(f"task {result['task']} {result['machine']}: {result['outcome']} "
                       f"in {result['final_state']} after {result['sim_time']:.2f} s")  # fmt: skip
@@ -820,9 +863,9 @@ def send(
     if wait:  # the session ended or refused to start the task
         _live_error(RuntimeError(f"task {reply.task} did not run"))
     if as_json:
-        sys.stdout.write(reply.model_dump_json() + "\n")
+        _json_line(reply.model_dump(mode="json"))
     elif reply.status is not None:
-        out.print_json(json.dumps(reply.status))
+        out.print_json(_strict_json(reply.status))
     else:
         out.print(f"accepted{f': task {reply.task}' if reply.task else ''}")
 
@@ -862,10 +905,9 @@ def ask(
         _live_error(exc)
         return
     if as_json:
-        sys.stdout.write(json.dumps({"proposal": proposal, "reply": reply.model_dump(),
-                                     "result": result}) + "\n")  # fmt: skip
+        _json_line({"proposal": proposal, "reply": reply.model_dump(mode="json"), "result": result})
     else:
-        out.print(f"planner proposes: {json.dumps(proposal)}")
+        out.print(f"planner proposes: {_strict_json(proposal)}", markup=False)
     if not reply.accepted:
         err.print(f"rejected: {reply.reason}", markup=False, soft_wrap=True)
         raise typer.Exit(EXIT_INVALID)

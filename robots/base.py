@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import abc
 import functools
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -11,20 +12,63 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["Gains", "Robot"]
+__all__ = ["CARTESIAN_MASS", "Gains", "Robot"]
 
 
 @dataclass(frozen=True)
 class Gains:
-    """Default joint-impedance gains of an arm.
+    """Controller gains of an arm: its defaults, which a scenario may override
+    (`robot.gains`).
 
     Attributes:
-        kp: Joint stiffness in [Nm/rad]. Shape (n_arm,).
-        kd: Joint damping in [Nm s/rad]. Shape (n_arm,).
+        kp: Joint stiffness in [Nm/rad] ([N/m] for a mobile base's linear joints). Shape
+            (n_arm,).
+        kd: Joint damping in [Nm s/rad] ([N s/m] likewise). Shape (n_arm,).
+        cartesian_stiffness: Default Cartesian impedance stiffness, translational x, y, z in
+            [N/m] then rotational in [Nm/rad]. Shape (6,).
+        cartesian_damping: Its damping in [N s/m] and [Nm s/rad], shape (6,); None: critically
+            damped for the nominal apparent mass (`CARTESIAN_MASS`).
+        nullspace_stiffness: Posture stiffness in the nullspace of the Cartesian task [Nm/rad].
     """
 
     kp: np.ndarray
     kd: np.ndarray
+    cartesian_stiffness: tuple[float, ...] = (500.0, 500.0, 500.0, 30.0, 30.0, 30.0)
+    cartesian_damping: tuple[float, ...] | None = None
+    nullspace_stiffness: float = 10.0
+
+    def replaced(
+        self,
+        kp: Sequence[float] | None = None,
+        kd: Sequence[float] | None = None,
+        cartesian_stiffness: Sequence[float] | None = None,
+        cartesian_damping: Sequence[float] | None = None,
+        nullspace_stiffness: float | None = None,
+    ) -> Gains:
+        """These gains with the ones given (not None) replaced. A new Cartesian stiffness
+        without a damping is critically damped (the old damping was for the old stiffness)."""
+        if cartesian_damping is None and cartesian_stiffness is not None:
+            damping: tuple[float, ...] | None = None
+        else:
+            damping = self.cartesian_damping if cartesian_damping is None else (
+                tuple(cartesian_damping)
+            )  # fmt: skip
+        return Gains(
+            kp=self.kp if kp is None else np.array(kp, dtype=float),
+            kd=self.kd if kd is None else np.array(kd, dtype=float),
+            cartesian_stiffness=self.cartesian_stiffness
+            if cartesian_stiffness is None
+            else tuple(cartesian_stiffness),
+            cartesian_damping=damping,
+            nullspace_stiffness=self.nullspace_stiffness
+            if nullspace_stiffness is None
+            else nullspace_stiffness,
+        )
+
+
+CARTESIAN_MASS: tuple[float, ...] = (2.0, 2.0, 2.0, 0.1, 0.1, 0.1)
+"""Nominal apparent mass [kg] x3 and inertia [kg m^2] x3 a critically damped default Cartesian
+impedance is sized for."""
 
 
 class Robot(abc.ABC):
@@ -56,7 +100,9 @@ class Robot(abc.ABC):
     """Grip force each finger can press with in [N]."""
     gripper_speed_mps: ClassVar[float] = 0.05
     """Speed of each finger when opening or closing [m/s]."""
-    gains: ClassVar[Gains]
+    gains: Gains
+    """The controller's gains: the robot's defaults (a class attribute), replaced on an
+    instance by a scenario's `robot.gains` (`with_gains`)."""
     shoulder_height_m: ClassVar[float]
     """Height of the first pitch axis above the base [m]."""
     reach_m: ClassVar[float]
@@ -85,6 +131,14 @@ class Robot(abc.ABC):
     @abc.abstractmethod
     def build_spec(self) -> mujoco.MjSpec:
         """The robot alone as an MjSpec: actuators, sites, sensors and a `home` keyframe."""
+
+    def with_gains(self, gains: Gains) -> Robot:
+        """This robot, its controller to use `gains` (this instance only; the class keeps
+        its defaults). Returns itself."""
+        if len(gains.kp) != self.n_arm or len(gains.kd) != self.n_arm:
+            raise ValueError(f"{self.name} has {self.n_arm} arm joints: kp and kd need as many")
+        self.gains = gains
+        return self
 
     @property
     def n_arm(self) -> int:

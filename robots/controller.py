@@ -13,9 +13,15 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from .base import Robot
+from .base import CARTESIAN_MASS, Gains, Robot
 
-__all__ = ["REST_DECEL_FRACTION", "CartesianGains", "ControlMode", "Controller"]
+__all__ = [
+    "REST_DECEL_FRACTION",
+    "CartesianGains",
+    "ControlMode",
+    "Controller",
+    "default_cartesian",
+]
 
 REST_DECEL_FRACTION = 0.5
 """Fraction of the robot's acceleration limits a moving setpoint is brought to rest with. The
@@ -69,11 +75,25 @@ class CartesianGains:
         return cls(stiffness=k, damping=2.0 * np.sqrt(k * m))
 
 
+def default_cartesian(gains: Gains) -> CartesianGains:
+    """The Cartesian impedance a robot's (or a scenario's) gains ask for when a skill sets a
+    Cartesian target without gains of its own; damping, if not given, critically damped for
+    the nominal apparent mass (`CARTESIAN_MASS`)."""
+    k = np.array(gains.cartesian_stiffness, dtype=float)
+    d = (
+        2.0 * np.sqrt(k * np.array(CARTESIAN_MASS))
+        if gains.cartesian_damping is None
+        else np.array(gains.cartesian_damping, dtype=float)
+    )
+    return CartesianGains(stiffness=k, damping=d, nullspace_stiffness=gains.nullspace_stiffness)
+
+
 class Controller:
     """Torque controller of one arm.
 
     Args:
-        robot: The robot; its URDF gives the pinocchio model, its gains the defaults.
+        robot: The robot; its URDF gives the pinocchio model, its `gains` the joint and
+            default Cartesian impedance (a scenario's `robot.gains`, set on the instance).
         dt: Physics step [s] (the setpoint advances by it between control ticks).
         link_mass_scale: Factor on the mass and rotational inertia of each moving body of
             the model (shape (njoints - 1,), pinocchio's joint order): the controller's model
@@ -113,7 +133,7 @@ class Controller:
         self._derr = np.zeros(self.n)
         self.pos_d = np.zeros(3)
         self.rot_d = np.eye(3)
-        self.cart = CartesianGains.critically_damped(500.0, 30.0)
+        self.cart = default_cartesian(robot.gains)
         self.q_null = np.array(robot.home, dtype=float)
         self.tau = np.zeros(self.n)
         self._lo = -self.effort_limit

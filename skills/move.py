@@ -116,6 +116,9 @@ class Move(Skill):
 
     Outcomes: `reached` (TCP within tolerance and at rest), `unreachable` (outside the arm's
     reach, or the IK cannot get there), `timeout` (the arm did not settle in `settle_s`).
+
+    Metrics (of the last `move` that ended, however it ended): `tcp_error_mm`, the true TCP's
+    distance to the target position [mm], and `tcp_target_m`, that position [m].
     """
 
     name: ClassVar[str] = "move"
@@ -238,6 +241,10 @@ class Move(Skill):
         return pos + self.corr_pos, mink.SO3.exp(self.corr_rot) @ rot
 
     def stop(self, ctx: Context) -> None:
+        # The reach result: where the TCP truly is (MuJoCo's site, not the controller's model)
+        # against the target, when the motion ends (reached, unreachable, timeout or aborted).
+        ctx.metrics["tcp_error_mm"] = round(float(np.linalg.norm(ctx.tcp_pos - self.pos1)) * 1e3, 4)
+        ctx.metrics["tcp_target_m"] = [round(float(v), 6) for v in self.pos1]
         # Hold where the command is, bringing it to rest if it still moves (a move that does
         # not stop at its target, the arm's posture still settling): never a jump of the
         # setpoint or of its velocity, which the arm would follow with a kick.

@@ -9,6 +9,12 @@ Two ways in, neither needs a change to the project:
 * A folder (or one `.py` file) of skill modules: a scenario's `skills: [my_skills]` or the
   CLI's `--skills PATH`. Every `Skill` subclass a module defines is registered by its `name`
   (and every success check by its `kind`: `orchestrator.success` reads the same modules).
+
+Importing a module runs its code. A folder the user names on the command line is theirs to
+trust; one a file names is kept to the places that file may read (`within`: its own tree and
+`--allow-path` directories), every module checked after symlinks are followed, and listing
+what a folder holds (`skill_files`) imports nothing. No error message quotes a module's text:
+an import that fails is reported as its exception type and line only.
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ import importlib.metadata
 import importlib.util
 import sys
 import traceback
+from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import TypeVar
@@ -29,11 +36,14 @@ from .base import Skill
 __all__ = [
     "PLUGIN_WARNINGS",
     "SkillLoadError",
+    "SkillOutsideError",
     "classes_in",
     "entry_point_classes",
     "entry_point_skills",
+    "is_loaded",
     "load_skill_path",
     "plugin_modules",
+    "skill_files",
     "skill_origin",
 ]
 
@@ -50,6 +60,10 @@ LOCAL_PREFIX = "orchestrator_local_skills."
 
 class SkillLoadError(OrchestratorError):
     """A local skill file or folder cannot be loaded (missing, fails to import, no skill)."""
+
+
+class SkillOutsideError(SkillLoadError):
+    """A skill folder (or a module in it) lies outside the directories it may come from."""
 
 
 def entry_point_classes(group: str, base: type[T], what: str) -> list[type[T]]:
@@ -97,44 +111,96 @@ def classes_in(module: ModuleType, base: type[T]) -> list[type[T]]:
     ]
 
 
-def plugin_modules(path: str | Path) -> list[ModuleType]:
-    """Import every module of a folder (or one `.py` file), once per process.
+def skill_files(path: str | Path, within: Sequence[Path] | None = None) -> list[Path]:
+    """The modules a skill folder (or `.py` file) stands for, without importing any.
 
-    Modules whose name starts with `_` are skipped. A module may import anything it needs
-    (`from orchestrator.skills import Skill, SkillParams`).
+    Modules whose name starts with `_` are skipped.
+
+    Args:
+        path: The folder or file.
+        within: Directories the folder and every module in it must lie in once symlinks are
+            followed (None: anywhere, for a path the user named on the command line).
 
     Raises:
-        SkillLoadError: The path does not exist, or a module fails to import (the message has
-            the file, line and error).
+        SkillLoadError: The path does not exist, is neither a folder nor a `.py` file, or it
+            (or a module in it) lies outside `within`.
     """
-    root = Path(path).expanduser().resolve()
-    if not root.exists():
+    root = Path(path).expanduser()
+    try:
+        real = root.resolve()
+        exists = real.exists()
+    except (OSError, RuntimeError, ValueError):  # a symlink loop, a name the system refuses
+        raise SkillLoadError(f"{path}: cannot resolve the skill path") from None
+    if within is not None:
+        _check_inside(real, path, within)
+    if not exists:
         raise SkillLoadError(f"{path}: no such skill file or folder")
-    if root.is_dir():
-        files = sorted(p for p in root.glob("*.py") if not p.name.startswith("_"))
-    elif root.suffix == ".py":
-        files = [root]
+    if real.is_dir():
+        files = sorted(p for p in real.glob("*.py") if not p.name.startswith("_"))
+    elif real.suffix == ".py":
+        files = [real]
     else:
         raise SkillLoadError(f"{path}: not a folder nor a .py file")
+    if within is not None:
+        for file in files:  # a module may be a symlink out of an in-tree folder
+            _check_inside(file.resolve(), file, within)
+    return files
+
+
+def _check_inside(real: Path, named: str | Path, within: Sequence[Path]) -> None:
+    roots = [Path(r).resolve() for r in within]
+    if not any(real == r or real.is_relative_to(r) for r in roots):
+        where = ", ".join(str(r) for r in roots)
+        raise SkillOutsideError(
+            f"{named}: outside {where}, refused (a scenario loads skills only from its own "
+            "directory tree: move the folder there, allow its directory with --allow-path DIR, "
+            "or pass it yourself with --skills DIR)"
+        )
+
+
+def is_loaded(files: Sequence[Path]) -> bool:
+    """Whether every module of `files` was imported already (e.g. from `--skills`)."""
+    return all(f in _LOADED for f in files)
+
+
+def plugin_modules(path: str | Path, within: Sequence[Path] | None = None) -> list[ModuleType]:
+    """Import every module of a folder (or one `.py` file), once per process.
+
+    A module may import anything it needs (`from orchestrator.skills import Skill,
+    SkillParams`).
+
+    Args:
+        path: The folder or file.
+        within: Directories it must lie in (see `skill_files`; None: anywhere).
+
+    Raises:
+        SkillLoadError: See `skill_files`; or a module fails to import (the message has the
+            file, line and exception type).
+    """
+    files = skill_files(path, within)
     for file in files:
         if file not in _LOADED:
             _LOADED[file] = _import(file)
     return [_LOADED[file] for file in files]
 
 
-def load_skill_path(path: str | Path, require: bool = True) -> list[type[Skill]]:
+def load_skill_path(
+    path: str | Path, require: bool = True, within: Sequence[Path] | None = None
+) -> list[type[Skill]]:
     """Import every module of a folder (or one `.py` file) and return its skills.
 
     Args:
         path: The folder or file.
         require: A path without any skill is an error (False: it may hold only success
             checks).
+        within: Directories it must lie in (see `skill_files`; None: anywhere).
 
     Raises:
         SkillLoadError: The path cannot be imported (`plugin_modules`), or it defines no
             skill at all and `require` is set.
     """
-    classes = [cls for module in plugin_modules(path) for cls in classes_in(module, Skill)]
+    modules = plugin_modules(path, within)
+    classes = [cls for module in modules for cls in classes_in(module, Skill)]
     if not classes and require:
         raise SkillLoadError(
             f"{path}: defines no skill (a subclass of orchestrator.skills.Skill with a `name`)"
@@ -151,14 +217,17 @@ def _import(file: Path) -> ModuleType:
     sys.modules[mod_name] = module
     try:
         spec.loader.exec_module(module)
-    except Exception as exc:
+    except (Exception, SystemExit) as exc:  # a module that calls exit() is a failed import
         del sys.modules[mod_name]
         frames = [f for f in traceback.extract_tb(exc.__traceback__) if f.filename == str(file)]
         line = f":{frames[-1].lineno}" if frames else ""
         if isinstance(exc, SyntaxError) and exc.lineno:
             line = f":{exc.lineno}"
+        # the exception's text is not shown: it may quote the file (`name 'hunter2' is not
+        # defined`), and the file may be anything a scenario names
         raise SkillLoadError(
-            f"{file}{line}: the skill module fails to import: {type(exc).__name__}: {exc}"
+            f"{file}{line}: the skill module fails to import: {type(exc).__name__} (its message "
+            f"is not shown; `python {file}` shows it)"
         ) from None
     return module
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+from collections.abc import Sequence
 from pathlib import Path
 
 from orchestrator.exceptions import OrchestratorError
@@ -59,20 +60,24 @@ def bundled_skill_names() -> list[str]:
     return sorted(n for n, c in SKILLS.items() if c.__module__.startswith(_PKG + "."))
 
 
-def register_skill_path(path: str | Path, require: bool = True) -> list[str]:
+def register_skill_path(
+    path: str | Path, require: bool = True, within: Sequence[Path] | None = None
+) -> list[str]:
     """Register the skills of a local folder or `.py` file; returns their names.
 
     Args:
         path: The folder or file.
         require: A path without any skill is an error (False: it may hold only success checks).
+        within: Directories it (and every module in it) must lie in, symlinks followed (a
+            scenario's own tree and `--allow-path`); None: anywhere (`--skills`).
 
     Raises:
-        SkillLoadError: The path cannot be loaded, or a skill's name is already taken by
-            another skill (the message names both).
+        SkillLoadError: The path cannot be loaded, lies outside `within`, or a skill's name is
+            already taken by another skill (the message names both).
     """
     _discover()
     names = []
-    for cls in load_skill_path(path, require):
+    for cls in load_skill_path(path, require, within):
         other = SKILLS.get(cls.name)
         if other is not None and other is not cls:
             raise SkillLoadError(

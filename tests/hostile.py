@@ -32,6 +32,8 @@ class Hostile:
     line: int = 0
     fragment: str = ""
     extra: dict[str, str] = field(default_factory=dict)
+    links: dict[str, str] = field(default_factory=dict)
+    """Relative path -> where the symlink written there points (relative to it)."""
 
     def write(self, root: Path) -> Path:
         for rel, content in self.files.items():
@@ -41,6 +43,9 @@ class Hostile:
                 path.write_text(content)
             else:
                 path.write_bytes(content)
+        for rel, target in self.links.items():
+            (root / rel).parent.mkdir(parents=True, exist_ok=True)
+            (root / rel).symlink_to(target)
         return root / self.entry
 
 
@@ -165,6 +170,35 @@ def include_escape(ref: str) -> Hostile:
         entry="proj/m.yaml",
         line=4,
         fragment="outside",
+    )
+
+
+SECRET_SKILL = "hunter2_SECRET_token\n"
+"""A module a hostile scenario names as its skills: never imported by `validate`, and quoted by
+nothing (importing it would fail with `name 'hunter2_SECRET_token' is not defined`)."""
+
+
+def skills_escape(entry: str) -> Hostile:
+    """A scenario whose `skills:` leaves its tree: an absolute path, `../..`, a symlink out, a
+    module that is a symlink out of an in-tree folder."""
+    files: dict[str, bytes | str] = {
+        "proj/s.yaml": f"name: s\nmachine: pick_place\nskills:\n  - {entry}\n",
+        "outside/evil.py": SECRET_SKILL,
+    }
+    links = {"proj/link": "../outside", "proj/mine/evil.py": "../../outside/evil.py"}
+    return Hostile(f"skills: {entry}", files, "proj/s.yaml", 4, "outside", links=links)
+
+
+def skills_not_a_skill() -> Hostile:
+    """In-tree `skills:` naming a module that is no skill: `validate` imports nothing, so the
+    machine's skills are checked against the known ones and the file is never read."""
+    text = "name: s\nmachine: m.yaml\nskills: [secret.py]\n"
+    machine = _machine("  A: {skill: secret_wait, transitions: {done: B}}\n  B: {final: ok}\n")
+    return Hostile(
+        "skills: a non-skill module",
+        {"s.yaml": text, "m.yaml": machine, "secret.py": SECRET_SKILL},
+        "s.yaml",
+        fragment="pass --skills",
     )
 
 
@@ -343,6 +377,11 @@ GENERATORS: list[Callable[[], Hostile | list[Hostile]]] = [
     long_machine_ref,
     lambda: include_escape("../secret.yaml"),
     lambda: include_escape("/etc/passwd"),
+    lambda: skills_escape("../outside"),
+    lambda: skills_escape("/etc"),
+    lambda: skills_escape("link"),
+    lambda: skills_escape("mine"),
+    skills_not_a_skill,
     not_utf8,
     lambda: control_char("\x00"),
     lambda: control_char("\x07"),

@@ -172,7 +172,9 @@ def test_bad_set_value_type_is_invalid_input(cli):
 def test_unknown_scenario_lists_the_bundled_ones(cli):
     res = cli("run", "pick_plaec")
     assert res.exit_code == 2
-    assert "valid: mobile_search, pick_place" in res.stderr
+    assert "(did you mean 'pick_place'?) (valid: grasp, home, mobile_search, pick_place" in (
+        res.stderr
+    )
 
 
 def test_validate_accepts_the_bundled_files(cli):
@@ -222,7 +224,7 @@ def test_invalid_input_in_a_subprocess_has_no_traceback(cli_process, tmp_path):
 @pytest.mark.parametrize(
     ("override", "fragment"),
     [
-        ("hover=[.nan, 0, 0.1]", "is not a vec3"),
+        ("hover=[.nan, 0, 0.1]", "[nan, 0, 0.1] is not finite: give finite numbers"),
         ("scene.objects.0.xy=[.nan, 0]", "finite number"),
         ("guards.contact_force.max_n=.inf", "finite number"),
     ],
@@ -262,5 +264,22 @@ def test_a_bad_value_met_while_running_stops_the_run_with_its_location(monkeypat
 def test_a_goal_that_is_not_finite_is_refused_before_the_run(cli):
     res = cli("run", "pick_place", "--set", "place_at=[0.5, 0.2, .inf]")
     assert res.exit_code == 2 and res.exception is None
-    assert "blackboard.place_at: [0.5, 0.2, inf] holds NaN or infinity" in res.stderr
+    assert "blackboard.place_at: [0.5, 0.2, inf] is not finite: give finite numbers" in res.stderr
     assert "nothing was simulated" in res.stderr
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        ("NaN", "'NaN' is not finite: give finite numbers [m]"),
+        ("[0.5, inf, 0.3]", "'inf' is not finite"),
+        ("[0.5, 0.2, .nan]", "[0.5, 0.2, nan] is not finite"),
+        ("[1e308, 0, 0.3]", "'1e308' is text, not a number"),
+    ],
+)
+def test_a_goal_spelled_as_text_is_not_looked_up_as_a_name(cli, value, message):
+    # YAML reads NaN, inf and 1e308 as text: once reported as "no object or marker 'NaN'"
+    res = cli("run", "pick_place", "--set", f"place_at={value}")
+    assert res.exit_code == 2 and res.exception is None
+    assert f"<--set>: blackboard.place_at: {message}" in res.stderr
+    assert "no object or marker" not in res.stderr

@@ -166,14 +166,30 @@ def test_many_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory
         (["--set", "physics.timestep_s=!!python/object/apply:os.system [ls]"], "unknown YAML tag"),
         (["--set", "guards=&a [*a]"], "recursive alias"),
         (["--allow-path", "/nonexistent-issue10"], "does not exist"),
-        (["--rrd", "/proc/issue10/x.rrd"], "cannot create the directory"),
+        (["--rrd", "/proc/issue10/x.rrd"], "the folder /proc/issue10 does not exist"),
         (["--set", "physics.control_hz=1e-6"], "physics.control_hz"),
         (["--set", "physics.timestep_s=1e-300"], "physics.timestep_s"),
         (["--set", "physics.time_limit_s=1e300"], "physics.time_limit_s"),
         (["--set", "machine=" + "a" * 5000], "machine"),
         (["--set", "machine=../../etc/passwd"], "machine"),
+        # overflow and NaN in a fault, an event or a goal: named with the option, no traceback
+        (["--fault", "perception_offset:offset_m=[1e308,0,0]@0"],
+         "faults[0].offset_m[0]: Input should be less than or equal to 10, got '1e308' (from "
+         "--fault perception_offset:offset_m=[1e308,0,0]@0)"),
+        (["--fault", "push:object=cube,force_n=[1.0e+308,0,0]@0.5"],
+         "less than or equal to 1000, got 1e+308 (from --fault push"),
+        (["--fault", "ft_bias:force_n=[0,0,.nan]@0"], "finite number, got nan (from --fault"),
+        (["--fault", "perception_miss:count=" + "1" * 5000 + "@0"],
+         "<--fault>: perception_miss:count=111"),
+        (["--fault", "push:force_n=" + "[" * 3000 + "]" * 3000 + "@0"],
+         "nested deeper than 64 levels"),
+        (["--fault", "estop@1e400"], "<--fault>: faults[0].at: Input should be a finite number"),
+        (["--event", "1e400:estop"], "<--event>: 1e400:estop: time '1e400' must be a finite"),
+        (["--event", "nan:estop"], "<--event>: nan:estop"),
+        (["--set", "place_at=[1.0e+308,0,0.3]"], "<--set>: goal rejected: place_at"),
+        (["--set", "place_at=NaN"], "<--set>: blackboard.place_at: 'NaN' is not finite"),
     ],
-)
+)  # fmt: skip
 def test_bad_run_invocations_exit_2_before_simulating(cli, args, fragment):
     t0 = time.perf_counter()
     res = cli("run", "pick_place", *args)
@@ -189,6 +205,101 @@ def test_rrd_pointing_at_a_directory_is_refused_before_the_episode_runs(cli, tmp
     assert res.exit_code == 2
     assert "is a directory" in res.stderr and "run.rrd" in res.stderr
     assert "succeeded" not in res.stdout  # refused before, not after, the episode
+
+
+def test_rrd_into_a_missing_folder_is_refused_and_the_folder_never_made(cli, tmp_path):
+    target = tmp_path / "no" / "such" / "x.rrd"
+    res = cli("run", "pick_place", "--rrd", str(target))
+    assert res.exit_code == 2
+    assert f"--rrd {target}: the folder {target.parent} does not exist" in res.stderr
+    assert not (tmp_path / "no").exists()
+
+
+# --- skills: a scenario's Python stays in its tree, and only runs when the scenario runs ------
+
+MARKER_SKILL = """import pathlib
+from typing import ClassVar
+from orchestrator.skills import Skill, SkillParams
+
+pathlib.Path({marker!r}).write_text("this module ran")
+
+
+class Mark(Skill):
+    \"\"\"Finish at once.\"\"\"
+
+    name: ClassVar[str] = {name!r}
+    Params: ClassVar[type[SkillParams]] = SkillParams
+    outcomes: ClassVar[tuple[str, ...]] = ("done",)
+
+    def step(self, ctx):
+        return "done"
+"""
+
+
+def _marker_cell(root: Path, entry: str, skill: str = "mark") -> tuple[Path, Path]:
+    """A scenario in root/proj/deep naming `entry` in its `skills:`, a machine that runs the
+    skill `skill`, and a skill module root/outside/mark.py that writes a marker when imported.
+    Returns (the scenario, the marker)."""
+    marker = root / "MARKER"
+    (root / "outside").mkdir()
+    (root / "outside" / "mark.py").write_text(MARKER_SKILL.format(marker=str(marker), name=skill))
+    deep = root / "proj" / "deep"
+    deep.mkdir(parents=True)
+    (deep / "m.yaml").write_text(
+        f"name: m\ninitial: A\nstates:\n  A: {{skill: {skill}, transitions: {{done: B}}}}\n"
+        "  B: {final: succeeded}\n"
+    )
+    (deep / "s.yaml").write_text(f"name: s\nmachine: m.yaml\nskills:\n  - {entry}\n")
+    (deep / "link").symlink_to(root / "outside")
+    return deep / "s.yaml", marker
+
+
+@pytest.mark.parametrize("how", ["absolute", "dotdot", "symlink"])
+def test_skills_outside_the_tree_are_refused_and_never_executed(cli, tmp_path, how):
+    entry = {"absolute": str(tmp_path / "outside"), "dotdot": "../../outside", "symlink": "link"}
+    scenario, marker = _marker_cell(tmp_path, entry[how])
+    for command in (["validate"], ["run"], ["graph"], ["show", "scenario"]):
+        res = cli(*command, str(scenario))
+        assert res.exception is None, repr(res.exception)
+        assert res.exit_code == 2, (command, res.stdout)
+        assert f"{scenario}:4:5: skills[0]: " in res.stderr
+        assert "outside" in res.stderr and "--allow-path DIR" in res.stderr, res.stderr
+        assert not marker.exists(), f"{command} executed the module a file named"
+
+
+def test_validate_imports_no_skill_a_file_names_even_inside_its_tree(cli, tmp_path):
+    scenario, marker = _marker_cell(tmp_path, "mine", skill="mark_intree")
+    (scenario.parent / "mine").mkdir()
+    (tmp_path / "outside" / "mark.py").rename(scenario.parent / "mine" / "mark.py")
+    res = cli("validate", str(scenario))
+    assert res.exit_code == 2
+    assert "states.A.skill: unknown skill 'mark_intree'; the scenario's skills: are not " in (
+        res.stderr
+    )
+    assert f"pass --skills {scenario.parent / 'mine'}" in res.stderr
+    assert not marker.exists()
+
+
+def test_skills_the_user_names_or_allows_do_run(cli_process, tmp_path):
+    scenario, marker = _marker_cell(tmp_path, "../../outside", skill="mark_allowed")
+    res = cli_process("validate", str(scenario), "--skills", str(tmp_path / "outside"))
+    assert res.exit_code == 0, res.stderr  # named on the command line: the user's own choice
+    assert marker.read_text() == "this module ran"
+    marker.unlink()
+    res = cli_process("run", str(scenario), "--allow-path", str(tmp_path / "outside"))
+    assert res.exit_code == 0, res.stderr  # `run` imports what the tree (widened) holds
+    assert marker.exists()
+
+
+def test_a_module_that_fails_to_import_is_named_by_type_and_line_never_quoted(cli, tmp_path):
+    (tmp_path / "s.yaml").write_text("name: s\nmachine: pick_place\nskills: [notes.py]\n")
+    (tmp_path / "notes.py").write_text("# my notes\n\nhunter2_SECRET_password\n")
+    res = cli("run", str(tmp_path / "s.yaml"))
+    assert res.exit_code == 2
+    assert f"{tmp_path / 'notes.py'}:3: the skill module fails to import: NameError " in (
+        res.stderr
+    )
+    assert "hunter2" not in res.stderr + res.stdout
 
 
 def test_set_machine_chooses_the_machine():

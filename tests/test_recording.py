@@ -367,6 +367,7 @@ def test_every_bundled_scenario_records_its_transitions_and_geoms(name, tmp_path
 
 def test_cli_rrd_writes_a_recording(cli, tmp_path):
     path = tmp_path / "nested" / "run.rrd"
+    path.parent.mkdir()  # `--rrd` never creates a folder (a mistyped path is said)
     res = cli("run", "pick_place", "--seed", "1", "--rrd", str(path), "--json")
     assert res.exit_code == 0, res.stderr
     temporal, _ = read_rrd(path)

@@ -142,7 +142,11 @@ def page_folder(tmp_path_factory) -> Path:
 
 
 def test_the_pages_stack_and_check_are_found_validated_and_judge_a_run(cli, page_folder):
-    res = cli("validate", str(page_folder / "stack_cell.yaml"))
+    res = cli("validate", str(page_folder / "stack_cell.yaml"))  # imports nothing the file names
+    assert res.exit_code == 2 and "pass --skills" in res.stderr, res.stderr
+    res = cli(
+        "validate", str(page_folder / "stack_cell.yaml"), "--skills", str(page_folder / "my_checks")
+    )
     assert res.exit_code == 0, res.stderr
     res = cli("show", "check", "aligned", "--skills", str(page_folder / "my_checks"))
     assert res.exit_code == 0 and "| `yaw_tol_deg` | float | deg | `5.0` | > 0, ≤ 180 |" in (

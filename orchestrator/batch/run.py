@@ -9,6 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ..engine.strict_json import dumps
 from ..language.load import load_scenario
 from .backends import Backend, make_backend
 from .config import BatchConfig, RecordMode, portable_ref
@@ -164,5 +165,5 @@ def _check_out_dir(
 def _write_json(path: Path, data: dict[str, Any]) -> None:
     """Write atomically: a crash leaves the old file or the new one, never half of one."""
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2) + "\n")
+    tmp.write_text(dumps(data, indent=2) + "\n")
     os.replace(tmp, path)

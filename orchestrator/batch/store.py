@@ -11,6 +11,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from ..engine.strict_json import dumps
 from .exceptions import BatchError
 
 __all__ = ["RESULTS", "ResultsStore"]
@@ -75,7 +76,7 @@ class ResultsStore:
         """Write one episode's line now (one `write` call, no user-space buffer)."""
         if self._fd is None:
             raise RuntimeError("ResultsStore.append before open()")
-        data = (json.dumps(line) + "\n").encode()
+        data = (dumps(line) + "\n").encode()
         view = memoryview(data)
         while view:
             view = view[os.write(self._fd, view) :]

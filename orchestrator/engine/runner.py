@@ -107,7 +107,12 @@ def run_episode(
     dt = float(world.model.opt.timestep)
     n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
     ctx = make_context(
-        world, controller, initial_blackboard(loaded.machine, scn.blackboard), seed, n_sub * dt
+        world,
+        controller,
+        # the world's scenario: its blackboard holds the values drawn for this seed
+        initial_blackboard(loaded.machine, world.scenario.blackboard),
+        seed,
+        n_sub * dt,
     )
     executor = make_executor(loaded, ctx)
     injector = FaultInjector(list(scn.faults), ctx, executor, list(scn.events))

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-import yaml
 from pydantic import (
     BaseModel,
     ConfigDict,
@@ -21,7 +20,9 @@ from pydantic import (
     model_validator,
 )
 
+from ..exceptions import ConfigError
 from .diagnostics import Diagnostic
+from .yamlio import parse_yaml
 
 __all__ = [
     "FAULT_KINDS",
@@ -30,7 +31,13 @@ __all__ = [
     "parse_fault_spec",
 ]
 
-Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+# Bounded so that every accepted fault runs to a result: `offset_m: [1e308, 0, 0]` once ended
+# `run` in an OverflowError traceback, a 1e308 N push in diverged physics.
+Metres = Annotated[float, Field(ge=-10.0, le=10.0, description="[m]")]
+Newtons = Annotated[float, Field(ge=-1e4, le=1e4, description="[N]")]
+PushNewtons = Annotated[float, Field(ge=-1e3, le=1e3, description="[N]")]
+Vec3m = Annotated[list[Metres], Field(min_length=3, max_length=3)]
+Vec3N = Annotated[list[Newtons], Field(min_length=3, max_length=3)]
 
 
 class _Fault(BaseModel):
@@ -85,7 +92,7 @@ class FtBias(_Fault):
     """A constant offset added to every wrist force reading from then on."""
 
     kind: Literal["ft_bias"]
-    force_n: Vec3 = Field(
+    force_n: Vec3N = Field(
         default_factory=lambda: [0.0, 0.0, 80.0], description="Offset, world frame [N]."
     )
 
@@ -94,7 +101,7 @@ class FtSpike(_Fault):
     """A short offset on the wrist force readings (electrical noise, a cable knock)."""
 
     kind: Literal["ft_spike"]
-    force_n: Vec3 = Field(
+    force_n: Vec3N = Field(
         default_factory=lambda: [0.0, 0.0, 200.0], description="Offset, world frame [N]."
     )
     duration_ms: PositiveFloat = Field(default=6.0, le=1e6, description="[ms]")
@@ -147,8 +154,8 @@ class ObstacleFault(_Fault):
     """A fixed box appears in the scene (something put in the robot's way)."""
 
     kind: Literal["obstacle"]
-    pos: Vec3 = Field(description="Centre in the world [m].")
-    size: Vec3 = Field(
+    pos: Vec3m = Field(description="Centre in the world [m].")
+    size: Annotated[list[float], Field(min_length=3, max_length=3)] = Field(
         default_factory=lambda: [0.1, 0.1, 0.1], description="Full edge lengths [m]."
     )
 
@@ -172,7 +179,9 @@ class Push(_Fault):
 
     kind: Literal["push"]
     object: str = Field(description="Scene object pushed.")
-    force_n: Vec3 = Field(description="Force at its centre, world frame [N].")
+    force_n: Annotated[list[PushNewtons], Field(min_length=3, max_length=3)] = Field(
+        description="Force at its centre, world frame [N] (at most 1 kN per axis)."
+    )
     duration_ms: PositiveFloat = Field(default=50.0, le=1e6, description="[ms]")
 
 
@@ -187,7 +196,7 @@ class PerceptionOffset(_Fault):
     """Perception reports poses offset by `offset_m` (a miscalibrated camera)."""
 
     kind: Literal["perception_offset"]
-    offset_m: Vec3 = Field(description="Added to every reported position, world frame [m].")
+    offset_m: Vec3m = Field(description="Added to every reported position, world frame [m].")
     count: PositiveInt | None = Field(
         default=None, le=1000, description="How many perception calls (default: all later)."
     )
@@ -276,10 +285,11 @@ def parse_fault_spec(text: str) -> dict[str, Any] | Diagnostic:
         key, eq, raw = item.partition("=")
         if not eq or not key.strip():
             return bad(f"parameter {item.strip()!r} is not KEY=VALUE")
-        try:
-            out[key.strip()] = yaml.safe_load(raw) if raw.strip() else None
-        except yaml.YAMLError:
-            return bad(f"cannot read the value of {key.strip()!r} ({raw.strip()!r}) as YAML")
+        try:  # the loader of the files, with their caps: no tags, huge integers or deep nests
+            out[key.strip()] = parse_yaml(raw, "<--fault>").data if raw.strip() else None
+        except ConfigError as exc:
+            why = "; ".join(d.message for d in exc.diagnostics)
+            return bad(f"cannot read the value of {key.strip()!r} ({raw.strip()!r}): {why}")
     when = when.strip()
     state, plus, delay = when.partition("+")
     try:

@@ -4,6 +4,7 @@ points of the language."""
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,12 +13,11 @@ from typing import Any
 from pydantic import ValidationError
 
 from ..exceptions import ConfigError
-from ..skills import SkillLoadError
-from ..success import register_plugin_path
 from .blackboard_types import all_finite, check_type
 from .bundled import bundled_names, resolve_file
 from .default_scene import is_machine_data, scenario_for_machine
 from .diagnostics import Diagnostic
+from .entries import entry_file, unknown_entry
 from .events import check_events, parse_event_spec
 from .faults import parse_fault_spec
 from .includes import resolve_include
@@ -25,8 +25,11 @@ from .limits import current_limits
 from .loading import MachineNode, load_machine_file
 from .overrides import Override, apply_override, parcels_alias, parse_override
 from .pydantic_errors import diagnostics_from_validation
+from .random_goal_checks import check_random_goals
+from .robot_gains import check_gains
 from .scenario import Scenario
-from .scenario_checks import check_faults, check_scenario_refs, check_scene_names
+from .scenario_checks import check_faults, check_scenario_refs, check_scene_names, goal_keys
+from .scenario_skills import hint_unimported, register_scenario_skills
 from .success import typed_success, validate_success
 from .validation import blackboard_types, validate_guards, validate_machine
 from .yamlio import SourceMap, load_yaml
@@ -55,11 +58,13 @@ def load_scenario(
     allow_paths: Sequence[Path | str] = (),
     events: list[str] | None = None,
     machine: str | None = None,
+    import_skills: bool = True,
 ) -> LoadedScenario:
     """Load and validate a scenario by path or bundled name.
 
     Args:
-        ref: A scenario file or a bundled name.
+        ref: A scenario or machine file, or a bundled scenario or machine name (the rule of
+            `entries.py`; a machine runs in the default scene).
         overrides: `--set KEY=VALUE` texts.
         faults: `--fault SPEC` texts, added to the scenario's `faults:`.
         allow_paths: Directories outside the scenario's own tree that `machine:` may name
@@ -69,24 +74,17 @@ def load_scenario(
             of its own (a live session's task); the scenario's `blackboard:` keeps only the
             keys this machine declares, and its `success:` criteria (written for its own
             machine) are dropped: the machine's outcome judges the task.
+        import_skills: Import the scenario's `skills:` folders (commands that run it). False
+            for commands that only read it (`validate`, `graph`, `show`): nothing a file names
+            is executed, and a skill only those folders define is reported as unknown with
+            the fix (`scenario_skills.py`).
 
     Raises:
         ConfigError: With every problem found in the scenario, its machine and the overrides.
     """
-    path = resolve_file(ref, "scenarios")
+    path = entry_file(ref)  # a file, else a bundled scenario, else a bundled machine
     if path is None:
-        raise ConfigError(
-            [
-                Diagnostic(
-                    ref,
-                    0,
-                    0,
-                    "<scenario>",
-                    "no such scenario file or bundled scenario",
-                    tuple(bundled_names("scenarios")),
-                )
-            ]
-        )
+        raise ConfigError([unknown_entry(ref)])
     limits = current_limits()
     allow = tuple(Path(a) for a in allow_paths)
     doc = load_yaml(path, limits)
@@ -112,7 +110,10 @@ def load_scenario(
                 continue
             data["machine"] = ov.value
             overridden["machine"] = f"--set {ov.text}"
-    problems += _register_skills(data.get("skills"), path.parent, doc.source)
+    skill_problems, unimported = register_scenario_skills(
+        data.get("skills"), path, allow, doc.source, limits, import_skills
+    )
+    problems += skill_problems
     node: MachineNode | None = None
     machine_ref = machine if machine is not None else data.get("machine")
     if isinstance(machine_ref, str):
@@ -148,6 +149,7 @@ def load_scenario(
             overridden[
                 "blackboard." + dotted if len(ov.path) == 1 and dotted in keys else dotted
             ] = f"--set {ov.text}"
+    _fix_randomized(data, overridden)
     scenario: Scenario | None = None
     try:
         scenario = Scenario.model_validate(data)
@@ -168,42 +170,26 @@ def load_scenario(
         problems += wrong
         if scenario is not None and not wrong:
             scenario.success = typed_success(scenario.success)  # each as its kind's Params
+    if scenario is not None and node is not None:  # before the names it may hold are looked up
+        problems += _check_blackboard(scenario, node, types, doc.source)
     if scenario is not None and node is not None and not problems:
         problems += check_scene_names(node, scenario, doc.source)
         problems += check_faults(node, scenario, doc.source, _arm_joints(scenario))
         problems += check_events(node, scenario.events, doc.source)
     if scenario is not None:
         problems += check_scenario_refs(scenario, doc.source, keys if node else None)
-        if node is not None:
-            for key, value in scenario.blackboard.items():
-                if key not in keys:
-                    problems.append(
-                        doc.source.diag(
-                            ("blackboard", key),
-                            f"the machine has no blackboard key {key!r}",
-                            tuple(sorted(keys)),
-                        )
-                    )
-                elif not check_type(value, types[key]):
-                    problems.append(
-                        doc.source.diag(
-                            ("blackboard", key),
-                            f"{value!r} is not a {types[key]}, the type the "
-                            "machine declares for this key",
-                        )
-                    )
-                elif not all_finite(value):
-                    problems.append(
-                        doc.source.diag(
-                            ("blackboard", key),
-                            f"{value!r} holds NaN or infinity: give finite numbers",
-                        )
-                    )
+        problems += check_gains(scenario.robot.name, scenario.robot.gains, doc.source)
+        if node is not None and not problems:  # the box is checked as goals are
+            r = scenario.robot
+            problems += check_random_goals(
+                scenario.randomize, types, scenario.guards, r.name, r.base_pos, doc.source
+            )
     if node is not None:
         problems += validate_machine(node)
     if scenario is not None and not problems:
         problems += _compiles(scenario, doc.source)
     if problems:
+        problems = [hint_unimported(d, unimported) for d in problems]
         raise ConfigError([_attribute(d, overridden, doc.source.file) for d in problems])
     assert scenario is not None and node is not None
     return LoadedScenario(scenario, node, path, doc.source)
@@ -268,19 +254,62 @@ def _append_options(
     return problems
 
 
-def _register_skills(entries: object, base: Path, source: SourceMap) -> list[Diagnostic]:
-    """Register the scenario's own skill folders/files (`skills:`) before its machine is read."""
-    if not isinstance(entries, list):
-        return []  # absent, or the model reports the wrong type
+def _check_blackboard(
+    scenario: Scenario, node: MachineNode, types: dict[str, str], source: SourceMap
+) -> list[Diagnostic]:
+    """The scenario's `blackboard:` values (with `--set` ones): keys the machine declares,
+    finite numbers, goals that are numbers and not text, values of the declared type."""
+    goals = goal_keys(node)
     problems = []
-    for i, entry in enumerate(entries):
-        if not isinstance(entry, str):
+    for key, value in scenario.blackboard.items():
+        at = ("blackboard", key)
+        if key not in types:
+            want = f"the machine has no blackboard key {key!r}"
+            problems.append(source.diag(at, want, tuple(sorted(types))))
+        elif not all_finite(value):
+            problems.append(source.diag(at, f"{value!r} is not finite: give finite numbers"))
+        elif key in goals and (why := _number_as_text(value)) is not None:
+            problems.append(source.diag(at, why))
+        elif not check_type(value, types[key]):
+            problems.append(
+                source.diag(
+                    at,
+                    f"{value!r} is not a {types[key]}, the type the machine declares for this key",
+                )
+            )
+    return problems
+
+
+def _number_as_text(value: object) -> str | None:
+    """Why a goal (a target the arm moves to) holding a number spelled as text is refused:
+    `NaN` and `inf` are text in YAML, and so is `1e308` (YAML wants `1.0e+308`); as text they
+    would be looked up as object or marker names."""
+    for item in value if isinstance(value, list) else [value]:
+        if not isinstance(item, str):
             continue
         try:
-            register_plugin_path(base / entry)  # its skills and success checks
-        except SkillLoadError as exc:
-            problems.append(source.diag(("skills", i), str(exc)))
-    return problems
+            number = float(item)
+        except ValueError:
+            continue
+        if not math.isfinite(number):
+            return f"{item!r} is not finite: give finite numbers [m]"
+        return (
+            f"{item!r} is text, not a number: YAML reads an exponent only with a decimal point "
+            f"and a sign (write {number:.1e}), or give a name of an object or marker"
+        )
+    return None
+
+
+def _fix_randomized(data: dict, overridden: dict[str, str]) -> None:
+    """A blackboard key set with `--set` is that value in every seed: not drawn any more."""
+    randomize = data.get("randomize")
+    drawn = randomize.get("blackboard") if isinstance(randomize, dict) else None
+    if not isinstance(drawn, dict):
+        return
+    for path in overridden:
+        key = path.removeprefix("blackboard.")
+        if path.startswith("blackboard.") and key in drawn:
+            del drawn[key]
 
 
 def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagnostic:

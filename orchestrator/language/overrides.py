@@ -116,6 +116,7 @@ _SCENARIO_KEYS = (
     "success",
     "physics",
     "perception",
+    "randomize",
 )
 
 

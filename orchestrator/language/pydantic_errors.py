@@ -32,6 +32,7 @@ def _model_at(root: type[BaseModel], loc: tuple) -> type[BaseModel] | None:
     """The model whose fields are keys at `loc` (walks fields, dict values and list items)."""
     current: Any = root
     for part in loc:
+        current = _optional_model(current)
         if isinstance(current, type) and issubclass(current, BaseModel):
             field = next(
                 (f for n, f in current.model_fields.items() if (f.alias or n) == part), None
@@ -56,7 +57,18 @@ def _model_at(root: type[BaseModel], loc: tuple) -> type[BaseModel] | None:
         models = _models_in(current)
         if models:
             current = models[0]
+    current = _optional_model(current)
     return current if isinstance(current, type) and issubclass(current, BaseModel) else None
+
+
+def _optional_model(annotation: Any) -> Any:
+    """The model of an optional model field (`RobotGains | None`), else `annotation`."""
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(annotation) if a is not type(None)]
+        if len(args) == 1 and isinstance(args[0], type) and issubclass(args[0], BaseModel):
+            return args[0]
+    return annotation
 
 
 def _clean_loc(loc: tuple, data: Any) -> tuple:
@@ -70,6 +82,8 @@ def _clean_loc(loc: tuple, data: Any) -> tuple:
         elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
             out.append(part)
             node = node[part]
+        elif isinstance(node, dict) and part == node.get("kind"):
+            continue  # the tag of a discriminated union (`faults[0].push.force_n`)
         elif isinstance(node, dict) and not isinstance(part, int) and "[" not in str(part):
             out.append(part)  # a missing or extra key: keep it, it is the subject
             node = None

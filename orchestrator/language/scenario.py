@@ -15,10 +15,13 @@ from .faults import Fault
 from .machine import GuardRef
 from .parcels import draw_parcels
 from .perception import CameraSpec, Perception
+from .random_goals import DrawnValues, draw_goals
+from .robot_gains import CartesianGainsSpec, RobotGains
 from .sorting_scene import Bin, Parcels, bin_walls
 
 __all__ = [
     "CameraSpec",
+    "CartesianGainsSpec",
     "Marker",
     "ObjectSpec",
     "Obstacle",
@@ -27,6 +30,7 @@ __all__ = [
     "PhantomStiffening",
     "Physics",
     "Realism",
+    "RobotGains",
     "RobotRef",
     "SafeStop",
     "Scenario",
@@ -61,13 +65,18 @@ class _Strict(BaseModel):
 
 
 class RobotRef(_Strict):
-    """Which robot, and where its base stands."""
+    """Which robot, where its base stands, and its controller gains."""
 
     name: str = Field(
         default="panda", description="A registered robot (`orchestrator list robots`)."
     )
     base_pos: Vec3 = Field(
         default_factory=lambda: [0.0, 0.0, 0.0], description="Base position in the world [m]."
+    )
+    gains: RobotGains | None = Field(
+        default=None,
+        description="Controller gains replacing the robot's defaults: joint `kp`, `kd` and the "
+        "default `cartesian` impedance (docs/robots.md#gains).",
     )
 
 
@@ -512,7 +521,10 @@ class Scenario(_Strict):
     skills: list[str] = Field(
         default_factory=list,
         description="Your own skills: folders of skill modules or `.py` files, relative to "
-        "this file. Every Skill subclass they define is available by its `name`.",
+        "this file and inside its directory tree (or an `--allow-path` directory). Every Skill "
+        "subclass they define is available by its `name`. Imported when the scenario runs "
+        "(`run`, `batch`, `faults`, `serve`), never by `validate`, `graph` or `show` "
+        "(pass `--skills DIR` to check against them).",
     )
     blackboard: dict[str, Any] = Field(
         default_factory=dict,
@@ -540,6 +552,11 @@ class Scenario(_Strict):
         default_factory=list,
         description="Events sent into the run at simulated times (see docs/live.md).",
     )
+    randomize: DrawnValues = Field(
+        default_factory=DrawnValues,
+        description="Blackboard values drawn per seed (a reach test's target: "
+        "`randomize: {blackboard: {target: {x: [..], y: [..], z: [..]}}}`).",
+    )
 
     @model_validator(mode="after")
     def _shift_time(self) -> Scenario:
@@ -551,8 +568,16 @@ class Scenario(_Strict):
         return self
 
     def for_seed(self, seed: int) -> tuple[Scenario, dict[str, str]]:
-        """This scenario with what is drawn per seed as scene objects (the parcels of
-        `scene.parcels`), and the class of each parcel by name."""
+        """This scenario with what is drawn per seed: the blackboard values of
+        `randomize.blackboard`, and as scene objects the parcels of `scene.parcels` (with the
+        class of each parcel by name)."""
+        drawn = draw_goals(self.randomize, seed)
+        scn = self
+        if drawn:
+            scn = self.model_copy(update={"blackboard": {**self.blackboard, **drawn}})
+        return scn._with_parcels(seed)
+
+    def _with_parcels(self, seed: int) -> tuple[Scenario, dict[str, str]]:
         if self.scene.conveyor is not None:
             return self._with_pool(self.scene.conveyor), {}
         p = self.scene.parcels

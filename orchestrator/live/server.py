@@ -9,7 +9,6 @@ loading and goal checks), so an `estop` is never queued behind one.
 
 from __future__ import annotations
 
-import json
 import signal
 import threading
 import time
@@ -18,6 +17,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from ..engine.strict_json import dumps
 from .protocol import Command, Reply, config_for, key
 from .session import Session
 
@@ -59,7 +59,7 @@ def serve(
     }
 
     def publish(leaf: str, msg: dict[str, Any]) -> None:
-        pubs[leaf].put(json.dumps(msg))
+        pubs[leaf].put(dumps(msg))
 
     session.publish = publish
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import importlib
 import pkgutil
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from ..exceptions import OrchestratorError
@@ -78,8 +79,16 @@ def get_check(kind: str) -> type[SuccessCheck]:
         ) from None
 
 
-def register_check_path(path: str | Path, require: bool = True) -> list[str]:
+def register_check_path(
+    path: str | Path, require: bool = True, within: Sequence[Path] | None = None
+) -> list[str]:
     """Register the success checks of a local folder or `.py` file; returns their kinds.
+
+    Args:
+        path: The folder or file.
+        require: A path without any check is an error.
+        within: Directories it must lie in (`orchestrator.skills.plugins.skill_files`; None:
+            anywhere, for a path the user named).
 
     Raises:
         SkillLoadError: The path cannot be loaded, it defines no check and `require` is set,
@@ -87,7 +96,7 @@ def register_check_path(path: str | Path, require: bool = True) -> list[str]:
     """
     _discover()
     kinds = []
-    for module in plugin_modules(path):
+    for module in plugin_modules(path, within):
         for cls in classes_in(module, SuccessCheck):
             other = CHECKS.get(cls.kind)
             if other is not None and other is not cls:
@@ -103,14 +112,22 @@ def register_check_path(path: str | Path, require: bool = True) -> list[str]:
     return kinds
 
 
-def register_plugin_path(path: str | Path) -> list[str]:
+def register_plugin_path(path: str | Path, within: Sequence[Path] | None = None) -> list[str]:
     """Register the skills and success checks of a local folder or `.py` file (a scenario's
     `skills:`, `--skills`); returns their names.
 
+    Args:
+        path: The folder or file.
+        within: Directories it (and every module in it) must lie in, symlinks followed (a
+            scenario's own tree and `--allow-path`); None: anywhere (`--skills`).
+
     Raises:
-        SkillLoadError: The path cannot be loaded, defines neither, or a name is taken.
+        SkillLoadError: The path cannot be loaded, lies outside `within`, defines neither, or
+            a name is taken.
     """
-    names = register_skill_path(path, require=False) + register_check_path(path, require=False)
+    names = register_skill_path(path, require=False, within=within) + register_check_path(
+        path, require=False, within=within
+    )
     if not names:
         raise SkillLoadError(
             f"{path}: defines no skill (a subclass of orchestrator.skills.Skill with a `name`) "

@@ -170,6 +170,14 @@ class World:
         robot = get_robot(scenario.robot.name)
         if scenario.tool is not None:
             robot = mount_tool(robot, tool_from_spec(scenario.tool))
+        g = scenario.robot.gains
+        if g is not None:  # the controller built on this robot uses them
+            robot.with_gains(
+                robot.gains.replaced(
+                    g.kp, g.kd, g.cartesian.stiffness, g.cartesian.damping,
+                    g.cartesian.nullspace_stiffness,
+                )
+            )  # fmt: skip
         spec = robot.build_spec()
         for key in list(spec.keys):
             spec.delete(key)  # the world sets its initial state itself

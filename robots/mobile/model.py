@@ -162,7 +162,7 @@ class MobilePanda(Panda):
     base_body: ClassVar[str] = "base_link"
     """The chassis (cameras on the robot's base mount here)."""
     home: ClassVar[tuple[float, ...]] = (0.0, 0.0, 0.0, *Panda.home)
-    gains: ClassVar[Gains] = Gains(
+    gains: Gains = Gains(
         kp=np.array([300.0, 300.0, 100.0, *Panda.gains.kp]),
         kd=np.array([900.0, 900.0, 150.0, *Panda.gains.kd]),
     )

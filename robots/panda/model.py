@@ -73,7 +73,7 @@ class Panda(Robot):
     home: ClassVar[tuple[float, ...]] = (0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785)
     gripper_open_m: ClassVar[float] = 0.04
     gripper_force_n: ClassVar[float] = 20.0
-    gains: ClassVar[Gains] = Gains(
+    gains: Gains = Gains(
         kp=np.array([600.0, 600.0, 600.0, 600.0, 250.0, 150.0, 50.0]),
         kd=np.array([50.0, 50.0, 50.0, 50.0, 20.0, 15.0, 5.0]),
     )
