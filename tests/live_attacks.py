@@ -136,17 +136,18 @@ def attack_malformed(z: Any, session: str, payloads: list[tuple[str, bytes]]) ->
     return tally
 
 
-def flood(z: Any, session: str, n: int, seed: int = 0) -> Counter:
-    """`n` commands sent without waiting (a mix: status, run, pause, malformed), then every
-    reply collected. Returns counts: accepted, refused (by the first words of the reason),
-    unanswered."""
+def flood(z: Any, session: str, n: int, seed: int = 0, window: int | None = None) -> Counter:
+    """`n` commands sent without waiting for their replies (a mix: status, run, pause,
+    malformed; at most `window` in flight, None: all at once), then every reply collected.
+    Returns counts: accepted, refused (by the first words of the reason), unanswered."""
     rng = random.Random(seed)
     cmd_key = key(session, "command")
     kinds = [b'{"op": "status"}', VALID[1], b'{"op": "pause"}', b'{"op": "status", "op": 1}',
              b'{"op": "run", "machine": "home", "client": "flood"}', rng.randbytes(64)]  # fmt: skip
-    handles = [z.get(cmd_key, payload=kinds[i % len(kinds)], timeout=120.0) for i in range(n)]
     counts: Counter = Counter()
-    for handle in handles:
+    in_flight: list[Any] = []
+
+    def collect(handle: Any) -> None:
         reply = None
         for r in handle:
             if r.ok is not None:
@@ -158,6 +159,13 @@ def flood(z: Any, session: str, n: int, seed: int = 0) -> Counter:
             counts["accepted"] += 1
         else:
             counts["refused: " + reply["reason"].split(":")[0]] += 1
+
+    for i in range(n):
+        in_flight.append(z.get(cmd_key, payload=kinds[i % len(kinds)], timeout=120.0))
+        if window is not None and len(in_flight) >= window:
+            collect(in_flight.pop(0))
+    for handle in in_flight:
+        collect(handle)
     return counts
 
 
@@ -255,16 +263,17 @@ def kill_mid_wait(served: Served) -> dict[str, Any]:
             "stderr": proc.stderr.read().strip()}  # fmt: skip
 
 
-def bystander(served: Served, watchdog_s: float) -> dict[str, Any]:
-    """The owner of a task falls silent while a bystander keeps beating: the watchdog must
-    trip `watchdog_s` after the owner's last heartbeat."""
+def bystander(served: Served) -> dict[str, Any]:
+    """The owner of a task falls silent while a bystander keeps beating: how long after the
+    owner stops until the session is in ERROR (the watchdog's limit, if only the owner's
+    heartbeats count)."""
     with (
         Client(served.name, [served.endpoint], name="owner") as owner,
         Client(served.name, [served.endpoint], name="bystander") as other,
     ):
-        reply, _ = owner.run("reach", ["target=[0.45, -0.25, 0.55]"])
+        reply, _ = owner.run("pick_place")  # ~5 s at --speed 1: longer than the watchdog
         assert reply.accepted, reply.reason
-        wait_for(lambda: other.status()["state"] == "MOVING", 60.0)
+        wait_for(lambda: other.status()["state"] in ("MOVING", "GRASPING"), 60.0)
         t0 = time.monotonic()
         owner.stop_heartbeats()
         status = wait_for(lambda: (s := other.status())["state"] == "ERROR" and s, 30.0)

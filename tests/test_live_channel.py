@@ -6,6 +6,7 @@ own path, overload, liveliness, never another task's result. The long campaigns 
 from __future__ import annotations
 
 import json
+import re
 import threading
 import time
 from collections.abc import Iterator
@@ -178,18 +179,21 @@ def test_a_waiting_client_never_takes_another_tasks_result(live):
     got: dict[str, Any] = {}
 
     def wait() -> None:
-        got["reply"], got["result"] = live.client.run("reach", REACH, wait=True)
+        try:
+            got["reply"], got["result"] = live.client.run("pick_place", wait=True)  # ~5 s
+        except Exception as exc:  # shown by the assertion below
+            got["error"] = exc
 
     waiter = threading.Thread(target=wait)
     waiter.start()
-    status = live.until(lambda s: s["state"] == "MOVING")
-    mine = status["task"]["id"]
+    mine = live.until(lambda s: s["task"] is not None)["task"]["id"]
     epoch, n = mine.rsplit("-", 1)
     forged = {"event": "task_end", "result": {"outcome": "succeeded", "exit_code": 0}}
-    for other in (f"0{epoch[1:]}-{n}", f"{epoch}-{int(n) + 1}", int(n), n):
+    other_epoch = ("1" if epoch[0] == "0" else "0") + epoch[1:]
+    for other in (f"{other_epoch}-{n}", f"{epoch}-{int(n) + 1}", int(n), n):
         live.raw.put(key(live.name, "events"), json.dumps({**forged, "task": other}))
     time.sleep(0.3)
-    assert waiter.is_alive()  # none of them is its task
+    assert waiter.is_alive(), got  # none of them is its task
     waiter.join(60)
     assert got["reply"].task == mine and got["result"]["task"] == mine
     assert got["result"]["outcome"] == "succeeded" and "metrics" in got["result"]
@@ -217,4 +221,27 @@ def test_a_client_waiting_on_a_task_fails_fast_when_the_session_goes():
         assert "exc" in caught and caught["t"] - t0 < 1.0
         assert "lost while waiting on task" in str(caught["exc"])
     finally:
+        served.close()
+
+
+def test_send_wait_exits_5_when_the_session_goes_away(cli):
+    served = InProcess("gone-cli", watchdog_s=1.0)
+
+    def end_it() -> None:
+        served.until(lambda s: s["state"] == "MOVING")
+        served.stop.set()
+
+    ender = threading.Thread(target=end_it)
+    ender.start()
+    try:
+        t0 = time.monotonic()
+        res = cli("send", served.name, "run", "reach", "--set", REACH[0], "--wait",
+                  "--connect", served.endpoint)  # fmt: skip
+        assert res.exit_code == 5 and time.monotonic() - t0 < 30
+        assert re.match(
+            f"error: session '{served.name}' (lost while waiting on|shut down before) task",
+            res.stderr,
+        ), res.stderr
+    finally:
+        ender.join(30)
         served.close()

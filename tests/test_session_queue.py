@@ -193,3 +193,22 @@ def test_an_estop_from_any_thread_wakes_the_loop_and_applies_at_the_next_tick():
     _cycle(session)
     assert session.state == "ESTOPPED" and session.last_estop["ticks"] <= 1
     assert events.of("estop")[0]["source"] == "command from the red button"
+
+
+def test_a_flood_of_repeated_commands_does_not_grow_the_tasks_event_log():
+    session, events = _session()
+    _run_owned(session, "o")
+    task = session.task
+    for _ in range(3):
+        for _ in range(200):
+            session.submit(_cmd("pause"))
+        _cycle(session)
+    session.submit(_cmd("resume"))
+    _cycle(session)
+    for _ in range(200):
+        session.submit(_cmd("stop"))
+        session.estop("flood")
+    _cycle(session, 2)
+    delivered = [e["event"] for e in task.executor.events]
+    assert delivered == ["pause", "resume", "estop"]  # stop: the e-stop outranked it
+    assert len(events.of("estop")) == 200 and session.last_estop["ticks"] <= 1

@@ -390,27 +390,31 @@ class Session:
         op, source = cmd.op, f"command from {cmd.client or 'a client'}"
         task = self.task
         running = task is not None and task.executor is not None and not task.executor.done
+        # a command that would change nothing is not delivered again: a flood of them must
+        # not grow the task's event log (each delivered event is recorded in its result)
         if op == "estop":
-            self.estopped = True
-            self._drop_queue("not started: e-stop")
-            if running:
+            again = self.estopped
+            if running and not again:  # later ones find it stopped; each is measured
                 task.executor.event(ESTOP, source)  # type: ignore[union-attr]
-            elif self.idle_stop is None or not self.idle_stop.active:
+            elif not running and (self.idle_stop is None or not self.idle_stop.active):
                 self.idle_stop = SafetyStop(self.ctx, self.loaded.scenario.physics.safe_stop)
                 self.idle_stop.start("estop")
-            self.last_estop = {
+            self.last_estop = {  # before the state says ESTOPPED: a status has both
                 "ticks": self.ticks - arrived,
                 "ms": round((time.perf_counter() - wall) * 1000.0, 3),
                 "t": round(self.ctx.t, 4),
             }
+            self.estopped = True
+            self._drop_queue("not started: e-stop")
             self.publish("events", {"event": "estop", **self.last_estop, "source": source})
         elif op in ("stop", "shutdown"):
             self._drop_queue(f"not started: {op} command")
-            if running:
+            if running and task.stopped_by is None:  # type: ignore[union-attr]
                 task.stop(f"{op} command")  # type: ignore[union-attr]
             self.shutting_down = self.shutting_down or op == "shutdown"
         elif op in ("pause", "resume"):
-            if running:
+            if running and task.pause_wanted != (op == "pause"):  # type: ignore[union-attr]
+                task.pause_wanted = op == "pause"  # type: ignore[union-attr]
                 task.executor.event(PAUSE if op == "pause" else RESUME, source)  # type: ignore[union-attr]
         elif op == "reset":
             self.estopped, self.error, self._reset_pending = False, None, False
@@ -423,7 +427,7 @@ class Session:
             if cmd.preempt:  # a controlled stop of what runs; the queue goes; this one next
                 why = f"preempted by task {payload.id}"
                 self._drop_queue(f"not started: {why}")
-                if running:
+                if running and task.stopped_by is None:  # type: ignore[union-attr]
                     task.stop(why)  # type: ignore[union-attr]
             self.tasks.append(payload)
             self._pending.pop(payload.id, None)  # after the append: `busy` never undercounts

@@ -59,6 +59,8 @@ class Task:
         """Wall time the session accepted it [s] (perf_counter)."""
         self.beat_wall: float | None = None
         """Wall time of its owner's last heartbeat [s] (perf_counter; None: none yet)."""
+        self.pause_wanted = False
+        """The last pause/resume the session delivered was a pause (repeats are not sent)."""
 
     # -- lifecycle ------------------------------------------------------------------------
     def start(self, observers: list | None = None) -> None:
