@@ -4,7 +4,8 @@ on 127.0.0.1.
 * malformed: `orchestrator serve` (a subprocess); `--payloads` malformed payloads (random
   bytes, invalid UTF-8, truncated, deep, huge up to 1 MB plus two of 50 MB, binary, duplicate
   keys, wrong shapes) on the command key, each followed by a `status` there: refusals by
-  category, anything accepted or unanswered, statuses answered.
+  category, anything accepted or unanswered, statuses answered; then one payload over
+  Zenoh's message limit (64 MiB: dropped unanswered by the transport) and a status.
 * estop (busy): the same kind of session at `--speed 1` running a pick while a flood of
   `--estop-flood` commands is in flight; `--estops` e-stops at random moments on the e-stop
   key: control ticks from arrival to effect (the session's `last_estop`), wall ms from
@@ -45,6 +46,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from orchestrator.live.access import MAX_MESSAGE_BYTES  # noqa: E402
 from orchestrator.live.client import Client  # noqa: E402
 from orchestrator.live.protocol import key  # noqa: E402
 from orchestrator.live.server import serve  # noqa: E402
@@ -76,6 +78,10 @@ def malformed_figures(n: int) -> dict[str, Any]:
         t0 = time.perf_counter()
         tally = attack_malformed(z, served.name, payloads)
         wall = time.perf_counter() - t0
+        # over Zenoh's message limit: dropped by the transport, unanswered; the link and the
+        # session go on
+        over = attack_malformed(z, served.name, [("over the limit", b"x" * (MAX_MESSAGE_BYTES
+                                                                         + 1))])  # fmt: skip
         z.close()
         state = served.client.status()["state"]
         return {
@@ -86,6 +92,11 @@ def malformed_figures(n: int) -> dict[str, Any]:
             "status_answered": tally.status_answered,
             "by_category": dict(tally.by_category),
             "reasons": dict(tally.reasons.most_common(12)),
+            "over_zenoh_limit": {
+                "bytes": MAX_MESSAGE_BYTES + 1,
+                "unanswered": over.unanswered,
+                "status_answered_after": over.status_answered,
+            },
             "state_after": state,
             "wall_s": round(wall, 2),
             "rss_mb": [round(rss0, 1), round(served.rss_mb(), 1)],

@@ -219,3 +219,20 @@ def test_an_operator_commands_and_a_viewers_heartbeats_never_reach_the_session(s
         assert secured.session.heartbeat_wall is not None
     reply, result = secured.op.run("home", wait=True)
     assert reply.accepted and result is not None and result["outcome"] == "succeeded"
+
+
+def test_watch_shows_a_secured_session_to_a_viewer(secured):
+    import io
+
+    from rich.console import Console
+
+    from orchestrator.live.watch import watch
+
+    buffer = io.StringIO()
+    code = watch(secured.name, [secured.endpoint], 1.0, Console(file=buffer, width=120),
+                 Credentials("watcher", "look", secured.ca))  # fmt: skip
+    assert code == 0 and "IDLE" in buffer.getvalue() and "LOST" not in buffer.getvalue()
+    buffer = io.StringIO()
+    code = watch(secured.name, [secured.endpoint], 1.0, Console(file=buffer, width=120),
+                 Credentials("watcher", "wrong", secured.ca))  # fmt: skip
+    assert code == 1 and "LOST" in buffer.getvalue()

@@ -8,6 +8,7 @@ import time
 
 import pytest
 
+from orchestrator.live.access import MAX_MESSAGE_BYTES
 from orchestrator.live.client import EXIT_SESSION_LOST
 
 from .live_attacks import (
@@ -16,6 +17,7 @@ from .live_attacks import (
     attack_malformed,
     bystander,
     flood,
+    get_raw,
     kill_mid_wait,
     malformed_payloads,
     wait_for,
@@ -34,6 +36,21 @@ def test_1000_malformed_payloads_are_refused_and_each_is_followed_by_a_status_th
         assert tally.refused == 1000 and tally.status_answered == 1000
         assert set(tally.by_category) == set(CATEGORIES)
         assert served.client.status()["state"] == "IDLE"
+    finally:
+        served.close()
+
+
+def test_a_payload_over_zenohs_message_limit_is_dropped_and_the_session_goes_on():
+    served = Served("slow-limit", "--watchdog", "0")
+    try:
+        z = served.raw()
+        command = f"orchestrator/{served.name}/command"
+        assert get_raw(z, command, b"x" * (MAX_MESSAGE_BYTES + 1), timeout=3.0) is None
+        assert get_raw(z, command, b"x" * 50_000_000)["reason"] == (
+            "malformed command: too large: 50000000 bytes (limit 65536)"
+        )  # under the limit (headers need room too): answered
+        assert get_raw(z, command, b'{"op": "status"}')["status"]["state"] == "IDLE"
+        z.close()
     finally:
         served.close()
 

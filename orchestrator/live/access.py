@@ -28,6 +28,7 @@ from ..exceptions import OrchestratorError
 
 __all__ = [
     "LEASE_MS",
+    "MAX_MESSAGE_BYTES",
     "AccessError",
     "Credentials",
     "ServerAccess",
@@ -43,6 +44,11 @@ default is 10 s; 1 s lets a client notice a lost session within about a second e
 the network, not the process, failed (a killed process closes its socket: noticed at once)."""
 KEEP_ALIVES = 4
 """Keep-alive messages per lease (Zenoh's advice: four)."""
+MAX_MESSAGE_BYTES = 64 * 2**20
+"""Largest message a session reassembles [bytes] (Zenoh's default: 1 GiB). A command is a
+few hundred bytes and is refused by name above 64 KiB; a payload this large is still
+answered `too large`; a larger one is dropped by Zenoh unanswered, so no client can make the
+session allocate more than this per link."""
 _LOCAL_PROTOCOLS = ("unixsock-stream", "unixpipe", "vsock")
 _WATCH = ("status", "heartbeat", "events", "alive")
 _OPERATE = ("command", "clients/heartbeat")
@@ -286,6 +292,7 @@ def zenoh_config(
     if credentials is not None and credentials.tls_ca is not None:
         entries["transport/link/tls/root_ca_certificate"] = str(credentials.tls_ca)
     if server is not None:
+        entries["transport/link/rx/max_message_size"] = MAX_MESSAGE_BYTES
         users = server.check(listen, connect)
         if server.users_file is not None:
             if session is None:
