@@ -860,10 +860,13 @@ def send(
         only = "takes no MACHINE, --set, --wait or --preempt (only run does)"
         _live_error(ValueError(f"{command}: {only}"))
     creds = _credentials(user, password, credentials, tls_ca)
+    watchdog_s = None
     try:
         with Client(session, connect, name="orchestrator send", credentials=creds) as client:
             if command == "run":
                 reply, result = client.run(machine, set_ or [], wait=wait, preempt=preempt)
+                if reply.accepted and not wait:
+                    watchdog_s = client.status().get("watchdog_s")
             elif command == "estop":
                 reply, result = client.estop(), None
             else:
@@ -895,10 +898,10 @@ def send(
         out.print_json(json.dumps(reply.status))
     else:
         out.print(f"accepted{f': task {reply.task}' if reply.task else ''}", markup=False)
-        if reply.task:
-            err.print("note: this client's heartbeats end now; under the session's watchdog "
-                      "the task stops unless its owner supervises it (use --wait)",
-                      markup=False)  # fmt: skip
+        if reply.task and watchdog_s:
+            err.print(f"note: this client, the task's owner, stops sending heartbeats now: "
+                      f"the session's watchdog stops the task after {watchdog_s} s (use "
+                      "--wait to supervise it)", markup=False)  # fmt: skip
 
 
 @app.command()

@@ -245,3 +245,14 @@ def test_send_wait_exits_5_when_the_session_goes_away(cli):
     finally:
         ender.join(30)
         served.close()
+
+
+def test_send_run_without_wait_says_the_watchdog_will_stop_its_task(live, cli):
+    res = cli("send", live.name, "run", "pick_place", "--connect", live.endpoint)
+    assert res.exit_code == 0 and res.stdout.startswith("accepted: task ")
+    assert "the session's watchdog stops the task after 1.0 s (use --wait" in res.stderr
+    status = live.until(lambda s: s["state"] == "ERROR", timeout=30.0)
+    assert status["error"].startswith("watchdog: no heartbeat from task ")
+    assert "(orchestrator send)" in status["error"]
+    live.until(lambda s: s["task"] is None)
+    assert live.client.reset().accepted

@@ -192,7 +192,7 @@ def test_an_estop_from_any_thread_wakes_the_loop_and_applies_at_the_next_tick():
     assert session._wake.is_set()
     _cycle(session)
     assert session.state == "ESTOPPED" and session.last_estop["ticks"] <= 1
-    assert events.of("estop")[0]["source"] == "command from the red button"
+    assert events.of("estop")[0]["source"] == "the red button"
 
 
 def test_a_flood_of_repeated_commands_does_not_grow_the_tasks_event_log():

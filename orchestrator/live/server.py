@@ -34,9 +34,9 @@ def _estop_source(payload: bytes | None) -> str:
     """Who an e-stop says it comes from: the `client` of a command payload, if there is a
     readable one (an e-stop is never refused for its payload)."""
     try:
-        return f"e-stop from {decode_command(payload).client or 'a client'}"
+        return f"e-stop key, from {decode_command(payload).client or 'a client'}"
     except MalformedCommand:
-        return "the e-stop key"
+        return "e-stop key"
 
 
 def serve(

@@ -32,6 +32,7 @@ import itertools
 import queue
 import threading
 import time
+import traceback
 import uuid
 from collections import deque
 from collections.abc import Callable, Sequence
@@ -171,7 +172,8 @@ class Session:
 
     def estop(self, source: str = "the e-stop key") -> Reply:
         """The e-stop, from any thread: never refused, no lock taken, the loop woken; it is
-        applied at the start of the next control tick."""
+        applied at the start of the next control tick. `source` says where it came from (in
+        the task's events and the `estop` event)."""
         self._reset_pending = False
         cmd = Command(op="estop", client=source[:128])
         self.inbox.put((PRIORITY["estop"], next(self._order), cmd, None, self.ticks,
@@ -374,8 +376,6 @@ class Session:
     def _internal_error(self, cmd: Command, payload: Any, exc: Exception) -> None:
         """A command's effect failed: stop what runs under control and go to ERROR (until
         `reset`), as a robot's controller does on a software fault."""
-        import traceback
-
         traceback.print_exc()
         self.error = f"internal error applying {cmd.op}: {type(exc).__name__}: {exc}"[:500]
         if isinstance(payload, Task):
@@ -387,7 +387,8 @@ class Session:
         self.publish("events", {"event": "internal_error", "message": self.error})
 
     def _apply(self, cmd: Command, payload: Any, arrived: int, wall: float) -> None:
-        op, source = cmd.op, f"command from {cmd.client or 'a client'}"
+        op = cmd.op
+        source = cmd.client if op == "estop" else f"command from {cmd.client or 'a client'}"
         task = self.task
         running = task is not None and task.executor is not None and not task.executor.done
         # a command that would change nothing is not delivered again: a flood of them must
