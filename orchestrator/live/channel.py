@@ -33,11 +33,11 @@ RUN_CHECKS = 4
 _ERROR_CHARS = 300
 
 
-def answer(query: Any, reply: Reply) -> None:
-    """Reply to `query` and finalize it (the client's `get` returns at once); a client that
-    has gone away is no error."""
+def answer(query: Any, reply: Reply, **qos: Any) -> None:
+    """Reply to `query` (with Zenoh `qos`: priority, express) and finalize it (the client's
+    `get` returns at once); a client that has gone away is no error."""
     try:
-        query.reply(query.key_expr, reply.model_dump_json())
+        query.reply(query.key_expr, reply.model_dump_json(), **qos)
     except Exception:  # the querier left, or the session is closing: nobody to tell
         pass
     finally:

@@ -124,9 +124,9 @@ class Client:
         self._wake.set()
 
     # -- commands -------------------------------------------------------------------------
-    def _query(self, leaf: str, payload: str, timeout: float) -> Reply | None:
+    def _query(self, leaf: str, payload: str, timeout: float, **qos: Any) -> Reply | None:
         """One query on `leaf`; the first usable reply (None: none came)."""
-        for reply in self.z.get(key(self.session, leaf), payload=payload, timeout=timeout):
+        for reply in self.z.get(key(self.session, leaf), payload=payload, timeout=timeout, **qos):
             if reply.ok is not None:
                 return Reply.model_validate_json(reply.ok.payload.to_string())
         return None
@@ -244,9 +244,14 @@ class Client:
         return reply.status or {}
 
     def estop(self) -> Reply:
-        """E-stop on the session's own e-stop key (never queued behind other commands)."""
+        """E-stop on the session's own e-stop key (never queued behind other commands): at
+        Zenoh's real-time priority, express (not batched), so it also overtakes this
+        client's own commands still waiting to be sent."""
+        import zenoh
+
         cmd = Command(op="estop", client=self.name)
-        reply = self._query("estop", cmd.model_dump_json(), 5.0)
+        reply = self._query("estop", cmd.model_dump_json(), 5.0,
+                            priority=zenoh.Priority.REAL_TIME, express=True)  # fmt: skip
         return reply if reply is not None else self.command("estop")
 
     def stop(self) -> Reply:

@@ -83,11 +83,13 @@ def serve(
     session.publish = publish
     channel = CommandChannel(session)
 
+    urgent = {"priority": zenoh.Priority.REAL_TIME, "express": True}
+
     def on_estop_query(query: Any) -> None:
         try:
-            answer(query, session.estop(_estop_source(payload_of(query))))
+            answer(query, session.estop(_estop_source(payload_of(query))), **urgent)
         except Exception as exc:  # never raise into Zenoh; the e-stop itself cannot fail
-            answer(query, internal_error(exc))
+            answer(query, internal_error(exc), **urgent)
 
     def on_estop_sample(sample: Any) -> None:
         session.estop(_estop_source(sample.payload.to_bytes()))
