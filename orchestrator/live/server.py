@@ -83,7 +83,7 @@ def serve(
     session.publish = publish
     channel = CommandChannel(session)
 
-    urgent = {"priority": zenoh.Priority.REAL_TIME, "express": True}
+    urgent = {"express": True}  # a reply takes its query's priority (real time, the client's)
 
     def on_estop_query(query: Any) -> None:
         try:
