@@ -57,6 +57,7 @@ from tests.live_attacks import (  # noqa: E402
     bystander,
     flood,
     free_port,
+    hold_paused_task,
     kill_mid_wait,
     malformed_payloads,
     wait_for,
@@ -240,14 +241,15 @@ def estop_wedged_figures() -> dict[str, Any]:
 
 
 def flood_figures(n: int, repeats: int = 3, window: int | None = None) -> dict[str, Any]:
-    """RSS from a cold session (after one status) and after a 1,000-command warm-up of the
-    same mix (its first `run` loads a scenario and runs a task: memory the flood does not
-    cause), then after each of `repeats` floods of `n` (a leak grows with each); at most
-    `window` commands in flight (None: all at once, most refused as overloaded)."""
+    """RSS from a cold session (after one status), then with a pick running and paused (busy,
+    frozen: see `hold_paused_task`) and a 1,000-command warm-up of the same mix, then after
+    each of `repeats` floods of `n` (a leak grows with each); at most `window` commands in
+    flight (None: all at once, most refused as overloaded)."""
     served = Served("attack-flood", "--watchdog", "0")
     try:
         z = served.raw()
         cold, threads0 = served.rss_mb(), served.threads()
+        hold_paused_task(served)
         flood(z, served.name, 1000, seed=99)
         warm = served.rss_mb()
         t0 = time.perf_counter()

@@ -169,6 +169,19 @@ def flood(z: Any, session: str, n: int, seed: int = 0, window: int | None = None
     return counts
 
 
+def hold_paused_task(served: Served) -> str:
+    """Start a pick and pause it: the session is busy and its task frozen, so what memory a
+    flood then costs is the channel's own (a task running meanwhile allocates as it goes)."""
+    c = served.client
+    reply, _ = c.run("pick_place")
+    assert reply.accepted, reply.reason
+    wait_for(lambda: c.status()["state"] in ("MOVING", "GRASPING"), 120.0)
+    assert c.pause().accepted
+    wait_for(lambda: c.status()["state"] == "PAUSED", 30.0)
+    assert reply.task is not None
+    return reply.task
+
+
 class Served:
     """`orchestrator serve pick_place` as a subprocess on 127.0.0.1.
 

@@ -18,6 +18,7 @@ from .live_attacks import (
     bystander,
     flood,
     get_raw,
+    hold_paused_task,
     kill_mid_wait,
     malformed_payloads,
     wait_for,
@@ -82,7 +83,8 @@ def test_a_10000_command_flood_is_answered_in_full_with_flat_memory_and_threads(
     served = Served("slow-flood", "--watchdog", "0")
     try:
         z = served.raw()
-        flood(z, served.name, 1000, seed=99)  # warm: the first `run` loads and runs a task
+        hold_paused_task(served)  # busy and frozen: what grows is the channel's
+        flood(z, served.name, 1000, seed=99)
         rss0, threads0 = served.rss_mb(), served.threads()
         counts = flood(z, served.name, 10_000)
         rss1, threads1 = served.rss_mb(), served.threads()
