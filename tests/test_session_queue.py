@@ -129,7 +129,7 @@ def test_a_bystanders_heartbeats_do_not_keep_a_silent_owners_task_alive():
         _cycle(session)
         time.sleep(0.005)
     tripped = time.perf_counter() - t0
-    assert session.error is not None and 0.2 <= tripped < 0.5
+    assert session.error is not None and 0.2 <= tripped < 2.0  # loose above: a loaded CI
     assert session.error.startswith(f"watchdog: no heartbeat from task {task}'s owner (planner)")
     assert len(events.of("watchdog")) == 1
 
