@@ -218,7 +218,7 @@ def test_a_client_waiting_on_a_task_fails_fast_when_the_session_goes():
         served.stop.set()  # the session ends without ending the task
         served.thread.join(30)
         waiter.join(10)
-        assert "exc" in caught and caught["t"] - t0 < 1.0
+        assert "exc" in caught and caught["t"] - t0 < 2.0  # ms unloaded; bounded for CI
         assert "lost while waiting on task" in str(caught["exc"])
     finally:
         served.close()
