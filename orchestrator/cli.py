@@ -736,11 +736,45 @@ Endpoints = Annotated[
     list[str] | None,
     typer.Option("--connect", help="Zenoh endpoint of the session (default tcp/127.0.0.1:7447)."),
 ]
+UserOption = Annotated[
+    str | None,
+    typer.Option("--user", envvar="ORCHESTRATOR_USER",
+                 help="User name, for a session that authenticates (serve --users)."),
+]  # fmt: skip
+PasswordOption = Annotated[
+    str | None,
+    typer.Option("--password", envvar="ORCHESTRATOR_PASSWORD",
+                 help="Its password (an option is visible in the process list: prefer the "
+                 "environment variable or --credentials)."),
+]  # fmt: skip
+CredentialsOption = Annotated[
+    Path | None,
+    typer.Option("--credentials", envvar="ORCHESTRATOR_CREDENTIALS",
+                 help="A file with one user:password line (readable by you only: chmod 600)."),
+]  # fmt: skip
+TlsCaOption = Annotated[
+    Path | None,
+    typer.Option("--tls-ca", envvar="ORCHESTRATOR_TLS_CA",
+                 help="CA certificate (PEM) that signed the session's TLS certificate "
+                 "(tls/ endpoints)."),
+]  # fmt: skip
 
 
-def _live_error(exc: Exception) -> None:
+def _live_error(exc: Exception, code: int = EXIT_INVALID) -> None:
     err.print(f"error: {exc}", markup=False, soft_wrap=True)
-    raise typer.Exit(EXIT_INVALID)
+    raise typer.Exit(code)
+
+
+def _credentials(
+    user: str | None, password: str | None, credentials: Path | None, tls_ca: Path | None
+):
+    """The client's credentials from options, environment and file, or exit 2 saying why."""
+    from .live.access import AccessError, Credentials
+
+    try:
+        return Credentials.resolve(user, password, credentials, tls_ca)
+    except AccessError as exc:
+        _live_error(exc)
 
 
 @app.command()
@@ -752,14 +786,64 @@ def serve(
         float, typer.Option(min=0.0, help="Simulated s per wall s while a task runs (0: max).")
     ] = 1.0,
     watchdog: Annotated[
-        float | None,
-        typer.Option(min=0.01, help="Stop and go to ERROR when no client heartbeat for S s."),
-    ] = None,
+        float,
+        typer.Option(
+            min=0.0,
+            help="Stop a task and go to ERROR when its owner sends no "
+            "heartbeat for S s (0: no watchdog).",
+        ),
+    ] = 1.0,
+    queue: Annotated[
+        int,
+        typer.Option(
+            "--queue",
+            min=0,
+            help="Tasks that may wait behind the running one "
+            "(0: a run while busy is refused, naming the running task).",
+        ),
+    ] = 0,
     listen: Annotated[
         list[str] | None,
-        typer.Option("--listen", help="Zenoh endpoint to listen on (default tcp/127.0.0.1:7447)."),
+        typer.Option(
+            "--listen",
+            help="Zenoh endpoint to listen on (default tcp/127.0.0.1:7447)."
+            " Another than loopback needs --users.",
+        ),
     ] = None,
     connect: Endpoints = None,
+    users: Annotated[
+        Path | None,
+        typer.Option(
+            "--users",
+            envvar="ORCHESTRATOR_USERS",
+            help="Authenticate clients: a file of user:password lines (Zenoh's "
+            "dictionary format, chmod 600); its users may command, except --viewer.",
+        ),
+    ] = None,
+    viewer: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--viewer", help="A user of --users who may only watch and e-stop. Repeatable."
+        ),
+    ] = None,
+    tls_cert: Annotated[
+        Path | None,
+        typer.Option(
+            "--tls-cert",
+            envvar="ORCHESTRATOR_TLS_CERT",
+            help="TLS certificate (PEM) for tls/ endpoints.",
+        ),
+    ] = None,
+    tls_key: Annotated[
+        Path | None,
+        typer.Option(
+            "--tls-key", envvar="ORCHESTRATOR_TLS_KEY", help="Its private key (PEM, chmod 600)."
+        ),
+    ] = None,
+    user: UserOption = None,
+    password: PasswordOption = None,
+    credentials: CredentialsOption = None,
+    tls_ca: TlsCaOption = None,
     spawn: Annotated[
         bool, typer.Option(help="Stream every task live to a spawned Rerun viewer.")
     ] = False,
@@ -769,23 +853,29 @@ def serve(
     ] = None,
     allow_path: AllowPathOption = None,
 ) -> None:
-    """Keep a world running and take commands over Zenoh (see docs/live.md)."""
+    """Keep a world running and take commands over Zenoh (see docs/live.md). --user,
+    --password, --credentials and --tls-ca are what the session presents to --connect."""
+    from .live.access import AccessError, ServerAccess
     from .live.protocol import DEFAULT_ENDPOINT
     from .live.server import serve as serve_session
     from .live.session import Session
 
     if not session or "/" in session or "*" in session:
         _live_error(ValueError(f"--session {session!r}: a name without '/' or '*' (e.g. cell1)"))
+    endpoints = list(listen or [DEFAULT_ENDPOINT])
+    access = ServerAccess(users, tuple(viewer or ()), tls_cert, tls_key)
+    try:  # before building anything: an exposed session is refused at once
+        access.check(endpoints, list(connect or []))
+    except AccessError as exc:
+        _live_error(exc)
+    own = _credentials(user, password, credentials, tls_ca)
     recorder = None
     if spawn or rrd is not None:
         from .recording import RerunRecorder
 
         def recorder(task):
-            path = (
-                None
-                if rrd is None
-                else rrd / f"task-{task.id:04d}-{Path(task.machine_ref).stem}.rrd"
-            )
+            stem = Path(task.machine_ref).stem
+            path = None if rrd is None else rrd / f"task-{task.id}-{stem}.rrd"
             return RerunRecorder(path=path, spawn=spawn)
 
     try:
@@ -794,20 +884,25 @@ def serve(
             session,
             seed=seed,
             speed=speed,
-            watchdog_s=watchdog,
+            watchdog_s=watchdog or None,
             recorder=recorder,
             allow_paths=_allowed(allow_path),
+            queue_limit=queue,
         )
     except ConfigError as exc:
         _fail_config(exc)
         return
-    endpoints = list(listen or [DEFAULT_ENDPOINT])
 
     def ready() -> None:
-        err.print(f"session {session!r} ready on {', '.join(endpoints)}", markup=False)
+        err.print(f"session {session!r} ready on {', '.join(endpoints)} (epoch {live.epoch}, "
+                  f"watchdog {f'{watchdog} s' if watchdog else 'off'}, "
+                  f"{'users: ' + str(users) if users else 'no authentication'})",
+                  markup=False)  # fmt: skip
 
     try:
-        serve_session(live, endpoints, connect, ready)
+        serve_session(live, endpoints, connect, ready, access=access, credentials=own)
+    except AccessError as exc:
+        _live_error(exc)
     except Exception as exc:  # Zenoh cannot open its endpoints: say which, no traceback
         if "zenoh" not in type(exc).__module__.lower() and not isinstance(exc, OSError):
             raise
@@ -828,23 +923,42 @@ def send(
         list[str] | None, typer.Option("--set", help="For run: a blackboard value KEY=VALUE.")
     ] = None,
     wait: Annotated[bool, typer.Option(help="For run: wait for the task's end.")] = False,
+    preempt: Annotated[
+        bool, typer.Option(help="For run: stop the running task under control, then run this.")
+    ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     connect: Endpoints = None,
+    user: UserOption = None,
+    password: PasswordOption = None,
+    credentials: CredentialsOption = None,
+    tls_ca: TlsCaOption = None,
 ) -> None:
-    """Send a command. Exit 2 if rejected; with --wait, the task's exit code (0/1/3)."""
-    from .live.client import Client, LiveError
+    """Send a command. Exit 2 if rejected; with --wait, the task's exit code (0 succeeded,
+    1 failed, 3 aborted), or 5 if the session is lost while waiting (killed, shut down,
+    network gone: noticed within about a second)."""
+    from .live.client import EXIT_SESSION_LOST, Client, LiveError, SessionLost
     from .live.protocol import COMMANDS
 
     if command not in COMMANDS:
         _live_error(ValueError(f"unknown command {command!r} (valid: {', '.join(COMMANDS)})"))
-    if command != "run" and (machine or set_ or wait):
-        _live_error(ValueError(f"{command}: takes no MACHINE, --set or --wait (only run does)"))
+    if command != "run" and (machine or set_ or wait or preempt):
+        only = "takes no MACHINE, --set, --wait or --preempt (only run does)"
+        _live_error(ValueError(f"{command}: {only}"))
+    creds = _credentials(user, password, credentials, tls_ca)
+    watchdog_s = None
     try:
-        with Client(session, connect, name="orchestrator send") as client:
+        with Client(session, connect, name="orchestrator send", credentials=creds) as client:
             if command == "run":
-                reply, result = client.run(machine, set_ or [], wait=wait)
+                reply, result = client.run(machine, set_ or [], wait=wait, preempt=preempt)
+                if reply.accepted and not wait:
+                    watchdog_s = client.status().get("watchdog_s")
+            elif command == "estop":
+                reply, result = client.estop(), None
             else:
                 reply, result = client.command(command), None
+    except SessionLost as exc:
+        _live_error(exc, EXIT_SESSION_LOST)
+        return
     except LiveError as exc:
         _live_error(exc)
         return
@@ -858,16 +972,21 @@ def send(
             _json_line(result)
         else:
             out.print(f"task {result['task']} {result['machine']}: {result['outcome']} "
-                      f"in {result['final_state']} after {result['sim_time']:.2f} s")  # fmt: skip
+                      f"in {result['final_state']} after {result['sim_time']:.2f} s",
+                      markup=False)  # fmt: skip
         raise typer.Exit(result["exit_code"])
-    if wait:  # the session ended or refused to start the task
-        _live_error(RuntimeError(f"task {reply.task} did not run"))
+    if wait:  # the session refused to start the task after accepting it
+        _live_error(RuntimeError(f"task {reply.task} did not run (see the session's events)"))
     if as_json:
         _json_line(reply.model_dump(mode="json"))
     elif reply.status is not None:
         out.print_json(_strict_json(reply.status))
     else:
-        out.print(f"accepted{f': task {reply.task}' if reply.task else ''}")
+        out.print(f"accepted{f': task {reply.task}' if reply.task else ''}", markup=False)
+        if reply.task and watchdog_s:
+            err.print(f"note: this client, the task's owner, stops sending heartbeats now: "
+                      f"the session's watchdog stops the task after {watchdog_s} s (use "
+                      "--wait to supervise it)", markup=False)  # fmt: skip
 
 
 @app.command()
@@ -877,11 +996,16 @@ def watch(
     duration: Annotated[
         float | None, typer.Option("--for", help="Stop after S seconds (default: Ctrl-C).")
     ] = None,
+    user: UserOption = None,
+    password: PasswordOption = None,
+    credentials: CredentialsOption = None,
+    tls_ca: TlsCaOption = None,
 ) -> None:
     """A live table of a session's status; warns when its heartbeats stop."""
     from .live.watch import watch as watch_session
 
-    raise typer.Exit(watch_session(session, connect, duration, out))
+    creds = _credentials(user, password, credentials, tls_ca)
+    raise typer.Exit(watch_session(session, connect, duration, out, creds))
 
 
 @app.command()
@@ -891,16 +1015,25 @@ def ask(
     wait: Annotated[bool, typer.Option(help="Wait for the task's end.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     connect: Endpoints = None,
+    user: UserOption = None,
+    password: PasswordOption = None,
+    credentials: CredentialsOption = None,
+    tls_ca: TlsCaOption = None,
 ) -> None:
     """Ask a planner (an OpenAI-compatible endpoint) for a command; it goes through the
-    same guardrails as any other. Set ORCHESTRATOR_PLANNER_URL (and _MODEL, _KEY)."""
-    from .live.client import Client, LiveError
+    same guardrails as any other. Set ORCHESTRATOR_PLANNER_URL (and _MODEL, _KEY). With
+    --wait, exit 5 if the session is lost while waiting."""
+    from .live.client import EXIT_SESSION_LOST, Client, LiveError, SessionLost
     from .live.planner import PlannerError, ask_planner, planner_url
 
+    creds = _credentials(user, password, credentials, tls_ca)
     try:
         planner_url()  # before connecting: say at once that there is none
-        with Client(session, connect, name="orchestrator ask") as client:
+        with Client(session, connect, name="orchestrator ask", credentials=creds) as client:
             proposal, reply, result = ask_planner(client, instruction, wait=wait)
+    except SessionLost as exc:
+        _live_error(exc, EXIT_SESSION_LOST)
+        return
     except (PlannerError, LiveError) as exc:
         _live_error(exc)
         return
@@ -913,10 +1046,10 @@ def ask(
         raise typer.Exit(EXIT_INVALID)
     if result is not None:
         if not as_json:
-            out.print(f"task {result['task']}: {result['outcome']}")
+            out.print(f"task {result['task']}: {result['outcome']}", markup=False)
         raise typer.Exit(result["exit_code"])
     if not as_json:
-        out.print(f"accepted: task {reply.task}")
+        out.print(f"accepted: task {reply.task}", markup=False)
 
 
 def main() -> None:

@@ -35,7 +35,7 @@ class Served:
              "--seed", "3", "--listen", self.endpoint, *args],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         )  # fmt: skip
-        self.client = Client(name, [self.endpoint], heartbeat_s=None, name="test", find_s=60.0)
+        self.client = Client(name, [self.endpoint], name="test", find_s=60.0)  # owns its tasks
         self.client.status()  # waits for the session to come up
 
     def send(self, *args: str) -> CliResult:

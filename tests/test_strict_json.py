@@ -84,11 +84,11 @@ class _FakeClient:
     def __exit__(self, *exc) -> None:
         pass
 
-    def run(self, machine, sets, wait=False):
-        result = {"task": 1, "machine": machine, "outcome": "succeeded", "exit_code": 0,
+    def run(self, machine, sets, wait=False, preempt=False):
+        result = {"task": "e0-1", "machine": machine, "outcome": "succeeded", "exit_code": 0,
                   "final_state": "DONE", "sim_time": NAN,
                   "metrics": {"tcp_error_mm": INF}}  # fmt: skip
-        return SimpleNamespace(accepted=True, task=1), result
+        return SimpleNamespace(accepted=True, task="e0-1"), result
 
 
 def test_send_json(cli, monkeypatch):

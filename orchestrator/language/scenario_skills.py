@@ -105,8 +105,8 @@ def hint_unimported(diag: Diagnostic, unimported: Sequence[str]) -> Diagnostic:
         return diag
     fix = " ".join(f"--skills {u}" for u in unimported)
     message = (
-        f"{diag.message}; the scenario's skills: (its skills and success checks) are not "
-        f"imported here (no code a file names runs): if it is there, pass {fix}"
+        f"{diag.message}; the scenario's skills: are not imported here (no code a file names "
+        f"runs): if it is there, pass {fix}"
     )
     return dataclasses.replace(diag, message=message)
 

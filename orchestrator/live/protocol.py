@@ -2,9 +2,11 @@
 
 Every message is one JSON object. A client sends a `Command` as the payload of a query on
 `orchestrator/<session>/command`; the session answers with a `Reply` (accepted or rejected,
-with the reason). The session publishes its `status` at 10 Hz, its own `heartbeat`, and an
-`events` stream (task started, task ended with its result, e-stop, watchdog); clients put
-their heartbeats on `clients/heartbeat`.
+with the reason). The e-stop has a key of its own, `estop` (a query or a put; any payload),
+that no other command waits in front of. The session publishes its `status` at 10 Hz (and
+answers queries on that key), its own `heartbeat`, an `events` stream (task started, task
+ended with its result, e-stop, watchdog), and holds a liveliness token on `alive` while it
+runs; clients put their heartbeats (their owner token) on `clients/heartbeat`.
 """
 
 from __future__ import annotations
@@ -41,6 +43,10 @@ class Command(BaseModel):
         machine: For `run`: a machine file or a bundled name (`pick_place`, `home`, `reach`).
         set: For `run`: blackboard values `KEY=VALUE` (YAML values), checked by the guardrail.
         client: Who sends it (for the log).
+        owner: For `run`: the sender's owner token; the watchdog counts only heartbeats that
+            carry it (a bystander's do not keep the task alive).
+        preempt: For `run`: stop the running task under control (and drop the queue), then
+            run this one; without it a `run` while busy follows the session's queue policy.
     """
 
     model_config = ConfigDict(extra="forbid")
@@ -48,7 +54,9 @@ class Command(BaseModel):
     op: Literal["run", "stop", "estop", "reset", "pause", "resume", "status", "shutdown"]
     machine: str | None = Field(default=None, description="For `run`: machine path or name.")
     set: list[str] = Field(default_factory=list, description="For `run`: KEY=VALUE texts.")
-    client: str = Field(default="", description="Who sends the command.")
+    client: str = Field(default="", max_length=128, description="Who sends the command.")
+    owner: str = Field(default="", max_length=128, description="For `run`: owner token.")
+    preempt: bool = Field(default=False, description="For `run`: replace the running task.")
 
 
 class Reply(BaseModel):
@@ -56,7 +64,11 @@ class Reply(BaseModel):
 
     accepted: bool
     reason: str = ""
-    task: int | None = Field(default=None, description="The task id of an accepted `run`.")
+    task: str | None = Field(
+        default=None,
+        description="The task id of an accepted `run`: `<epoch>-<n>`, unique "
+        "across restarts of the session.",
+    )
     status: dict[str, Any] | None = Field(default=None, description="For `status`.")
 
 
@@ -65,20 +77,12 @@ def key(session: str, leaf: str) -> str:
     return f"orchestrator/{session}/{leaf}"
 
 
-def config_for(listen: list[str] | None = None, connect: list[str] | None = None) -> Any:
-    """A Zenoh configuration: multicast scouting off, explicit endpoints only.
+def config_for(
+    listen: list[str] | None = None, connect: list[str] | None = None, **access: Any
+) -> Any:
+    """A Zenoh configuration: scouting off, explicit endpoints, and the credentials, TLS and
+    access control in `access` (`credentials`, `server`, `session`: see
+    `access.zenoh_config`)."""
+    from .access import zenoh_config
 
-    Args:
-        listen: Endpoints to listen on (the session), e.g. `tcp/127.0.0.1:7447`.
-        connect: Endpoints to connect to (a client).
-    """
-    import json
-
-    import zenoh
-
-    conf = zenoh.Config()
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    conf.insert_json5("scouting/gossip/enabled", "false")
-    conf.insert_json5("listen/endpoints", json.dumps(list(listen or [])))
-    conf.insert_json5("connect/endpoints", json.dumps(list(connect or [])))
-    return conf
+    return zenoh_config(listen, connect, **access)

@@ -1,32 +1,42 @@
 """`orchestrator serve`: a session behind Zenoh.
 
-Keys under `orchestrator/<session>/`: `command` (a queryable: a `Command` in, a `Reply` out),
-`status` (10 Hz), `heartbeat` (the session's, 10 Hz), `events` (task start and end with its
-result, e-stop, watchdog, reset, shutdown) and `clients/heartbeat` (where clients prove
-they are alive). A command is answered on a thread of its own when it needs work (a `run`'s
-loading and goal checks), so an `estop` is never queued behind one.
+Keys under `orchestrator/<session>/`: `command` (a queryable: a `Command` in, a `Reply` out,
+through the bounded `CommandChannel`), `estop` (a queryable and a subscriber of its own: any
+query or put there e-stops at once, from Zenoh's thread, without waiting behind a command),
+`status` (published at 10 Hz, and a queryable answering it at once), `heartbeat` (the
+session's, 10 Hz), `events` (task start and end with its result, e-stop, watchdog, reset,
+shutdown), `clients/heartbeat` (clients' heartbeats, each carrying its owner token) and
+`alive` (the session's liveliness token: clients notice at once when it goes).
 """
 
 from __future__ import annotations
 
 import signal
 import threading
-import time
 from collections.abc import Callable
 from typing import Any
 
-from pydantic import ValidationError
-
 from ..engine.strict_json import dumps
-from .protocol import Command, Reply, config_for, key
+from .access import Credentials, ServerAccess
+from .channel import CommandChannel, answer, internal_error, payload_of
+from .protocol import Reply, config_for, key
 from .session import Session
+from .wire import MalformedCommand, decode_command
 
-__all__ = ["POLL_S", "SWITCH_INTERVAL_S", "serve"]
+__all__ = ["SWITCH_INTERVAL_S", "serve"]
 
-POLL_S = 0.0005
-"""Period the command channel is polled at when empty [s]."""
 SWITCH_INTERVAL_S = 0.0002
 """The interpreter's thread switch interval while serving (default 5 ms) [s]."""
+_OWNER_CHARS = 128
+
+
+def _estop_source(payload: bytes | None) -> str:
+    """Who an e-stop says it comes from: the `client` of a command payload, if there is a
+    readable one (an e-stop is never refused for its payload)."""
+    try:
+        return f"e-stop key, from {decode_command(payload).client or 'a client'}"
+    except MalformedCommand:
+        return "e-stop key"
 
 
 def serve(
@@ -35,6 +45,8 @@ def serve(
     connect: list[str] | None = None,
     ready: Callable[[], None] | None = None,
     stop: threading.Event | None = None,
+    access: ServerAccess | None = None,
+    credentials: Credentials | None = None,
 ) -> None:
     """Open Zenoh, answer commands and publish until the session shuts down (or SIGINT/TERM).
 
@@ -44,16 +56,23 @@ def serve(
         connect: Endpoints of routers or peers to connect to.
         ready: Called once the keys are declared (the CLI prints its ready line).
         stop: Set it to end the session from another thread (as SIGINT does).
+        access: Authentication, access control and TLS (None: none; loopback only).
+        credentials: What the session presents when it connects out (`connect`).
+
+    Raises:
+        AccessError: A non-loopback endpoint without authentication, or unusable settings.
     """
     import sys
 
     import zenoh
 
+    name = session.name
+    conf = config_for(listen, connect, credentials=credentials,
+                      server=access or ServerAccess(), session=name)  # fmt: skip
     # the loop holds the GIL through a whole control tick; a command's thread should not
     # wait the default 5 ms for it
     sys.setswitchinterval(SWITCH_INTERVAL_S)
-    z = zenoh.open(config_for(listen, connect))
-    name = session.name
+    z = zenoh.open(conf)
     pubs = {
         leaf: z.declare_publisher(key(name, leaf)) for leaf in ("status", "heartbeat", "events")
     }
@@ -62,51 +81,38 @@ def serve(
         pubs[leaf].put(dumps(msg))
 
     session.publish = publish
+    channel = CommandChannel(session)
 
-    def answer(query: Any, cmd: Command) -> None:
+    urgent = {"express": True}  # a reply takes its query's priority (real time, the client's)
+
+    def on_estop_query(query: Any) -> None:
         try:
-            reply = session.submit(cmd)
-        except Exception as exc:  # a bug must not take the session down: say what it was
-            reply = Reply(accepted=False, reason=f"internal error: {type(exc).__name__}: {exc}")
-        query.reply(query.key_expr, reply.model_dump_json())
-        query.drop()
+            answer(query, session.estop(_estop_source(payload_of(query))), **urgent)
+        except Exception as exc:  # never raise into Zenoh; the e-stop itself cannot fail
+            answer(query, internal_error(exc), **urgent)
 
-    def on_query(query: Any) -> None:
-        text = query.payload.to_string() if query.payload is not None else ""
+    def on_estop_sample(sample: Any) -> None:
+        session.estop(_estop_source(sample.payload.to_bytes()))
+
+    def on_status(query: Any) -> None:
         try:
-            cmd = Command.model_validate_json(text)
-        except ValidationError as exc:
-            problems = "; ".join(
-                f"{'.'.join(str(p) for p in e['loc']) or 'command'}: {e['msg']}"
-                for e in exc.errors()
-            )
-            reply = Reply(accepted=False, reason=f"malformed command: {problems}")
-            query.reply(query.key_expr, reply.model_dump_json())
-            query.drop()
-            return
-        if cmd.op == "run":  # loading and goal checks take a while: never block an estop
-            threading.Thread(target=answer, args=(query, cmd), daemon=True).start()
-        else:
-            answer(query, cmd)
+            answer(query, Reply(accepted=True, status=session.status()))
+        except Exception as exc:
+            answer(query, internal_error(exc))
 
-    # a channel, not a callback: a query may then be answered from another thread
-    queryable = z.declare_queryable(key(name, "command"))
+    def on_heartbeat(sample: Any) -> None:
+        raw = sample.payload.to_bytes()
+        if len(raw) <= _OWNER_CHARS:
+            session.heartbeat(raw.decode("utf-8", "replace"))
 
-    closing = threading.Event()
-
-    def receive() -> None:  # polled, so that closing never waits on a blocked recv()
-        while not closing.is_set():
-            query = queryable.try_recv()
-            if query is None:
-                time.sleep(POLL_S)
-            else:
-                on_query(query)
-
-    receiver = threading.Thread(target=receive, name="orchestrator-commands", daemon=True)
-    receiver.start()
-    subscriber = z.declare_subscriber(
-        key(name, "clients/heartbeat"), lambda sample: session.heartbeat()
-    )
+    declared: list[Any] = [
+        z.declare_queryable(key(name, "estop"), on_estop_query),
+        z.declare_subscriber(key(name, "estop"), on_estop_sample),
+        z.declare_queryable(key(name, "status"), on_status),
+        z.declare_queryable(key(name, "command"), channel.offer),
+        z.declare_subscriber(key(name, "clients/heartbeat"), on_heartbeat),
+    ]
+    token = z.liveliness().declare_token(key(name, "alive"))
     stop = stop or threading.Event()
     previous = {}
     if threading.current_thread() is threading.main_thread():  # Ctrl-C, kill: a clean close
@@ -120,8 +126,8 @@ def serve(
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
-        closing.set()
-        receiver.join(timeout=2.0)
-        queryable.undeclare()
-        subscriber.undeclare()
+        token.undeclare()
+        for entity in declared:
+            entity.undeclare()
+        channel.close()
         z.close()

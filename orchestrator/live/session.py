@@ -6,14 +6,24 @@ touching the world (a task's machine and `--set` values are loaded and validated
 go through the guardrail). Accepted commands wait in an inbox that the session's loop drains
 at the start of every control tick, highest priority first (`estop` > `stop`, `shutdown` >
 `pause`, `resume`, `reset` > `run`); tasks run one after another, first in first out.
+`estop` (any thread, `Session.estop`) takes no lock and wakes the loop: it is applied at the
+start of the next control tick whatever the command handlers are doing.
+
+The queue policy: a `run` while a task runs or waits is refused, naming the running task
+(`queue_limit` 0, the default), or waits behind it while fewer than `queue_limit` tasks wait;
+a `run` with `preempt` stops the running task under control, drops the queue, and runs next.
+Task ids are `<epoch>-<n>`: the epoch is random per session, so no id is reused when a
+session restarts and a client waiting on a task never takes another task's result.
 
 Simulated time is paced to the wall clock: `speed` 1 is real time, 2 twice as fast, 0 as
 fast as the machine can (while a task runs; an idle or paused robot is kept at real time:
 there is nothing to hurry and the CPU is left to others). A paused task's time limit stands
-still with its clock. A watchdog, when set, expects a client's
-heartbeat at least every `watchdog_s` seconds of wall time while a task runs (counted from
-the task's start at the latest: whoever starts a task must stay to supervise it); when none
-comes, the robot stops under control and the session goes to ERROR until `reset`.
+still with its clock. A watchdog, when set, expects a heartbeat from the task's *owner*
+(the client that sent the `run`: its heartbeats carry the owner token of the command) at
+least every `watchdog_s` seconds of wall time while the task runs (counted from the task's
+start at the latest: whoever starts a task must stay to supervise it; a bystander's
+heartbeats do not count); when none comes, the robot stops under control and the session
+goes to ERROR until `reset`. A queued task whose owner fell silent is dropped unstarted.
 """
 
 from __future__ import annotations
@@ -22,6 +32,8 @@ import itertools
 import queue
 import threading
 import time
+import traceback
+import uuid
 from collections import deque
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -63,9 +75,13 @@ class Session:
         name: The session's name (its Zenoh keys live under `orchestrator/<name>/`).
         seed: The world's seed.
         speed: Simulated seconds per wall second while a task runs (0: as fast as possible).
-        watchdog_s: Longest wall time between two client heartbeats (None: no watchdog) [s].
+        watchdog_s: Longest wall time between two heartbeats of a running task's owner
+            (None: no watchdog; `orchestrator serve` sets 1 s unless told otherwise) [s].
         publish: Called with (leaf key, message) for status, heartbeat and events.
         recorder: Makes the observer that records a task (a Rerun recording per task).
+        allow_paths: Directories besides the scenario's tree a task's machine may come from.
+        queue_limit: Tasks that may wait behind the running one (0: a `run` while busy is
+            refused).
 
     Raises:
         ConfigError: The scenario does not load.
@@ -81,6 +97,7 @@ class Session:
         publish: Publish | None = None,
         recorder: Callable[[Task], Observer] | None = None,
         allow_paths: Sequence[Path | str] = (),
+        queue_limit: int = 0,
     ) -> None:
         self.recorder = recorder
         self.allow_paths = tuple(allow_paths)
@@ -107,7 +124,16 @@ class Session:
             queue.SimpleQueue()
         )
         self._order = itertools.count()
-        self._ids = itertools.count(1)
+        self.epoch = uuid.uuid4().hex[:8]
+        """This session's random epoch: the first part of every task id."""
+        self._ids = (f"{self.epoch}-{n}" for n in itertools.count(1))
+        self.queue_limit = queue_limit
+        self._pending: dict[str, Task] = {}
+        """Accepted `run`s still in the inbox, by id (admission counts them)."""
+        self._admit = threading.Lock()
+        """Serializes admission between command handlers (the loop never takes it)."""
+        self._wake = threading.Event()
+        """Set by an e-stop: the loop's pacing sleep ends at once."""
         self.tasks: deque[Task] = deque()
         self.task: Task | None = None
         self.estopped = False
@@ -133,9 +159,50 @@ class Session:
         """(wall, simulated time) of the last ticks, for the real-time factor."""
 
     # -- commands (any thread) ----------------------------------------------------------
-    def heartbeat(self, client: str = "") -> None:
-        """A client is alive (a message on `clients/heartbeat`; commands do not count)."""
-        self.heartbeat_wall = time.perf_counter()
+    def heartbeat(self, owner: str = "") -> None:
+        """A heartbeat carrying `owner` (a message on `clients/heartbeat`; commands do not
+        count): it feeds the watchdog of the tasks that owner sent, and nobody else's."""
+        now = time.perf_counter()
+        self.heartbeat_wall = now
+        if not owner:
+            return
+        for task in (self.task, *list(self.tasks)):
+            if task is not None and task.owner == owner:
+                task.beat_wall = now
+
+    def estop(self, source: str = "the e-stop key") -> Reply:
+        """The e-stop, from any thread: never refused, no lock taken, the loop woken; it is
+        applied at the start of the next control tick. `source` says where it came from (in
+        the task's events and the `estop` event)."""
+        self._reset_pending = False
+        cmd = Command(op="estop", client=source[:128])
+        self.inbox.put((PRIORITY["estop"], next(self._order), cmd, None, self.ticks,
+                        time.perf_counter()))  # fmt: skip
+        self._wake.set()
+        return Reply(accepted=True)
+
+    def busy(self, cmd: Command) -> str | None:
+        """Why a `run` cannot be admitted under the queue policy now (None: it can). Cheap:
+        checked before a `run` is loaded, and again before it is queued."""
+        if cmd.preempt:
+            return None
+        running = self.task
+        waiting = [*self.tasks, *self._pending.values()]
+        if (running is not None) + len(waiting) <= self.queue_limit:
+            return None
+        if running is not None:
+            what = f"task {running.id} ({running.machine_ref}) is running"
+        else:
+            what = f"task {waiting[0].id} ({waiting[0].machine_ref}) is about to start"
+        if self.queue_limit == 0:
+            return (
+                f"busy: {what} (queue policy: reject while busy); send with --preempt to "
+                "stop it under control and run this one, or serve with --queue N"
+            )
+        return (
+            f"busy: {what} and {self.queue_limit} task(s) wait (serve --queue "
+            f"{self.queue_limit}); send with --preempt to replace them"
+        )
 
     def submit(self, cmd: Command) -> Reply:
         """Check a command and queue it: the answer is immediate, the effect comes at the
@@ -143,25 +210,41 @@ class Session:
         op = cmd.op
         if op == "status":
             return Reply(accepted=True, status=self.status())
-        if self.shutting_down and op != "estop":
+        if op == "estop":
+            return self.estop(f"command from {cmd.client or 'a client'}")
+        if self.shutting_down:
             return Reply(accepted=False, reason="the session is shutting down")
         payload: Any = None
         if op == "run":
+            why = self.busy(cmd)
+            if why is not None:  # before loading anything: a flood of runs costs nothing
+                return Reply(accepted=False, reason=why)
             rejected, payload = self._prepare(cmd)
             if rejected is not None:
                 return Reply(accepted=False, reason=rejected)
-        else:
-            why = self._refuse(op)
-            if why is not None:
-                return Reply(accepted=False, reason=why)
-        task_id = payload.id if isinstance(payload, Task) else None
+            return self._admit_run(cmd, payload)
+        why = self._refuse(op)
+        if why is not None:
+            return Reply(accepted=False, reason=why)
         if op == "reset":  # a `run` right behind it is applied after it: accept that too
             self._reset_pending = True
-        elif op == "estop":
-            self._reset_pending = False
+        self._enqueue(cmd, None)
+        return Reply(accepted=True)
+
+    def _admit_run(self, cmd: Command, task: Any) -> Reply:
+        with self._admit:
+            why = self.busy(cmd)  # another run may have been admitted while this one loaded
+            if why is not None:
+                return Reply(accepted=False, reason=why)
+            task.owner, task.client = cmd.owner, cmd.client
+            task.accepted_wall = time.perf_counter()
+            self._pending[task.id] = task
+            self._enqueue(cmd, task)
+        return Reply(accepted=True, task=task.id)
+
+    def _enqueue(self, cmd: Command, payload: Any) -> None:
         arrived = (self.ticks, time.perf_counter())
-        self.inbox.put((PRIORITY[op], next(self._order), cmd, payload, *arrived))
-        return Reply(accepted=True, task=task_id)
+        self.inbox.put((PRIORITY[cmd.op], next(self._order), cmd, payload, *arrived))
 
     def _refuse(self, op: str) -> str | None:
         running = self.task is not None and self.task.executor is not None
@@ -224,11 +307,18 @@ class Session:
             rt = round((s1 - s0) / (w1 - w0), 4) if w1 > w0 else None
         return {
             "session": self.name,
+            "epoch": self.epoch,
             "state": self.state,
             "task": None
             if task is None
-            else {"id": task.id, "machine": task.machine_ref, "leaf": task.leaf},
+            else {
+                "id": task.id,
+                "machine": task.machine_ref,
+                "leaf": task.leaf,
+                "client": task.client,
+            },
             "queued": len(self.tasks),
+            "queue_limit": self.queue_limit,
             "last_result": self.last_result,
             "error": self.error,
             "sim_time": round(self.ctx.t, 4),
@@ -250,7 +340,8 @@ class Session:
             if self.shutting_down and self.task is None:
                 break
             if self.task is None and self.tasks and not (self.estopped or self.error):
-                self._start(self.tasks.popleft())
+                self._start(self.tasks[0])  # running before it leaves the queue: `busy`
+                self.tasks.popleft()  # never sees a moment with neither
             self._tick()
             self._status_if_due()
             self._pace()
@@ -277,62 +368,108 @@ class Session:
         for _, order, cmd, payload, tick, wall in sorted(items, key=lambda i: (i[0], i[1])):
             if cmd.op == "reset" and order < last_estop:
                 continue
-            self._apply(cmd, payload, tick, wall)
+            try:
+                self._apply(cmd, payload, tick, wall)
+            except Exception as exc:  # a bug in one command must not end the session
+                self._internal_error(cmd, payload, exc)
+
+    def _internal_error(self, cmd: Command, payload: Any, exc: Exception) -> None:
+        """A command's effect failed: stop what runs under control and go to ERROR (until
+        `reset`), as a robot's controller does on a software fault."""
+        traceback.print_exc()
+        self.error = f"internal error applying {cmd.op}: {type(exc).__name__}: {exc}"[:500]
+        if isinstance(payload, Task):
+            self._pending.pop(payload.id, None)
+        task = self.task
+        if task is not None and task.executor is not None and not task.executor.done:
+            task.executor.trip("internal_error", self.error)
+        self._drop_queue(f"not started: {self.error}")
+        self.publish("events", {"event": "internal_error", "message": self.error})
 
     def _apply(self, cmd: Command, payload: Any, arrived: int, wall: float) -> None:
-        op, source = cmd.op, f"command from {cmd.client or 'a client'}"
+        op = cmd.op
+        source = cmd.client if op == "estop" else f"command from {cmd.client or 'a client'}"
         task = self.task
         running = task is not None and task.executor is not None and not task.executor.done
+        # a command that would change nothing is not delivered again: a flood of them must
+        # not grow the task's event log (each delivered event is recorded in its result)
         if op == "estop":
-            self.estopped = True
-            self.tasks.clear()
-            if running:
+            again = self.estopped
+            if running and not again:  # later ones find it stopped; each is measured
                 task.executor.event(ESTOP, source)  # type: ignore[union-attr]
-            elif self.idle_stop is None or not self.idle_stop.active:
+            elif not running and (self.idle_stop is None or not self.idle_stop.active):
                 self.idle_stop = SafetyStop(self.ctx, self.loaded.scenario.physics.safe_stop)
                 self.idle_stop.start("estop")
-            self.last_estop = {
+            self.last_estop = {  # before the state says ESTOPPED: a status has both
                 "ticks": self.ticks - arrived,
                 "ms": round((time.perf_counter() - wall) * 1000.0, 3),
                 "t": round(self.ctx.t, 4),
             }
+            self.estopped = True
+            self._drop_queue("not started: e-stop")
             self.publish("events", {"event": "estop", **self.last_estop, "source": source})
         elif op in ("stop", "shutdown"):
-            self.tasks.clear()
-            if running:
+            self._drop_queue(f"not started: {op} command")
+            if running and task.stopped_by is None:  # type: ignore[union-attr]
                 task.stop(f"{op} command")  # type: ignore[union-attr]
             self.shutting_down = self.shutting_down or op == "shutdown"
         elif op in ("pause", "resume"):
-            if running:
+            if running and task.pause_wanted != (op == "pause"):  # type: ignore[union-attr]
+                task.pause_wanted = op == "pause"  # type: ignore[union-attr]
                 task.executor.event(PAUSE if op == "pause" else RESUME, source)  # type: ignore[union-attr]
         elif op == "reset":
             self.estopped, self.error, self._reset_pending = False, None, False
             self.publish("events", {"event": "reset"})
         elif op == "run" and isinstance(payload, Task):
             if self.estopped or self.error:
+                self._pending.pop(payload.id, None)
                 self._task_end_rejected(payload)
-            else:
-                self.tasks.append(payload)
+                return
+            if cmd.preempt:  # a controlled stop of what runs; the queue goes; this one next
+                why = f"preempted by task {payload.id}"
+                self._drop_queue(f"not started: {why}")
+                if running and task.stopped_by is None:  # type: ignore[union-attr]
+                    task.stop(why)  # type: ignore[union-attr]
+            self.tasks.append(payload)
+            self._pending.pop(payload.id, None)  # after the append: `busy` never undercounts
 
-    def _task_end_rejected(self, task: Task) -> None:
+    def _task_end_rejected(self, task: Task, reason: str | None = None) -> None:
+        why = reason or f"not started: the robot is {self.state}"
         self.publish("events", {"event": "task_end", "task": task.id, "result": None,
-                                "reason": f"not started: the robot is {self.state}"})  # fmt: skip
+                                "reason": why})  # fmt: skip
+
+    def _drop_queue(self, reason: str) -> None:
+        """Drop every waiting task, telling each one's client (a `task_end` without result)."""
+        while self.tasks:
+            self._task_end_rejected(self.tasks.popleft(), reason)
 
     def _watchdog(self) -> None:
-        """While a task runs, a client must prove it is alive every `watchdog_s` (counted
-        from the task's start at the latest): an idle robot needs no supervisor."""
+        """While a task runs, its owner must prove it is alive every `watchdog_s` (counted
+        from the task's start at the latest): an idle robot needs no supervisor, and only
+        the owner's heartbeats count. A waiting task whose owner is silent that long (since
+        it was accepted at the latest) is dropped before it moves anything."""
+        limit = self.watchdog_s
+        if not limit:
+            return
+        now = time.perf_counter()
+        for waiting in list(self.tasks):
+            silent = now - max(waiting.beat_wall or 0.0, waiting.accepted_wall)
+            if silent >= limit and waiting is not self.task:
+                self.tasks.remove(waiting)
+                self._task_end_rejected(waiting, f"not started: its owner "
+                                        f"({waiting.client or 'a client'}) sent no heartbeat "
+                                        f"for {silent:.3f} s (watchdog {limit} s)")  # fmt: skip
         task = self.task
-        if self.watchdog_s is None or self.error or task is None or task.executor is None:
+        if self.error or task is None or task.executor is None or task.executor.done:
             return
-        if task.executor.done:
+        silent = now - max(task.beat_wall or 0.0, task.wall0)
+        if silent < limit:
             return
-        last = max(self.heartbeat_wall or 0.0, task.wall0)
-        silent = time.perf_counter() - last
-        if silent < self.watchdog_s:
-            return
-        self.error = f"watchdog: no client heartbeat for {silent:.3f} s (limit {self.watchdog_s} s)"
-        self.tasks.clear()
-        task.executor.trip("watchdog", self.error, round(silent, 4), self.watchdog_s)
+        owner = task.client or "a client"
+        self.error = (f"watchdog: no heartbeat from task {task.id}'s owner ({owner}) for "
+                      f"{silent:.3f} s (limit {limit} s)")  # fmt: skip
+        self._drop_queue(f"not started: {self.error}")
+        task.executor.trip("watchdog", self.error, round(silent, 4), limit)
         self.publish("events", {"event": "watchdog", "message": self.error})
 
     def _tick(self) -> None:
@@ -393,6 +530,7 @@ class Session:
             return
         ahead = wall0 + (sim - sim0) / speed - now
         if ahead > 0.0005:
-            time.sleep(ahead)
+            self._wake.wait(ahead)  # an e-stop ends the wait: its tick starts at once
+            self._wake.clear()
         elif ahead < -0.5:  # cannot keep up: start counting again from here
             self._anchor = (now, sim, speed)

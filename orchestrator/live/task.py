@@ -26,7 +26,7 @@ class Task:
     """A machine running in a session.
 
     Args:
-        task_id: The session's number for it.
+        task_id: The session's id for it (`<epoch>-<n>`).
         loaded: The task's machine, loaded with the scenario and the command's `--set`.
         ctx: The session's context (its blackboard and metrics are replaced).
         machine_ref: The machine as the command named it.
@@ -35,7 +35,7 @@ class Task:
 
     def __init__(
         self,
-        task_id: int,
+        task_id: str,
         loaded: LoadedScenario,
         ctx: Context,
         machine_ref: str,
@@ -51,6 +51,16 @@ class Task:
         self.wall0 = 0.0
         self.result: RunResult | None = None
         self.stopped_by: str | None = None
+        self.owner = ""
+        """The owner token of the client that sent it: its heartbeats feed the watchdog."""
+        self.client = ""
+        """The name that client gave (for messages)."""
+        self.accepted_wall = time.perf_counter()
+        """Wall time the session accepted it [s] (perf_counter)."""
+        self.beat_wall: float | None = None
+        """Wall time of its owner's last heartbeat [s] (perf_counter; None: none yet)."""
+        self.pause_wanted = False
+        """The last pause/resume the session delivered was a pause (repeats are not sent)."""
 
     # -- lifecycle ------------------------------------------------------------------------
     def start(self, observers: list | None = None) -> None:

@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.live import Live
 from rich.table import Table
 
+from .access import Credentials
 from .protocol import DEFAULT_ENDPOINT, config_for, key
 
 __all__ = ["HEARTBEAT_LOST_S", "render", "watch"]
@@ -61,12 +62,14 @@ def watch(
     connect: list[str] | None = None,
     duration_s: float | None = None,
     console: Console | None = None,
+    credentials: Credentials | None = None,
 ) -> int:
     """Show the live table until Ctrl-C (or `duration_s`). Returns 0, or 1 if the session's
-    heartbeat was lost when the view ended."""
+    heartbeat was lost when the view ended. A viewer's credentials are enough."""
     import zenoh
 
-    z = zenoh.open(config_for(connect=list(connect or [DEFAULT_ENDPOINT])))
+    endpoints = list(connect or [DEFAULT_ENDPOINT])
+    z = zenoh.open(config_for(connect=endpoints, credentials=credentials))
     latest: dict[str, Any] = {"status": None, "beat": None}
     lock = threading.Lock()
 

@@ -1,0 +1,308 @@
+"""Who may reach a live session, and with what: Zenoh's own authentication, TLS and access control.
+
+A session that listens only on loopback needs nothing (the default, `tcp/127.0.0.1:7447`).
+One that other machines can reach must authenticate: `serve --users FILE` turns on Zenoh's
+user/password authentication (`transport/auth/usrpwd`, the file in Zenoh's own dictionary
+format, one `user:password` a line) and its access control (`access_control`): every user in
+the file is an *operator* (commands, heartbeats, e-stop) unless named with `--viewer`
+(status, events and e-stop only: an e-stop is everyone's, a `reset` is not). A connection
+without a valid user and password is refused by the transport itself. TLS
+(`tls/HOST:PORT` endpoints, `serve --tls-cert/--tls-key`, clients `--tls-ca`) encrypts the
+link and proves the server's identity.
+
+Clients take their credentials from options, environment variables or a credentials file
+(`user:password`, readable by its owner only), in that order of precedence.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import json
+import os
+import stat
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..exceptions import OrchestratorError
+
+__all__ = [
+    "LEASE_MS",
+    "MAX_MESSAGE_BYTES",
+    "AccessError",
+    "Credentials",
+    "ServerAccess",
+    "acl",
+    "is_loopback",
+    "read_user_file",
+    "zenoh_config",
+]
+
+LEASE_MS = 1000
+"""Zenoh link lease [ms]: a peer silent this long (no data, no keep-alive) is gone. Zenoh's
+default is 10 s; 1 s lets a client notice a lost session within about a second even when
+the network, not the process, failed (a killed process closes its socket: noticed at once)."""
+KEEP_ALIVES = 4
+"""Keep-alive messages per lease (Zenoh's advice: four)."""
+MAX_MESSAGE_BYTES = 64 * 2**20
+"""Largest message a session reassembles [bytes] (Zenoh's default: 1 GiB). A command is a
+few hundred bytes and is refused by name above 64 KiB; a payload this large is still
+answered `too large`; a larger one is dropped by Zenoh unanswered, so no client can make the
+session allocate more than this per link."""
+_LOCAL_PROTOCOLS = ("unixsock-stream", "unixpipe", "vsock")
+_WATCH = ("status", "heartbeat", "events", "alive")
+_OPERATE = ("command", "clients/heartbeat")
+
+
+class AccessError(OrchestratorError):
+    """Credentials or access settings are unusable: the message names the file or option."""
+
+
+def is_loopback(endpoint: str) -> bool:
+    """True if `endpoint` (`tcp/127.0.0.1:7447`, `tls/[::1]:7447`, `unixsock-stream/...`)
+    can only be reached from this machine."""
+    proto, _, rest = endpoint.partition("/")
+    if proto in _LOCAL_PROTOCOLS:
+        return True
+    host = rest.split("#", 1)[0].split("?", 1)[0].rsplit(":", 1)[0].strip("[]")
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:  # a host name other than localhost: it may resolve anywhere
+        return False
+
+
+def _private_file(path: Path, what: str) -> str:
+    """The text of a secret file, refused when others may read it (as ssh does)."""
+    try:
+        mode = path.stat().st_mode
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) else "not UTF-8 text"
+        raise AccessError(f"{what} {path}: cannot read it ({reason})") from None
+    if os.name == "posix" and mode & (stat.S_IRWXG | stat.S_IRWXO):
+        raise AccessError(
+            f"{what} {path}: readable by others (mode {stat.S_IMODE(mode):o}); "
+            f"it holds passwords: chmod 600 {path}"
+        )
+    return text
+
+
+def read_user_file(path: Path, what: str = "users file") -> list[tuple[str, str]]:
+    """The `user:password` lines of a file (blank lines skipped), in Zenoh's dictionary format.
+
+    Raises:
+        AccessError: Unreadable, readable by others, or a line that is not `user:password`
+            (the error names the line, never its content).
+    """
+    entries = []
+    for n, raw in enumerate(_private_file(path, what).splitlines(), 1):
+        if not raw.strip():
+            continue
+        user, colon, password = raw.strip().partition(":")
+        if not colon or not user.strip() or not password.strip():
+            raise AccessError(f"{path}:{n}: expected user:password (both non-empty)")
+        entries.append((user.strip(), password.strip()))
+    if not entries:
+        raise AccessError(f"{path}: no user:password line")
+    return entries
+
+
+@dataclass(frozen=True)
+class Credentials:
+    """What a client presents: a user and password (Zenoh usrpwd), and the TLS root CA.
+
+    Attributes:
+        user: The user name (None: no authentication).
+        password: Its password.
+        tls_ca: PEM file of the CA that signed the session's certificate (`tls/` endpoints).
+    """
+
+    user: str | None = None
+    password: str | None = None
+    tls_ca: Path | None = None
+
+    @classmethod
+    def resolve(
+        cls,
+        user: str | None = None,
+        password: str | None = None,
+        credentials_file: Path | None = None,
+        tls_ca: Path | None = None,
+    ) -> Credentials:
+        """Options first, then the credentials file (`user:password`, owner-readable only).
+
+        The CLI maps `ORCHESTRATOR_USER`, `ORCHESTRATOR_PASSWORD`, `ORCHESTRATOR_CREDENTIALS`
+        and `ORCHESTRATOR_TLS_CA` onto these arguments.
+
+        Raises:
+            AccessError: The file is unusable, or only one of user and password is given.
+        """
+        if credentials_file is not None:
+            entries = read_user_file(credentials_file, "credentials file")
+            if len(entries) != 1:
+                raise AccessError(f"{credentials_file}: one user:password line expected")
+            file_user, file_password = entries[0]
+            user = user or file_user
+            password = password or file_password
+        if bool(user) != bool(password):
+            missing = "password" if user else "user"
+            raise AccessError(
+                f"a {'user' if user else 'password'} without a {missing}: give both "
+                "(--user and --password, ORCHESTRATOR_USER and ORCHESTRATOR_PASSWORD, or "
+                "--credentials FILE with a user:password line)"
+            )
+        if tls_ca is not None and not tls_ca.is_file():
+            raise AccessError(f"--tls-ca {tls_ca}: no such file")
+        return cls(user or None, password or None, tls_ca)
+
+
+@dataclass(frozen=True)
+class ServerAccess:
+    """How a session admits clients.
+
+    Attributes:
+        users_file: `user:password` lines (Zenoh's dictionary file); None: no authentication.
+        viewers: Users of that file who may only watch (and e-stop).
+        tls_cert: PEM certificate `tls/` listeners present.
+        tls_key: Its private key (PEM).
+    """
+
+    users_file: Path | None = None
+    viewers: tuple[str, ...] = ()
+    tls_cert: Path | None = None
+    tls_key: Path | None = None
+
+    def check(self, listen: list[str], connect: list[str]) -> list[str]:
+        """Refuse settings that would expose an unauthenticated session, or cannot work.
+
+        Returns:
+            The users of the users file (empty without one).
+
+        Raises:
+            AccessError: With the fix: a non-loopback endpoint without `--users`, a viewer
+                not in the file, TLS options without a `tls/` endpoint or the reverse.
+        """
+        users = [u for u, _ in read_user_file(self.users_file)] if self.users_file else []
+        exposed = [e for e in [*listen, *connect] if not is_loopback(e)]
+        if exposed and not users:
+            raise AccessError(
+                f"{', '.join(exposed)} can be reached from other machines and the session "
+                "has no authentication: pass --users FILE (user:password lines, chmod 600; "
+                "see docs/live.md, Access control), or listen on tcp/127.0.0.1"
+            )
+        unknown = [v for v in self.viewers if v not in users]
+        if unknown:
+            raise AccessError(
+                f"--viewer {', '.join(unknown)}: not in the users file"
+                + (f" (users: {', '.join(users)})" if users else " (no --users given)")
+            )
+        if len(set(users) - set(self.viewers)) == 0 and users:
+            raise AccessError("every user is a --viewer: nobody could command the session")
+        tls = [e for e in listen if e.startswith("tls/")]
+        if (self.tls_cert is None) != (self.tls_key is None):
+            raise AccessError("--tls-cert and --tls-key go together")
+        if tls and self.tls_cert is None:
+            raise AccessError(f"{tls[0]}: a tls/ endpoint needs --tls-cert and --tls-key")
+        if self.tls_cert is not None and not tls:
+            raise AccessError("--tls-cert given but no tls/ endpoint to --listen on")
+        for path in (self.tls_cert, self.tls_key):
+            if path is not None and not path.is_file():
+                raise AccessError(f"{path}: no such file")
+        if self.tls_key is not None:
+            _private_file(self.tls_key, "TLS private key")
+        return users
+
+
+def _rule(rid: str, flow: str, messages: list[str], keys: list[str]) -> dict[str, Any]:
+    return {"id": rid, "permission": "allow", "flows": [flow], "messages": messages,
+            "key_exprs": keys}  # fmt: skip
+
+
+def acl(session: str, users: list[str], viewers: tuple[str, ...]) -> dict[str, Any]:
+    """Zenoh's `access_control` for a session: deny by default; everyone may watch
+    (subscribe to status, heartbeat, events; query `status`; see the liveliness token) and
+    e-stop; operators may also command and send heartbeats. Nobody may publish on the
+    session's own keys (no forged status or events)."""
+    watched = [f"orchestrator/{session}/{leaf}" for leaf in _WATCH]
+    estop = [f"orchestrator/{session}/estop"]
+    operate = [f"orchestrator/{session}/{leaf}" for leaf in _OPERATE]
+    operators = [u for u in users if u not in viewers]
+    rules = [
+        _rule("watch_in", "ingress", ["declare_subscriber", "query",
+              "declare_liveliness_subscriber", "liveliness_query"], watched),
+        _rule("watch_out", "egress", ["put", "declare_queryable", "reply", "liveliness_token"],
+              watched),
+        _rule("estop_in", "ingress", ["query", "put"], estop),
+        _rule("estop_out", "egress", ["declare_queryable", "declare_subscriber", "reply"], estop),
+        _rule("operate_in", "ingress", ["query", "put"], operate),
+        _rule("operate_out", "egress", ["declare_queryable", "declare_subscriber", "reply"],
+              operate),
+    ]  # fmt: skip
+    return {
+        "enabled": True,
+        "default_permission": "deny",
+        "rules": rules,
+        "subjects": [
+            {"id": "everyone", "usernames": users},
+            {"id": "operators", "usernames": operators},
+        ],
+        "policies": [
+            {"rules": ["watch_in", "watch_out", "estop_in", "estop_out"], "subjects": ["everyone"]},
+            {"rules": ["operate_in", "operate_out"], "subjects": ["operators"]},
+        ],
+    }
+
+
+def zenoh_config(
+    listen: list[str] | None = None,
+    connect: list[str] | None = None,
+    credentials: Credentials | None = None,
+    server: ServerAccess | None = None,
+    session: str | None = None,
+) -> Any:
+    """A Zenoh configuration: multicast and gossip scouting off, explicit endpoints, a 1 s
+    lease, and the authentication, TLS and access control asked for.
+
+    Args:
+        listen: Endpoints to listen on (a session), e.g. `tcp/127.0.0.1:7447`.
+        connect: Endpoints to connect to (a client, or a session joining a router).
+        credentials: The user this node presents (clients; a session connecting out).
+        server: How a session admits clients (with `session`, its name, for the ACL).
+        session: The session's name (needed with `server.users_file`).
+
+    Raises:
+        AccessError: Unusable settings (see `ServerAccess.check`).
+    """
+    import zenoh
+
+    listen, connect = list(listen or []), list(connect or [])
+    entries: dict[str, Any] = {
+        "scouting/multicast/enabled": False,
+        "scouting/gossip/enabled": False,
+        "listen/endpoints": listen,
+        "connect/endpoints": connect,
+        "transport/link/tx/lease": LEASE_MS,
+        "transport/link/tx/keep_alive": KEEP_ALIVES,
+    }
+    if credentials is not None and credentials.user:
+        entries["transport/auth/usrpwd/user"] = credentials.user
+        entries["transport/auth/usrpwd/password"] = credentials.password
+    if credentials is not None and credentials.tls_ca is not None:
+        entries["transport/link/tls/root_ca_certificate"] = str(credentials.tls_ca)
+    if server is not None:
+        entries["transport/link/rx/max_message_size"] = MAX_MESSAGE_BYTES
+        users = server.check(listen, connect)
+        if server.users_file is not None:
+            if session is None:
+                raise ValueError("zenoh_config: a session name is needed for access control")
+            entries["transport/auth/usrpwd/dictionary_file"] = str(server.users_file)
+            entries["access_control"] = acl(session, users, server.viewers)
+        if server.tls_cert is not None:
+            entries["transport/link/tls/listen_certificate"] = str(server.tls_cert)
+            entries["transport/link/tls/listen_private_key"] = str(server.tls_key)
+    conf = zenoh.Config()
+    for path, value in entries.items():
+        conf.insert_json5(path, json.dumps(value))
+    return conf
