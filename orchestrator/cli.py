@@ -260,13 +260,14 @@ _TABLE_ENDS = 20
 
 
 def _guard_goals(loaded, sets: list[str], seed: int) -> None:
-    """Positions set with `--set` go through the live sessions' guardrail before anything
-    runs (workspace, no-go zones, reachability from the home configuration)."""
+    """Values set with `--set` that become positions (targets, via points, offsets, position
+    hints) go through the live sessions' guardrail before anything runs (workspace, no-go
+    zones, reachability from the home configuration, a hint near an object)."""
     from .language.overrides import parse_override
-    from .live.guardrail import GoalRejected, check_goals, goals_of
+    from .live.guardrail import GoalRejected, check_goals, posed_keys
 
     keys = [ov.path[0] for ov in map(parse_override, sets) if hasattr(ov, "path")]
-    if not goals_of(loaded, keys):
+    if not posed_keys(loaded, keys):
         return
     from .world.world import World
 

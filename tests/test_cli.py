@@ -127,7 +127,11 @@ def test_unknown_parameter_names_the_valid_parameters(cli, tmp_path):
     text = GOOD_MACHINE.replace("with: {object: $object}", "with: {object: $object, colour: red}")
     res = cli("run", str(_scenario(tmp_path, text)))
     _assert_clean_error(
-        res, str(tmp_path / "m.yaml"), 7, "unknown key 'colour'", "valid: duration_s, into, object"
+        res,
+        str(tmp_path / "m.yaml"),
+        7,
+        "unknown key 'colour'",
+        "valid: duration_s, into, near, near_radius_m, object",
     )
 
 

@@ -328,6 +328,7 @@ def scenario_summary(loaded: Any) -> str:
     Args:
         loaded: A `LoadedScenario`.
     """
+    from .inputs import machine_inputs
     from .validation import blackboard_types
 
     scn = loaded.scenario
@@ -354,15 +355,18 @@ def scenario_summary(loaded: Any) -> str:
     )
     lines.append("Guards: " + (", ".join(f"`{g}`" for g in guards) or "none") + ".")
     lines += ["", "## Blackboard (`--set KEY=VALUE`)", ""]
-    lines += ["| key | type | default | scenario sets |", "|---|---|---|---|"]
+    lines += ["Inputs may also be set by a live command or a planner (docs/live.md).", ""]
+    lines += ["| key | type | default | scenario sets | input |", "|---|---|---|---|---|"]
     types = blackboard_types(machine)
+    inputs = machine_inputs(machine)
     defaults: dict[str, Any] = {}
     for node in machine.nodes():
         defaults.update(node.blackboard)
     for key in sorted(types):
         default = _value(defaults[key]) if key in defaults else ""
         mine = _value(scn.blackboard[key]) if key in scn.blackboard else ""
-        lines.append(f"| `{key}` | {types[key]} | {default} | {mine} |")
+        live = "yes" if key in inputs else ""
+        lines.append(f"| `{key}` | {types[key]} | {default} | {mine} | {live} |")
     lines += ["", "## Success checks", ""]
     for name, check in scn.success.items():
         extra = f" at {check.target}" if check.target is not None else ""

@@ -36,12 +36,11 @@ from ..engine.runner import Observer, make_context
 from ..engine.safety_stop import SafetyStop
 from ..engine.step import StepLoop
 from ..exceptions import ConfigError
-from ..language.diagnostics import Diagnostic
 from ..language.load import load_scenario
 from ..language.machine import ESTOP, PAUSE, RESUME
-from ..language.overrides import parse_override
 from ..world.world import World
 from .guardrail import GoalRejected, check_goals
+from .inputs import parse_sets, refuse_non_inputs
 from .protocol import PRIORITY, Command, Reply
 from .task import Task
 
@@ -178,13 +177,19 @@ class Session:
         if (self.estopped or self.error) and not self._reset_pending:
             return f"the robot is {self.state}: send `reset` first", None
         machine = cmd.machine or self.loaded.scenario.machine
+        overrides, refused = parse_sets(cmd.set)  # inputs only: never a scenario value
+        if refused is not None:
+            return refused, None
         try:
             loaded = load_scenario(
                 self.scenario_ref, cmd.set, allow_paths=self.allow_paths, machine=machine
             )
         except ConfigError as exc:
             return str(exc), None
-        keys = [o.path[0] for o in map(parse_override, cmd.set) if not isinstance(o, Diagnostic)]
+        keys = [o.path[0] for o in overrides]
+        refused = refuse_non_inputs(loaded.machine, keys)
+        if refused is not None:
+            return refused, None
         q_arm = self.world.data.qpos[self.world.arm_qpos].copy()
         try:
             with self._lock:
