@@ -735,7 +735,7 @@ def send(
     session: Annotated[str, typer.Argument(help="The session's name.")],
     command: Annotated[
         str,
-        typer.Argument(help="run, stop, estop, reset, pause, resume, status or shutdown."),
+        typer.Argument(help="run, stop, estop, reset, pause, resume, status, shutdown or recover."),
     ],
     machine: Annotated[
         str | None, typer.Argument(help="For run: machine file or bundled name.")
@@ -753,11 +753,15 @@ def send(
 
     if command not in COMMANDS:
         _live_error(ValueError(f"unknown command {command!r} (valid: {', '.join(COMMANDS)})"))
-    if command != "run" and (machine or set_ or wait):
+    if command == "recover" and (machine or set_):
+        _live_error(ValueError("recover: takes no MACHINE and no --set (it runs `recover`)"))
+    elif command not in ("run", "recover") and (machine or set_ or wait):
         _live_error(ValueError(f"{command}: takes no MACHINE, --set or --wait (only run does)"))
     try:
         with Client(session, connect, name="orchestrator send") as client:
-            if command == "run":
+            if command == "recover":  # `run recover`: the bundled recovery machine
+                reply, result = client.run("recover", wait=wait)
+            elif command == "run":
                 reply, result = client.run(machine, set_ or [], wait=wait)
             else:
                 reply, result = client.command(command), None

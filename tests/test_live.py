@@ -89,7 +89,7 @@ def test_send_runs_a_pick_and_prints_its_result(served):
     [
         ("target=[1.4, 0.0, 0.5]", "outside the workspace"),
         ("target=[0.5, 0.2, 0.1]", "outside the workspace"),
-        ("target=[0.5, 0.2, .nan]", "is not a vec3"),
+        ("target=[0.5, 0.2, .nan]", "target = [0.5, 0.2, nan]: not finite"),
         ("target=[0.9, 0.55, 0.16]", "unreachable"),
     ],
 )

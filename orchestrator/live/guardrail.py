@@ -34,8 +34,8 @@ from ..language.blackboard_types import all_finite
 from ..language.inputs import HINT, PoseUse, pose_uses
 from ..language.load import LoadedScenario
 from ..language.loading import initial_values
-from ..language.machine import guard_entries
 from ..language.refs import parse_ref
+from ..language.scenario_checks import workspace_box
 from ..world.world import World
 
 __all__ = ["REACH_TOL_M", "GoalRejected", "check_goals", "is_finite", "posed_keys"]
@@ -90,7 +90,7 @@ def check_goals(
     for k in keys:
         if any(k in u.keys() for u in uses) and not is_finite(values.get(k)):
             raise GoalRejected(f"{k} = {values.get(k)!r}: not finite")
-    box = _workspace(loaded.scenario)
+    box = workspace_box(loaded.scenario)
     checked: dict[str, list[np.ndarray]] = {}
     goals: dict[tuple[tuple[float, ...], str | None], tuple[str, np.ndarray, str | None]] = {}
     for use in uses:
@@ -198,15 +198,6 @@ def _object_pos(world: World, name: str) -> np.ndarray:
 
 def _object_at(world: World, name: str) -> str:
     return _show(_object_pos(world, name))
-
-
-def _workspace(scn) -> tuple[np.ndarray, np.ndarray] | None:
-    for _, name, params in guard_entries(scn.guards):
-        if name == "workspace":
-            lo = params.get("min", [-1.0, -1.0, 0.0])
-            hi = params.get("max", [1.0, 1.0, 1.5])
-            return np.asarray(lo, float), np.asarray(hi, float)
-    return None
 
 
 def _check_box(where: str, p: np.ndarray, box: tuple[np.ndarray, np.ndarray] | None) -> None:

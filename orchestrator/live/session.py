@@ -5,7 +5,13 @@ answers at once, accepted or rejected with the reason, after checking what it ca
 touching the world (a task's machine and `--set` values are loaded and validated, its goals
 go through the guardrail). Accepted commands wait in an inbox that the session's loop drains
 at the start of every control tick, highest priority first (`estop` > `stop`, `shutdown` >
-`pause`, `resume`, `reset` > `run`); tasks run one after another, first in first out.
+`pause`, `resume`, `reset` > `run`, `recover`); tasks run one after another, first in first
+out.
+
+Only the task machine's inputs may be set (live/inputs.py): limits are the scenario's. While no
+task runs, the guards every task starts with are checked on the idle world (live/blocked.py):
+a violated one makes the state BLOCKED, and then only a recovery machine (`recover`) may start.
+Every change of the published state is an `events` message (`{"event": "state", ...}`).
 
 Simulated time is paced to the wall clock: `speed` 1 is real time, 2 twice as fast, 0 as
 fast as the machine can (while a task runs; an idle or paused robot is kept at real time:
@@ -39,13 +45,16 @@ from ..exceptions import ConfigError
 from ..language.load import load_scenario
 from ..language.machine import ESTOP, PAUSE, RESUME
 from ..world.world import World
+from .blocked import Blocked
 from .guardrail import GoalRejected, check_goals
 from .inputs import parse_sets, refuse_non_inputs
 from .protocol import PRIORITY, Command, Reply
 from .task import Task
 
-__all__ = ["GRIPPER_SKILLS", "Session"]
+__all__ = ["GRIPPER_SKILLS", "RECOVER", "Session"]
 
+RECOVER = "recover"
+"""The bundled recovery machine the `recover` command runs."""
 GRIPPER_SKILLS = ("grasp", "release")
 """Skills during which the published state is GRASPING (else MOVING)."""
 STATUS_PERIOD_S = 0.1
@@ -130,6 +139,11 @@ class Session:
         """The scene's names (in the status: a planner proposes goals with them)."""
         self.rt_window: deque[tuple[float, float]] = deque(maxlen=200)
         """(wall, simulated time) of the last ticks, for the real-time factor."""
+        self.blocked = Blocked(self.loaded, self.ctx)
+        """The guards every task starts with, checked on the idle world after every control
+        tick (BLOCKED; not before the first: the controller has not commanded anything yet)."""
+        self._published_state = self.state
+        """The state last published (its changes are events)."""
 
     # -- commands (any thread) ----------------------------------------------------------
     def heartbeat(self, client: str = "") -> None:
@@ -145,7 +159,11 @@ class Session:
         if self.shutting_down and op != "estop":
             return Reply(accepted=False, reason="the session is shutting down")
         payload: Any = None
-        if op == "run":
+        if op == "recover":  # the bundled recovery machine, with its own values only
+            if cmd.set or cmd.machine:
+                return Reply(accepted=False, reason="recover: takes no machine and no values")
+            cmd = cmd.model_copy(update={"machine": RECOVER})
+        if op in ("run", "recover"):
             rejected, payload = self._prepare(cmd)
             if rejected is not None:
                 return Reply(accepted=False, reason=rejected)
@@ -190,6 +208,9 @@ class Session:
         refused = refuse_non_inputs(loaded.machine, keys)
         if refused is not None:
             return refused, None
+        refused = self._refuse_blocked(loaded.machine.recovery)
+        if refused is not None:
+            return refused, None
         q_arm = self.world.data.qpos[self.world.arm_qpos].copy()
         try:
             with self._lock:
@@ -198,17 +219,33 @@ class Session:
             return f"goal rejected: {exc}", None
         return None, Task(next(self._ids), loaded, self.ctx, machine, self.loop)
 
+    def _refuse_blocked(self, recovery: bool) -> str | None:
+        """While BLOCKED only a recovery machine may start, and only if moving can help."""
+        if self.blocked.violation is None or self.task is not None:
+            return None  # a running task's end is checked again before the next one starts
+        if not recovery:
+            return (
+                f"the robot is BLOCKED: {self.blocked.why()}: every task would abort at once; "
+                "send `recover` first (it backs the arm out, every guard active)"
+            )
+        if not self.blocked.recoverable:
+            return (
+                f"the robot is BLOCKED: {self.blocked.why()}: moving the arm cannot undo "
+                "this; find the fault, then `reset` or restart the session"
+            )
+        return None
+
     # -- the published state ------------------------------------------------------------
     @property
     def state(self) -> str:
-        """IDLE, MOVING, GRASPING, PAUSED, ESTOPPED or ERROR."""
+        """IDLE, MOVING, GRASPING, PAUSED, BLOCKED, ESTOPPED or ERROR."""
         if self.estopped:
             return "ESTOPPED"
         if self.error:
             return "ERROR"
         task = self.task
         if task is None or task.executor is None:
-            return "IDLE"
+            return "BLOCKED" if self.blocked.violation is not None else "IDLE"
         ex = task.executor
         if ex.paused:
             return "PAUSED"
@@ -242,6 +279,7 @@ class Session:
             "speed": self.speed,
             "watchdog_s": self.watchdog_s,
             "tcp": np.round(self.ctx.tcp_pos, 5).tolist(),
+            "blocked": self.blocked.to_dict(),
             "scene": self.scene,
             "last_estop": self.last_estop,
         }
@@ -255,14 +293,39 @@ class Session:
             if self.shutting_down and self.task is None:
                 break
             if self.task is None and self.tasks and not (self.estopped or self.error):
-                self._start(self.tasks.popleft())
+                self._start_next()
             self._tick()
+            self._after_tick()
             self._status_if_due()
             self._pace()
         self.publish("events", {"event": "shutdown"})
 
+    def _start_next(self) -> None:
+        """Start the next task, unless the world is BLOCKED and it is no recovery machine."""
+        task = self.tasks.popleft()
+        if self.blocked.violation is not None and not task.loaded.machine.recovery:
+            self._task_end_rejected(task)
+            return
+        self._start(task)
+
+    def _after_tick(self) -> None:
+        """The idle world's guards (BLOCKED), and an event for every change of the state."""
+        if self.task is None:
+            self.blocked.check(self.ctx)
+        state = self.state
+        if state != self._published_state:
+            event: dict[str, Any] = {"event": "state", "from": self._published_state,
+                                     "to": state, "t": round(self.ctx.t, 4)}  # fmt: skip
+            if self.task is not None:
+                event["task"] = self.task.id
+            if state == "BLOCKED":
+                event["blocked"] = self.blocked.to_dict()
+            self._published_state = state
+            self.publish("events", event)
+
     def _start(self, task: Task) -> None:
         """Start `task` on the world (with its recorder, if the session records)."""
+        self.blocked.task_started()
         self.task = task
         self._observer = self.recorder(task) if self.recorder is not None else None
         task.start([self._observer] if self._observer is not None else [])
@@ -313,7 +376,7 @@ class Session:
         elif op == "reset":
             self.estopped, self.error, self._reset_pending = False, None, False
             self.publish("events", {"event": "reset"})
-        elif op == "run" and isinstance(payload, Task):
+        elif op in ("run", "recover") and isinstance(payload, Task):
             if self.estopped or self.error:
                 self._task_end_rejected(payload)
             else:
