@@ -6,13 +6,9 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
-import mujoco
 import numpy as np
 import pytest
 
-from orchestrator.engine.blackboard import Blackboard
-from orchestrator.engine.episode import make_controller
-from orchestrator.engine.runner import make_context
 from orchestrator.guards.easing import Eased
 from orchestrator.guards.sensor_health import SensorHealth, SensorHealthParams
 from orchestrator.guards.workspace import Workspace, WorkspaceParams
@@ -20,17 +16,15 @@ from orchestrator.language.load import load_scenario
 from orchestrator.live.protocol import Command
 from orchestrator.live.session import Session
 from orchestrator.live.task import Task
-from orchestrator.world import World
+
+from .test_hint import world_context
 
 # -- the guard layer ------------------------------------------------------------------------
 
 
 @pytest.fixture(scope="module")
 def ctx():
-    loaded = load_scenario("pick_place")
-    world = World.build(loaded.scenario, 0)
-    mujoco.mj_forward(world.model, world.data)
-    return make_context(world, make_controller(world, 0), Blackboard({}), 0, 0.01)
+    return world_context("pick_place")
 
 
 def _box_around_tcp(ctx, dx: float) -> Eased:
@@ -257,3 +251,20 @@ def test_recover_takes_no_values(cli):
     assert not reply.accepted and reply.reason == "recover: takes no machine and no values"
     res = cli("send", "nobody", "recover", "--set", "speed=1")
     assert res.exit_code == 2 and "recover: takes no MACHINE and no --set" in res.stderr
+
+
+def test_recover_is_refused_for_a_violation_moving_cannot_undo():
+    from orchestrator.guards.base import Violation
+
+    session = _session([])
+    session.blocked.violation = Violation(
+        "sensor_health", "wrist force sensor reads a non-finite value", None, None
+    )
+    session.blocked.recoverable = False
+    assert session.state == "BLOCKED"
+    reply = session.submit(Command(op="recover"))
+    assert not reply.accepted and reply.reason == (
+        "the robot is BLOCKED: sensor_health: wrist force sensor reads a non-finite value: "
+        "moving the arm cannot undo this (a fault, not a place); find its cause and restart the "
+        "session"
+    )

@@ -231,7 +231,7 @@ class Session:
         if not self.blocked.recoverable:
             return (
                 f"the robot is BLOCKED: {self.blocked.why()}: moving the arm cannot undo "
-                "this; find the fault, then `reset` or restart the session"
+                "this (a fault, not a place); find its cause and restart the session"
             )
         return None
 
