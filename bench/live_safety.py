@@ -34,16 +34,20 @@ import sys
 import tempfile
 import threading
 import time
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 import numpy as np
 
-from orchestrator.language.load import load_scenario
-from orchestrator.live.client import Client
-from orchestrator.live.server import serve
-from orchestrator.live.session import Session
-from orchestrator.live.task import Task
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from orchestrator.language.load import load_scenario  # noqa: E402
+from orchestrator.live.client import Client  # noqa: E402
+from orchestrator.live.server import serve  # noqa: E402
+from orchestrator.live.session import Session  # noqa: E402
+from orchestrator.live.task import Task  # noqa: E402
+from tests import canned_planner  # noqa: E402
+from tests.canned_planner import CannedPlanner  # noqa: E402
 
 OVERRIDES = [
     "guards={}",
@@ -115,23 +119,6 @@ class Probe:
                 np.minimum(self.least, e, out=self.least)
 
 
-class _Planner(BaseHTTPRequestHandler):
-    reply = ""
-
-    def do_POST(self) -> None:
-        self.rfile.read(int(self.headers["Content-Length"]))
-        body = {"choices": [{"message": {"role": "assistant", "content": _Planner.reply}}]}
-        out = json.dumps(body).encode()
-        self.send_response(200)
-        self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(out)))
-        self.end_headers()
-        self.wfile.write(out)
-
-    def log_message(self, *args) -> None:
-        pass
-
-
 def _port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -161,7 +148,7 @@ def overrides(endpoint: str, probe: Probe, planner_url: str) -> dict:
         res = _cli(*send, "--set", "target=[0.5, 0.1, 0.4]", "--set", value)
         ok = res.returncode == 2 and "is a scenario value, not an input" in res.stderr
         key, _, raw = value.partition("=")
-        _Planner.reply = json.dumps(
+        CannedPlanner.reply = json.dumps(
             {"machine": "reach", "set": {"target": [0.5, 0.1, 0.4], key: json.loads(_yaml(raw))}}
         )
         asked = _cli("ask", "bench", "move the arm", "--connect", endpoint, env=env)
@@ -253,9 +240,7 @@ def main() -> None:
     stop = threading.Event()
     thread = threading.Thread(target=serve, args=(session, [endpoint], None, None, stop))
     thread.start()
-    http = ThreadingHTTPServer(("127.0.0.1", 0), _Planner)
-    threading.Thread(target=http.serve_forever, daemon=True).start()
-    planner_url = f"http://127.0.0.1:{http.server_address[1]}/v1"
+    planner_url, http = canned_planner.start()
     out: dict = {"load": os.getloadavg()}
     try:
         with Client("bench", [endpoint], find_s=60.0, name="bench") as client:

@@ -3,12 +3,10 @@ good proposal moves the robot; every bad one is refused before anything moves.""
 
 from __future__ import annotations
 
-import json
 import socket
 import threading
 import time
 from collections.abc import Iterator
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import numpy as np
 import pytest
@@ -18,24 +16,8 @@ from orchestrator.live.planner import PlannerError, ask_planner, parse_reply
 from orchestrator.live.server import serve
 from orchestrator.live.session import Session
 
-
-class _Planner(BaseHTTPRequestHandler):
-    reply = ""
-    requests: list[dict] = []
-
-    def do_POST(self) -> None:
-        body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
-        _Planner.requests.append(body)
-        message = {"role": "assistant", "content": _Planner.reply}
-        out = json.dumps({"choices": [{"message": message}]}).encode()
-        self.send_response(200)
-        self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(out)))
-        self.end_headers()
-        self.wfile.write(out)
-
-    def log_message(self, *args) -> None:
-        pass
+from . import canned_planner
+from .canned_planner import CannedPlanner
 
 
 def _port() -> int:
@@ -46,10 +28,8 @@ def _port() -> int:
 
 @pytest.fixture(scope="module")
 def planner() -> Iterator[str]:
-    server = ThreadingHTTPServer(("127.0.0.1", 0), _Planner)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    yield f"http://127.0.0.1:{server.server_address[1]}/v1"
+    url, server = canned_planner.start()
+    yield url
     server.shutdown()
 
 
@@ -115,7 +95,7 @@ def client(served) -> Client:
 def test_a_bad_proposal_never_moves_the_robot(planner, served, monkeypatch, reply, words):
     session, client = served
     monkeypatch.setenv("ORCHESTRATOR_PLANNER_URL", planner)
-    _Planner.reply = reply
+    CannedPlanner.reply = reply
     before = client.status()
     motion = _JointMotion(session)
     try:
@@ -131,14 +111,14 @@ def test_a_bad_proposal_never_moves_the_robot(planner, served, monkeypatch, repl
 
 def test_a_good_proposal_runs_through_the_guardrails(planner, client, monkeypatch):
     monkeypatch.setenv("ORCHESTRATOR_PLANNER_URL", planner)
-    _Planner.reply = (
+    CannedPlanner.reply = (
         '```json\n{"machine": "pick_place", "set": {"object": "cube", "place_at": "pad"}}\n```'
     )
-    _Planner.requests.clear()
+    CannedPlanner.requests.clear()
     proposal, answer, result = ask_planner(client, "put the red cube on the pad", wait=True)
     assert answer.accepted and proposal["machine"] == "pick_place"
     assert result is not None and result["outcome"] == "succeeded"
-    prompt = _Planner.requests[0]["messages"][0]["content"]
+    prompt = CannedPlanner.requests[0]["messages"][0]["content"]
     assert "Scene objects: cube." in prompt and "Markers: pad." in prompt
     assert '"additionalProperties": false' in prompt  # the schema it must answer with
 
