@@ -268,3 +268,25 @@ def test_recover_is_refused_for_a_violation_moving_cannot_undo():
         "moving the arm cannot undo this (a fault, not a place); find its cause and restart the "
         "session"
     )
+
+
+def test_watch_shows_what_blocks_the_arm():
+    from rich.console import Console
+
+    from orchestrator.live.watch import render
+
+    status = {
+        "state": "BLOCKED", "task": None, "queued": 0, "last_result": None, "error": None,
+        "sim_time": 1.0, "wall_time": 1.0, "realtime_factor": None, "tcp": [0.443, 0.61, 0.39],
+        "blocked": {"guard": "workspace", "message": "TCP y = 0.6100 m is outside the "
+                    "workspace [-0.600, 0.600]", "value": None, "limit": None,
+                    "recoverable": True},
+    }  # fmt: skip
+    console = Console(record=True, width=200)
+    console.print(render(status, 0.1, "cell1"))
+    text = console.export_text()
+    assert "BLOCKED" in text
+    assert (
+        "workspace: TCP y = 0.6100 m is outside the workspace [-0.600, 0.600] (send recover)"
+        in text
+    )
