@@ -169,14 +169,15 @@ def test_signals_are_sampled_every_control_tick(recorded):
     force = recorded.column("/signals/wrist_force_n", "Scalars:scalars")
     torque = recorded.column("/signals/joint_torque_nm", "Scalars:scalars")
     assert len(force) == len(torque) == n
-    assert {len(f) for f in force} == {5} and {len(t) for t in torque} == {7}
+    xyz = np.array(recorded.column("/signals/wrist_force_xyz_n", "Scalars:scalars"))
+    assert {len(f) for f in force} == {2} and {len(t) for t in torque} == {7}
     f = np.array(force)
-    assert np.allclose(f[:, 3], np.linalg.norm(f[:, :3], axis=1))
-    # x, y, z and |F| sample the sensor per control tick; the fifth series is the peak of the
-    # true force over every physics step, the very figure the run reports
+    assert len(xyz) == n and np.allclose(f[:, 0], np.linalg.norm(xyz, axis=1))
+    # |F| samples the sensor per control tick; the second series is the peak of the true
+    # force over every physics step, the very figure the run reports
     peak = recorded.result.metrics["max_wrist_force_n"]
-    assert 0.5 * peak < max(f[:, 3]) <= peak + 0.05
-    assert max(f[:, 4]) == pytest.approx(peak, abs=1e-4)
+    assert 0.5 * peak < max(f[:, 0]) <= peak + 0.05
+    assert max(f[:, 1]) == pytest.approx(peak, abs=1e-4)
     width = np.array(recorded.column("/signals/gripper_width_m", "Scalars:scalars"))[:, 0]
     assert width.max() > 0.07 and width.min() < 0.06  # open, then closed on the 5 cm cube
     error = np.array(recorded.column("/signals/tcp_error_m", "Scalars:scalars"))[:, 0]
@@ -638,3 +639,31 @@ def test_the_tallest_bundled_machine_is_legible_in_both_windows():
     # floor for these bounds, and the column never takes more than its share
     assert graph_zoom((0, 0, 400, 3000), 0.3, (1600, 900)) < LEGIBLE_ZOOM
     assert machine_share(None) == 0.24 and machine_share((0, 0, 5000, 500)) == 0.46
+
+
+# -- peaks between control ticks --------------------------------------------------------------
+PUSH = "push:object=cube,force_n=[0,0,-60],duration_ms=4@PICK.GRASP.VERIFY+0.043"
+"""A 4 ms push on the held cube, starting between two control ticks (at 1.624 s, seed 0): the
+hand feels ~50 N for two physics steps and is back under ~3 N by the next tick, under the
+60 N contact-force limit."""
+
+
+def test_a_force_spike_between_two_ticks_is_in_the_recording(tmp_path):
+    rec = record(load_scenario("pick_place", faults=[PUSH]), 0, tmp_path / "spike.rrd")
+    assert rec.result.outcome == "succeeded"  # under the 60 N guard: nothing fires
+    t_push = rec.result.metrics["faults"][0]["t"]
+    rows = rec.temporal["/signals/wrist_force_n"]
+    sampled = np.array([r["Scalars:scalars"][0] for r in rows])  # |F| at each tick
+    peak = np.array([r["Scalars:scalars"][1] for r in rows])  # max over the tick's steps
+    i = int(np.argmax(peak))
+    assert t_push < rows[i]["sim_time"].total_seconds() <= t_push + 0.01  # the next tick
+    # the spike fell between the ticks: the samples around it never saw it
+    assert peak[i] > 40.0 and max(sampled[i - 2 : i + 3]) < 10.0
+    assert peak[i] == pytest.approx(rec.result.metrics["max_wrist_force_n"], abs=1e-4)
+    # the force guards read every physics step: their margin keeps the sensed spike
+    guard = rec.temporal["/guards/contact_force"]
+    margin = np.array([r["Scalars:scalars"][0] for r in guard])
+    at = [r["tick"] for r in guard].index(rows[i]["tick"])
+    assert margin[at] > 0.6 and max(*margin[at - 3 : at], *margin[at + 1 : at + 4]) < 0.2
+    raw = np.array(rec.column("/guard_values/contact_force", "Scalars:scalars"))
+    assert raw[at, 0] == pytest.approx(60.0 * margin[at])

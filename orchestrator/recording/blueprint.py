@@ -20,7 +20,7 @@ from .paths import (
     SIM_TIME,
     WORLD,
 )
-from .signals import GRIPPER_WIDTH, JOINT_TORQUE, TCP_ERROR, WRIST_FORCE
+from .signals import GRIPPER_WIDTH, JOINT_TORQUE, TCP_ERROR, WRIST_FORCE, WRIST_FORCE_XYZ
 
 __all__ = [
     "LEGIBLE_ZOOM",
@@ -161,6 +161,7 @@ def default_blueprint(
             origin=WRIST_FORCE,
             plot_legend=rrb.PlotLegend(corner="LeftTop"),
         ),
+        rrb.TimeSeriesView(name="Force x, y, z [N]", origin=WRIST_FORCE_XYZ),
         rrb.TimeSeriesView(name="TCP error, gripper [m]", contents=[TCP_ERROR, GRIPPER_WIDTH]),
         rrb.TimeSeriesView(name="Joint torques [N m]", origin=JOINT_TORQUE),
         active_tab=0,

@@ -7,9 +7,11 @@ are open, every other nested machine is one node (`NAME …`). Each expansion ha
 layout (graph_layout.py), computed once per machine; the recording switches between them as
 the run enters states in other nested machines.
 
-Edges carry the outcomes that take them (merged when several outcomes lead to the same state),
-written on the arrow as a small label; a state with `retry: N` has a loop labelled `retry N`;
-guards declared on a state are a second line of its label. Nothing here knows about Rerun.
+Where a state branches (its arrows lead to more than one state), each arrow carries the
+outcomes that take it (merged when several lead to the same state; past two, counted), as a
+small label on or beside the arrow; a chain of single arrows needs none. A state with
+`retry: N` has a loop labelled `retry N`; guards declared on a state are a second line of its
+label. Nothing here knows about Rerun.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .graph_layout import GraphLayout, Level, label_size, layered_layout
+from .graph_layout import CAPTION_H, GraphLayout, Level, label_size, layered_layout
 
 __all__ = ["COLLAPSED", "ExpansionView", "expansion_view", "label_id", "shifted"]
 
@@ -120,16 +122,21 @@ def expansion_view(
     edges = list(merged)
     edge_labels: list[str] = []
     positions, sizes = dict(layout.positions), dict(layout.sizes)
-    taken = [_rect(positions[n], sizes[n]) for n in shown]
+    nodes = [_rect(positions[n], sizes[n]) for n in shown]
+    taken = [(x0, y0 - CAPTION_H, x0 + layout.captions.get(o, 0.0), y0)
+              for o, (x0, y0, _, _) in layout.groups.items()]  # fmt: skip
+    branching = {
+        a for a, b in merged if a != b and sum(1 for s, d in merged if s == a and d != s) > 1
+    }
     for (src, dst), outs in merged.items():
-        if not outs:
+        if not outs or (src != dst and src not in branching):
             continue
         node = label_id(src, dst)
         text = ", ".join(outs[:_MAX_OUTCOMES])
         if len(outs) > _MAX_OUTCOMES:
             text = f"{', '.join(outs[: _MAX_OUTCOMES - 1])} +{len(outs) - _MAX_OUTCOMES + 1}"
         size = label_size(text)
-        spot = _place(positions[src], sizes[src], positions[dst], sizes[dst], size, taken)
+        spot = _place(positions[src], sizes[src], positions[dst], sizes[dst], size, nodes, taken)
         labels[node] = text
         positions[node] = spot
         sizes[node] = size
@@ -172,6 +179,7 @@ def _place(
     dst: tuple[float, float],
     dst_size: tuple[float, float],
     size: tuple[float, float],
+    nodes: list[Rect],
     taken: list[Rect],
 ) -> tuple[float, float]:
     """Where the label of the edge src -> dst goes: on the straight line Rerun draws, at the
@@ -186,10 +194,14 @@ def _place(
         on_line = [(ax + t * (bx - ax), ay + t * (by - ay)) for t in _SPOTS]
         # then beside the line, left and right of it (a label next to its arrow)
         side = size[0] / 2 + 4.0
-        spots = on_line + [(x + d, y) for x, y in on_line for d in (side, -side)]
+        spots = on_line + [
+            (x + d, y) for d in (side, -side, side + 24.0, -side - 24.0) for x, y in on_line
+        ]
     best, least = spots[0], math.inf
     for spot in spots:
-        covered = sum(_area(_rect(spot, size), r) for r in taken)
+        box = _rect(spot, size)
+        # covering a state's name is worse than covering another label
+        covered = 4.0 * sum(_area(box, r) for r in nodes) + sum(_area(box, r) for r in taken)
         if covered == 0.0:
             return spot
         if covered < least:

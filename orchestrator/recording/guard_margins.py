@@ -150,6 +150,7 @@ class GuardMargins:
         if tuple(guards) == self._active:
             return
         self._active = tuple(guards)
+        kept = {p.key: p.peak for p in self._plans}  # peaks of guards that stay active
         seen: dict[str, int] = {}
         self._plans = []
         for guard in guards:
@@ -157,9 +158,9 @@ class GuardMargins:
             seen[guard.name] = count
             key = guard.name if count == 1 else f"{guard.name}_{count}"
             rows = self._rows.setdefault(key, [])
-            self._plans.append(
-                _Plan(key, guard.name, guard.monitored, rows, guard.name in STEP_PEAK_GUARDS)
-            )
+            plan = _Plan(key, guard.name, guard.monitored, rows, guard.name in STEP_PEAK_GUARDS)
+            plan.peak = kept.get(key)
+            self._plans.append(plan)
         self._step = [p for p in self._plans if p.step]
 
     def on_step(self, ctx: Context) -> None:

@@ -21,20 +21,25 @@ __all__ = [
     "RobotSignals",
     "TCP_ERROR",
     "WRIST_FORCE",
+    "WRIST_FORCE_XYZ",
 ]
 
 TCP_ERROR = f"{SIGNALS}/tcp_error_m"
 """|TCP - IK target| [m], only while a motion skill has a target."""
 WRIST_FORCE = f"{SIGNALS}/wrist_force_n"
-"""External force on the hand [N]: x, y, z (world frame) and the norm as the sensor read them at
-each control tick, and the peak of the true norm over the tick's physics steps."""
+"""External force on the hand [N]: its norm as the sensor read it at each control tick, and the
+peak of the true norm over the tick's physics steps."""
+WRIST_FORCE_XYZ = f"{SIGNALS}/wrist_force_xyz_n"
+"""External force on the hand [N]: x, y, z (world frame) as the sensor read them per tick."""
 JOINT_TORQUE = f"{SIGNALS}/joint_torque_nm"
 """Commanded arm joint torques [N m], one series per joint."""
 GRIPPER_WIDTH = f"{SIGNALS}/gripper_width_m"
 """Distance between the fingers [m]."""
 
-_FORCE_NAMES = ("x", "y", "z", "|F|", "peak |F| (true, every step)")
-_FORCE_COLORS = (0xE15759FF, 0x59A14FFF, 0x4E79A7FF, 0x333333FF, 0xF28E2BFF)
+_FORCE_NAMES = ("|F| per tick", "peak |F| per step (true)")
+_FORCE_COLORS = (0x333333FF, 0xF28E2BFF)
+_XYZ_NAMES = ("x", "y", "z")
+_XYZ_COLORS = (0xE15759FF, 0x59A14FFF, 0x4E79A7FF)
 _SCALARS = rr.Scalars.descriptor_scalars()
 
 
@@ -71,11 +76,11 @@ class RobotSignals:
         """Series names and colours."""
         static.log(
             WRIST_FORCE,
-            rr.SeriesLines(
-                names=list(_FORCE_NAMES),
-                colors=np.array(_FORCE_COLORS, np.uint32),
-                visible_series=[False, False, False, True, True],  # x, y, z: click to show
-            ),
+            rr.SeriesLines(names=list(_FORCE_NAMES), colors=np.array(_FORCE_COLORS, np.uint32)),
+        )
+        static.log(
+            WRIST_FORCE_XYZ,
+            rr.SeriesLines(names=list(_XYZ_NAMES), colors=np.array(_XYZ_COLORS, np.uint32)),
         )
         static.log(JOINT_TORQUE, rr.SeriesLines(names=self.joint_names))
         static.log(TCP_ERROR, rr.SeriesLines(names=["|tcp - target| [m]"]))
@@ -112,7 +117,8 @@ class RobotSignals:
         force = v["force"]
         norm = np.linalg.norm(force, axis=1, keepdims=True)
         peak = v["peak"][:, None]
-        batch.add(WRIST_FORCE, _SCALARS, scalar_lists(np.hstack([force, norm, peak])))
+        batch.add(WRIST_FORCE, _SCALARS, scalar_lists(np.hstack([norm, peak])))
+        batch.add(WRIST_FORCE_XYZ, _SCALARS, scalar_lists(force))
         batch.add(JOINT_TORQUE, _SCALARS, scalar_lists(v["tau"]))
         batch.add(GRIPPER_WIDTH, _SCALARS, scalar_lists(v["grip"]))
         target = v["target"].astype(np.int64)
