@@ -33,7 +33,7 @@ _WIDTHS = {
 }  # fmt: skip
 _UPPER, _WIDE, _LOWER = 0.70, 1.0, 0.52
 """Advance widths of the narrow characters of Rerun's UI font (Inter), in ems."""
-_XSPACE, _YSPACE = 28.0, 22.0
+_XSPACE, _YSPACE = 28.0, 21.0
 """Gaps between neighbours in a layer and between layers [px]: a row of edge labels (26 px
 high) fits between two layers. A lit label (`▶ ` before the name, ~15 px wider, centred)
 still leaves neighbours ~16 px apart: only one state per machine level is lit."""

@@ -242,9 +242,9 @@ class RerunRecorder:
         if self._rows.n:
             ticks, t_s, values = self._rows.take()
             table = TemporalBatch(ticks, t_s)
-            self._poses.add_columns(table, values)
             error = self._signals.add_columns(table, values, t_s, ticks)
             chunks = table.chunks() + (error.chunks() if error is not None else [])
+            chunks += self._poses.chunks(ticks, t_s, values)
         first = self.rec is None
         if self.rec is None:
             self.rec = self._open(self._ctx)
