@@ -33,6 +33,7 @@ import io
 import json
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -459,6 +460,10 @@ def _record(scenario: str, seed: int, until_s: float | None = None, **recorder):
     return run_episode(load_scenario(scenario), seed, [cls(**recorder)])
 
 
+def _terminate(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
 # -- main -----------------------------------------------------------------------------------
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -489,6 +494,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{scene.name} ...", flush=True)
             work = Path(tmp) / scene.name
             work.mkdir()
+            # an interrupt or a kill unwinds the blocks that stop the browser and the viewers
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            signal.signal(signal.SIGTERM, _terminate)
             try:
                 out = scene.render(work)
             except Exception as exc:  # noqa: BLE001 - one picture's failure must not stop the rest

@@ -363,7 +363,7 @@ def test_the_layout_is_the_same_in_every_process():
 
 
 def test_each_nesting_depth_has_its_own_lane(recorded):
-    top = [s[0] for s in recorded.column("/state_machine/levels/top", "StateChange:state")]
+    top = [s[0] for s in recorded.column("/state_machine/levels/depth_0", "StateChange:state")]
     one = [s[0] for s in recorded.column("/state_machine/levels/depth_1", "StateChange:state")]
     two = [s[0] for s in recorded.column("/state_machine/levels/depth_2", "StateChange:state")]
     assert top[0] == "PICK" and top[-1] == "DONE"

@@ -47,9 +47,9 @@ LEGIBLE_ZOOM = 0.75
 _MARGIN_PX = (16.0, 30.0)
 """Room kept around the graph: sides and bottom, top [px]. Rerun outlines the graph 10 px
 outside its nodes and writes the entity path above the outline; its own fit leaves that out."""
-_LANES_WINDOW_S = 8.0
-"""The state lanes show this much simulated time around the cursor [s], so a state of half a
-second is wide enough for its name in a long run."""
+_LANES_WINDOW_S = (6.0, 2.0)
+"""The state lanes show this much simulated time before and after the cursor [s]: 8 s across
+the lanes, so a state of half a second is wide enough for its name in a long run."""
 _MARGINS_RANGE = (0.0, 2.2)
 """The guard margins' y axis: 1.0 (fires) below the middle, the legend (top left) above it."""
 
@@ -136,8 +136,8 @@ def default_blueprint(
         contents=[ACTIVE_STATE, f"{LEVELS}/**"],
         time_view=rrb.TimeAxis(
             view_range=rrb.TimeRange(
-                start=rrb.TimeRangeBoundary.cursor_relative(seconds=-_LANES_WINDOW_S),
-                end=rrb.TimeRangeBoundary.cursor_relative(seconds=_LANES_WINDOW_S),
+                start=rrb.TimeRangeBoundary.cursor_relative(seconds=-_LANES_WINDOW_S[0]),
+                end=rrb.TimeRangeBoundary.cursor_relative(seconds=_LANES_WINDOW_S[1]),
             )
         ),
     )

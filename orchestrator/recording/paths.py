@@ -46,7 +46,7 @@ STATE_MACHINE = "state_machine"
 ACTIVE_STATE = f"{STATE_MACHINE}/active"
 """StateChange of the active leaf state, by dotted path (`PICK.SEARCH`)."""
 LEVELS = f"{STATE_MACHINE}/levels"
-"""`<LEVELS>/<depth>`: StateChange of each nesting depth (`top`, `depth_1`, ...)."""
+"""`<LEVELS>/depth_<d>`: StateChange of each nesting depth (`depth_0` the top level)."""
 GRAPH = f"{STATE_MACHINE}/graph"
 """GraphNodes/GraphEdges of the machine tree, the active states highlighted over time."""
 SIGNALS = "signals"
@@ -83,5 +83,5 @@ def frame_path(owner: str) -> str:
 
 
 def level_path(depth: int) -> str:
-    """Entity path of the state lane of nesting depth `depth` (0: `top`, then `depth_1`, ...)."""
-    return f"{LEVELS}/{'top' if depth == 0 else f'depth_{depth}'}"
+    """Entity path of the state lane of nesting depth `depth` (`depth_0` is the top level)."""
+    return f"{LEVELS}/depth_{depth}"

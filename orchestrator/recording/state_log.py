@@ -29,7 +29,7 @@ class StateLog:
 
     * `state_machine/active`: the leaf state by dotted path, one row per transition; its values
       are exactly the `to` fields of the run's `transitions` (after the initial state).
-    * `state_machine/levels/<depth>`: one lane per nesting depth (`top`, `depth_1`, ...): the
+    * `state_machine/levels/<depth>`: one lane per nesting depth (`depth_0`, `depth_1`, ...): the
       state at that depth of the active leaf, so a nested machine's states sit under the state
       that runs it; a lane is empty (a gap) while the leaf is shallower.
     * `state_machine/graph`: the machine's graph (`GraphDrawing`), the active leaf and its
