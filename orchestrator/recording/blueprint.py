@@ -185,7 +185,7 @@ def default_blueprint(
         origin=GRAPH,
         visual_bounds=graph_view_bounds(graph_bounds) if graph_bounds is not None else None,
     )
-    left = rrb.Vertical(scene, states, row_shares=[3, 1])
+    left = rrb.Vertical(scene, states, row_shares=[5, 2])
     if cameras:
         views = [
             rrb.Spatial2DView(
@@ -195,7 +195,7 @@ def default_blueprint(
             )
             for c in cameras
         ]
-        left = rrb.Vertical(scene, rrb.Horizontal(*views), states, row_shares=[5, 4, 2])
+        left = rrb.Vertical(scene, rrb.Horizontal(*views), states, row_shares=[4, 4, 3])
     return rrb.Blueprint(
         rrb.Horizontal(
             left,

@@ -235,12 +235,12 @@ class GuardMargins:
         for batch in batches.values():
             out += batch.chunks()
         if self._trip_line:
-            ticks, t_s = (np.array(c) for c in zip(*self._trip_line, strict=True))
+            line_ticks, line_t = (np.array(c) for c in zip(*self._trip_line, strict=True))
             out.append(
                 Chunk.from_columns(
                     TRIP_LINE,
-                    indexes=time_columns(ticks, t_s),
-                    columns=rr.Scalars.columns(scalars=np.ones(len(ticks))),
+                    indexes=time_columns(line_ticks, line_t),
+                    columns=rr.Scalars.columns(scalars=np.ones(len(line_ticks))),
                 )
             )
             self._trip_line = []
