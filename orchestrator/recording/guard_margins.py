@@ -47,8 +47,9 @@ TRIP_LINE = f"{GUARDS}/trip"
 STEP_PEAK_GUARDS = frozenset({"contact_force", "sensor_health"})
 """Guards read after every physics step for their per-tick peak. Both read the wrist force,
 which the guard bank reads every step while they are active (a cached reading: reading it
-first costs ~0.5 us and changes nothing). The other guards watch positions and velocities,
-which move little within a 10 ms tick; they are sampled per tick."""
+first costs ~0.5 us and changes nothing), and both fire above their limit (their largest
+value is their largest margin). The other guards watch positions and velocities, which move
+little within a 10 ms tick; they are sampled per tick."""
 _U_CAP = 10.0
 """Utilisation is capped here (a lower bound of a quantity that falls to 0: infinite)."""
 _TRIP_COLOR = 0xD62728FF
@@ -122,8 +123,8 @@ class _Plan:
     rows: list[tuple[int, float, float, float, float]]
     """(tick, t [s], u, value, limit)."""
     step: bool
-    peak: tuple[float, float, float] | None = None
-    """Largest (u, value, limit) read since the last row (step-sampled guards)."""
+    peak: tuple[float, float] | None = None
+    """Largest (value, limit) read since the last row (step-sampled guards)."""
 
 
 class GuardMargins:
@@ -164,15 +165,16 @@ class GuardMargins:
         self._step = [p for p in self._plans if p.step]
 
     def on_step(self, ctx: Context) -> None:
-        """After a physics step: keep the peak of every step-sampled guard."""
+        """After a physics step: keep the largest value of every step-sampled guard."""
         for p in self._step:
             watched = p.monitored(ctx)
-            if watched is None:
-                continue
-            value, limit = float(watched[0]), float(watched[1])
-            u = normalizer(p.name, limit)(value, limit)
-            if p.peak is None or u > p.peak[0]:
-                p.peak = (u, value, limit)
+            if watched is not None and (p.peak is None or watched[0] > p.peak[0]):
+                p.peak = watched
+
+    @property
+    def stepping(self) -> bool:
+        """Whether a step-sampled guard is active (`on_step` has anything to do)."""
+        return bool(self._step)
 
     def sample(self, tick: int, t_s: float, ctx: Context) -> None:
         """A control tick: one row per active guard with a scalar (its peak since the last
@@ -182,12 +184,11 @@ class GuardMargins:
             if watched is None:
                 p.peak = None
                 continue
-            value, limit = float(watched[0]), float(watched[1])
-            u = normalizer(p.name, limit)(value, limit)
-            if p.peak is not None and p.peak[0] > u:
-                u, value, limit = p.peak
+            if p.peak is not None and p.peak[0] > watched[0]:
+                watched = p.peak
             p.peak = None
-            p.rows.append((tick, t_s, u, value, limit))
+            value, limit = float(watched[0]), float(watched[1])
+            p.rows.append((tick, t_s, normalizer(p.name, limit)(value, limit), value, limit))
 
     def tripped(
         self, tick: int, t_s: float, ctx: Context, guard: str, value: object, limit: object

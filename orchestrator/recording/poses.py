@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
-import pyarrow as pa
 import rerun as rr
 from rerun.chunk import Chunk
 
-from .batches import StaticBatch, field_metadata, fixed_size_lists
+from .batches import StaticBatch, TemporalBatch, fixed_size_lists
 from .geometry import body_names
-from .paths import SIM_TIME, TICK, body_path
-from .timeline import Rows, seconds_to_ns
+from .paths import body_path
+from .timeline import Rows
 
 __all__ = ["POS_STEP_M", "QUAT_STEP", "BodyPoses"]
 
@@ -97,29 +96,20 @@ class BodyPoses:
         prev = np.concatenate([self._last_key(len(self.moving), key), key[:-1]], axis=0)
         moved = (key != prev).any(axis=2)  # (n, bodies)
         self._last = dict(zip(self.moving.tolist(), key[-1], strict=True)) if len(key) else {}
-        ns = seconds_to_ns(t_s)
+        # bodies that moved at the same rows (the links of a moving arm) share one batch
+        groups: dict[bytes, list[int]] = {}
+        for j in range(len(self.moving)):
+            if moved[:, j].any():
+                groups.setdefault(moved[:, j].tobytes(), []).append(j)
         out = []
-        for j, b in enumerate(self.moving):
-            rows = np.flatnonzero(moved[:, j])
-            if not len(rows):
-                continue
-            path = self.paths[int(b)]
-            columns = [
-                (_TRANSLATION, fixed_size_lists(pos[rows, j])),
-                (_QUATERNION, fixed_size_lists(quat[rows, j][:, [1, 2, 3, 0]])),
-            ]
-            batch = pa.RecordBatch.from_arrays(
-                [pa.array(ns[rows], pa.duration("ns")), pa.array(ticks[rows].astype(np.int64))]
-                + [array for _, array in columns],
-                schema=pa.schema(
-                    [pa.field(SIM_TIME, pa.duration("ns")), pa.field(TICK, pa.int64())]
-                    + [
-                        pa.field(f"{path}:{d.component}", a.type, metadata=field_metadata(path, d))
-                        for d, a in columns
-                    ]
-                ),
-            )
-            out += Chunk.from_record_batch(batch, index=[SIM_TIME, TICK])
+        for members in groups.values():
+            rows = np.flatnonzero(moved[:, members[0]])
+            batch = TemporalBatch(ticks[rows], t_s[rows])
+            for j in members:
+                path = self.paths[int(self.moving[j])]
+                batch.add(path, _TRANSLATION, fixed_size_lists(pos[rows, j]))
+                batch.add(path, _QUATERNION, fixed_size_lists(quat[rows, j][:, [1, 2, 3, 0]]))
+            out += batch.chunks()
         return out
 
     def _last_key(self, n: int, key: np.ndarray) -> np.ndarray:

@@ -110,6 +110,9 @@ class RerunRecorder:
         self._poses = scene.poses
         self._states = StateLog(scene.graph)
         self._signals = RobotSignals(ctx)
+        self._true_sq = ctx.true_wrist_force_norm_sq
+        self._peak_sq = -1.0
+        """Largest true |F|^2 [N^2] after a physics step since the last row (-1: none)."""
         self._targets = Targets()
         # the per-tick table: one row per control tick, shared by poses and signals
         self._rows = Rows({**self._poses.fields, **self._signals.fields})
@@ -134,8 +137,11 @@ class RerunRecorder:
         """After every physics step: keep the peaks a control tick would miss (the true wrist
         force, the guards in `STEP_PEAK_GUARDS`). About 1 us per step; a run without a
         recorder does not call it."""
-        self._signals.on_step(ctx)
-        self._guards.on_step(ctx)
+        f = self._true_sq()
+        if f > self._peak_sq:  # noqa: PLR1730 (cheaper than max() per step)
+            self._peak_sq = f
+        if self._guards.stepping:
+            self._guards.on_step(ctx)
 
     def on_tick(self, ctx: Context, executor: Executor) -> None:
         """Buffer this control tick: poses, signals, guard margins, target changes."""
@@ -226,7 +232,8 @@ class RerunRecorder:
         tick, t = ctx.tick, float(ctx.data.time)
         i = self._rows.append(tick, t)
         self._poses.sample(self._rows, i, ctx.data)
-        self._signals.sample(self._rows, i, ctx)
+        self._signals.sample(self._rows, i, ctx, self._peak_sq)
+        self._peak_sq = -1.0
         self._guards.plan(executor.active_guards)
         self._guards.sample(tick, t, ctx)
         self._targets.sample(tick, t, ctx)

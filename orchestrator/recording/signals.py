@@ -66,8 +66,6 @@ class RobotSignals:
         since the last row [N], torques [N m], gripper width [m], TCP position [m] and the
         index of the IK target in `targets` (-1: none)."""
         self._true_sq = ctx.true_wrist_force_norm_sq
-        self._peak_sq = -1.0
-        """Largest true |F|^2 [N^2] read after a physics step since the last row (-1: none)."""
         self.targets: list[np.ndarray] = []
         """Position [m] of every IK target seen, in order."""
         self._target: object = None
@@ -86,18 +84,12 @@ class RobotSignals:
         static.log(TCP_ERROR, rr.SeriesLines(names=["|tcp - target| [m]"]))
         static.log(GRIPPER_WIDTH, rr.SeriesLines(names=["gripper width [m]"]))
 
-    def on_step(self, ctx: Context) -> None:
-        """After a physics step: keep the peak of the true wrist force (ground truth, noise
-        free: reading it changes nothing the run sees)."""
-        f = self._true_sq()
-        if f > self._peak_sq:  # noqa: PLR1730 (cheaper than max() per step)
-            self._peak_sq = f
-
-    def sample(self, rows: Rows, i: int, ctx: Context) -> None:
-        """Fill row `i` of the per-tick table with the signals."""
-        peak = self._peak_sq if self._peak_sq >= 0.0 else self._true_sq()
-        rows.peak[i] = math.sqrt(peak)
-        self._peak_sq = -1.0
+    def sample(self, rows: Rows, i: int, ctx: Context, peak_sq: float = -1.0) -> None:
+        """Fill row `i` of the per-tick table with the signals. `peak_sq`: the largest true
+        |F|^2 [N^2] over the physics steps since the last row (the recorder's `on_step`
+        keeps it: ground truth, noise free, so reading it changes nothing the run sees);
+        -1: none, the true force now."""
+        rows.peak[i] = math.sqrt(peak_sq if peak_sq >= 0.0 else self._true_sq())
         rows.force[i] = ctx.wrist_force()
         rows.tau[i] = ctx.controller.tau
         rows.grip[i] = ctx.gripper_width
