@@ -113,7 +113,7 @@ class LiveShot:
             browser.get(page)
             time.sleep(3.0)  # the page is open and connected before the run starts
             _record(self.scenario, self.seed, connect=grpc)
-            return _capture(browser, self.name)
+            return _capture(browser, self.name, timeout_s=480.0)
 
 
 @dataclass(frozen=True)
@@ -366,9 +366,9 @@ def _time_bar(image) -> tuple[int, int, int] | None:
     return y, x0, x0 + length - 1
 
 
-def _capture(browser, name: str) -> Path:
+def _capture(browser, name: str, timeout_s: float = 240.0) -> Path:
     """Wait until the viewer shows the whole recording, save the PNG."""
-    _loaded(browser)
+    _loaded(browser, timeout_s=timeout_s)
     out = IMAGES / f"{name}.png"
     _png(browser).save(out)
     return out
@@ -421,6 +421,15 @@ def _mcp(port: int, calls: list[tuple[str, dict]]) -> None:
         call(0, "initialize", {"protocolVersion": "2024-11-05", "capabilities": {},
                                "clientInfo": info})  # fmt: skip
         send({"method": "notifications/initialized"})
+        # the viewer may still be busy with the run it was sent: connect, retrying for 60 s
+        endpoint = {"endpoint": f"http://127.0.0.1:{port}"}
+        for attempt in range(30):
+            send({"id": 100 + attempt, "method": "tools/call",
+                  "params": {"name": "rerun_connect", "arguments": endpoint}})  # fmt: skip
+            reply = json.loads(proc.stdout.readline())
+            if not reply.get("result", {}).get("isError"):
+                break
+            time.sleep(2.0)
         for i, (tool, arguments) in enumerate(calls, start=1):
             call(i, "tools/call", {"name": tool, "arguments": arguments})
             time.sleep(1.0)

@@ -671,3 +671,16 @@ def test_a_force_spike_between_two_ticks_is_in_the_recording(tmp_path):
     assert margin[at] > 0.6 and max(*margin[at - 3 : at], *margin[at + 1 : at + 4]) < 0.2
     raw = np.array(rec.column("/guard_values/contact_force", "Scalars:scalars"))
     assert raw[at, 0] == pytest.approx(60.0 * margin[at])
+
+
+@pytest.mark.slow
+def test_recording_does_not_change_the_run(tmp_path):
+    # the force sensor's noise is drawn at each instant the force is read: a recorder that
+    # read it at a tick no guard read it at moved surgical_complication's abort (5.24 -> 5.22 N)
+    loaded = load_scenario("surgical_complication")
+    plain = run_episode(loaded, 0).to_json_dict()
+    recorded = record(loaded, 0, tmp_path / "sc.rrd").result.to_json_dict()
+    for result in (plain, recorded):
+        result.pop("wall_time")
+    assert recorded == plain
+    assert recorded["reason"]["guard"] == "contact_force"

@@ -177,16 +177,18 @@ class GuardMargins:
         return bool(self._step)
 
     def sample(self, tick: int, t_s: float, ctx: Context) -> None:
-        """A control tick: one row per active guard with a scalar (its peak since the last
-        row if it is step-sampled)."""
+        """A control tick: one row per active guard with a scalar. A step-sampled guard's
+        row is its peak over the physics steps since the last row, read only in `on_step`:
+        the wrist force it reads carries the sensor's noise, drawn anew at each instant it is
+        read, so reading it at an instant the guard bank did not (the tick before the first
+        step) would change the run."""
         for p in self._plans:
-            watched = p.monitored(ctx)
+            if p.step:
+                watched, p.peak = p.peak, None
+            else:
+                watched = p.monitored(ctx)
             if watched is None:
-                p.peak = None
                 continue
-            if p.peak is not None and p.peak[0] > watched[0]:
-                watched = p.peak
-            p.peak = None
             value, limit = float(watched[0]), float(watched[1])
             p.rows.append((tick, t_s, normalizer(p.name, limit)(value, limit), value, limit))
 
@@ -199,7 +201,10 @@ class GuardMargins:
         plan = next((p for p in self._plans if p.name == guard), None)
         key = plan.key if plan is not None else guard
         v, lim = _scalar(value), _scalar(limit)
-        watched = plan.monitored(ctx) if plan is not None else None
+        if plan is None:
+            watched = None
+        else:  # a step-sampled guard was read at this very step (on_step runs before checks)
+            watched = plan.peak if plan.step else plan.monitored(ctx)
         if watched is not None:
             u = normalizer(guard, float(watched[1]))(float(watched[0]), float(watched[1]))
             if not math.isfinite(v + lim):

@@ -27,16 +27,17 @@ __all__ = [
 TCP_ERROR = f"{SIGNALS}/tcp_error_m"
 """|TCP - IK target| [m], only while a motion skill has a target."""
 WRIST_FORCE = f"{SIGNALS}/wrist_force_n"
-"""External force on the hand [N]: its norm as the sensor read it at each control tick, and the
-peak of the true norm over the tick's physics steps."""
+"""External force on the hand [N], true (the noise-free sensor with the hand's true weight
+removed): its norm at each control tick, and its peak over the tick's physics steps. What the
+guards see (the sensed force, noise and faults included) is on their margins."""
 WRIST_FORCE_XYZ = f"{SIGNALS}/wrist_force_xyz_n"
-"""External force on the hand [N]: x, y, z (world frame) as the sensor read them per tick."""
+"""True external force on the hand [N]: x, y, z (world frame) per control tick."""
 JOINT_TORQUE = f"{SIGNALS}/joint_torque_nm"
 """Commanded arm joint torques [N m], one series per joint."""
 GRIPPER_WIDTH = f"{SIGNALS}/gripper_width_m"
 """Distance between the fingers [m]."""
 
-_FORCE_NAMES = ("|F| per tick", "peak |F| per step (true)")
+_FORCE_NAMES = ("|F| per tick", "peak |F| over the tick's steps")
 _FORCE_COLORS = (0x333333FF, 0xF28E2BFF)
 _XYZ_NAMES = ("x", "y", "z")
 _XYZ_COLORS = (0xE15759FF, 0x59A14FFF, 0x4E79A7FF)
@@ -90,7 +91,10 @@ class RobotSignals:
         keeps it: ground truth, noise free, so reading it changes nothing the run sees);
         -1: none, the true force now."""
         rows.peak[i] = math.sqrt(peak_sq if peak_sq >= 0.0 else self._true_sq())
-        rows.force[i] = ctx.wrist_force()
+        # the true force (noise-free sensor, true hand weight removed): a pure read. Reading
+        # the sensed force at an instant no guard reads it would draw the sensor's noise one
+        # more time and change the run (surgical_complication's abort force did change)
+        rows.force[i] = ctx.true_wrist_force()
         rows.tau[i] = ctx.controller.tau
         rows.grip[i] = ctx.gripper_width
         rows.tcp[i] = ctx.tcp_pos
