@@ -9,8 +9,10 @@ it are lit: an accent colour (finals keep theirs) and `LIT_MARK` before the name
 A view showing more than one graph entity outlines each with a rectangle captioned with its
 entity path. The frames of nested machines are exactly that: one entity per nested machine
 (`state_machine/graph/PICK/GRASP`) holding two invisible corner points, so that its outline is
-the machine's frame and its caption names the nesting. Everything a reader follows (states,
-arrows) is one entity, `state_machine/graph`: Rerun draws edges only within an entity.
+the machine's frame and its caption names the nesting; a shut machine's entity holds no
+points, and no frame is drawn. Everything a reader follows (states, arrows, outcome labels) is
+one entity, `state_machine/graph`: Rerun draws edges only within an entity. Outcome labels are
+nodes without edges, in a muted blue grey (`EDGE_LABEL`), placed on or beside their arrow.
 """
 
 from __future__ import annotations

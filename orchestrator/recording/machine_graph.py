@@ -1,9 +1,10 @@
-"""The machine tree as a graph: state paths, kinds, colours, regions, edges and a layout.
+"""The machine tree as a graph: state paths, kinds, colours, regions, edges and expansions.
 
 Pure data computed from a `MachineNode` (no Rerun, no simulator), once per machine: the
-recorder turns it into StateConfiguration, GraphNodes and GraphEdges, and uses `lanes` to split
-a leaf path into the state of every machine level it passes through. The layout is layered,
-top to bottom in flow order, nested machines inside their owner's frame (`graph_layout.py`).
+recorder turns it into StateConfiguration, GraphNodes and GraphEdges. What the graph shows
+while a leaf runs is an expansion (`graph_views.py`): the nested machines holding the leaf
+open, the others one node; each expansion is laid out once, layered top to bottom in flow
+order, nested machines inside their owner's frame (`graph_layout.py`).
 """
 
 from __future__ import annotations
