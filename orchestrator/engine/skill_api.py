@@ -167,6 +167,7 @@ SECTIONS: tuple[Section, ...] = (
             Member("world", ANY),
             Member("robot", ANY),
             Member("scenario", ANY),
+            Member("workspace_box", "read only (a recovery skill backs the TCP into it)"),
             Member("model", "read only (ground truth)"),
             Member("data", "read only (ground truth; never step or write it)"),
             Member("rng", ANY, "~1 us per draw"),
