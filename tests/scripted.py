@@ -82,6 +82,7 @@ class InstantStop:
 
     def __init__(self) -> None:
         self.reasons: list[str] = []
+        self.released = 0
 
     def step(self) -> None:
         pass
@@ -92,6 +93,9 @@ class InstantStop:
 
     def start(self, reason: str, gentle: bool = False) -> None:
         self.reasons.append(reason)
+
+    def release(self) -> None:
+        self.released += 1
 
     def timed_out(self) -> bool:
         return False

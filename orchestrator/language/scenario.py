@@ -334,10 +334,12 @@ class SafeStop(_Strict):
 
     The arm decelerates from its measured velocity to standstill along a synchronized
     constant-deceleration profile (all joints stop together, the slowest at
-    `max_decel_rad_s2`), then holds the reached pose under gravity-compensated, damped joint
-    impedance. A joint that cannot follow the profile (a lost or weak motor) gets its holding
-    brake. At the defaults the Panda stops from 2 rad/s in 40 ms (torque-limited joints get
-    their holding brake's help).
+    `max_decel_rad_s2`). A joint that cannot follow the profile (a lost or weak motor) gets
+    its holding brake at once; after an abort, once every joint is slower than
+    `rest_speed_rad_s`, every joint's holding brake holds the stopped pose (a category-1
+    stop), so a lost or saturated motor cannot let the arm sag. A normal end of a run holds
+    the pose with the motors (gravity-compensated, damped joint impedance). At the defaults
+    the Panda stops from 2 rad/s in 40 ms.
     """
 
     max_decel_rad_s2: PositiveFloat = Field(
@@ -350,9 +352,10 @@ class SafeStop(_Strict):
         description="Time the built-in safe stop holds the stopped pose before the run ends [s].",
     )
     rest_speed_rad_s: PositiveFloat = Field(
-        default=0.05,
+        default=0.01,
         le=1.0,
-        description="Joint speed below which the arm counts as at rest [rad/s].",
+        description="Joint speed below which the arm counts as at rest, and an aborted arm's"
+        " brakes engage [rad/s].",
     )
     max_stop_s: PositiveFloat = Field(
         default=2.0,
