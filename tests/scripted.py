@@ -91,7 +91,7 @@ class InstantStop:
     def at_rest(self) -> bool:
         return True
 
-    def start(self, reason: str, gentle: bool = False) -> None:
+    def start(self, reason: str, gentle: bool = False, brake: bool = True) -> None:
         self.reasons.append(reason)
 
     def release(self) -> None:

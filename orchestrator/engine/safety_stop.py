@@ -24,14 +24,22 @@ if TYPE_CHECKING:
     from ..language.scenario import SafeStop
     from .context import Context
 
-__all__ = ["BRAKE_TRACKING_RAD", "SafetyStop", "profile_distance_m"]
+__all__ = ["BRAKE_TRACKING_RAD", "REST_STEPS", "SafetyStop", "profile_distance_m"]
 
 BRAKE_TRACKING_RAD = 0.05
 """A held joint this far from where it is held gets its holding brake [rad]."""
+REST_STEPS = 5
+"""Physics steps in a row every arm joint must stay below the rest speed for the stop to be
+over (10 ms): a push still acting when the stop began slipped a wrist brake for one step at
+0.11 rad/s just after the arm had first read as still."""
 WEAK_MOTOR_NM = 0.5
 """A motor delivering this much less than commanded when the stop starts is braked [Nm]."""
 BRAKE_OVERSPEED_RAD_S = 0.1
-"""A joint this much faster than its braking profile allows gets its holding brake [rad/s]."""
+"""A joint this much faster than its braking profile allows gets its holding brake [rad/s].
+At 0.3 a wrist joint ran 0.26 rad/s ahead of its profile (the velocity servo lags: the
+controller's model lacks the rotors' inertia) and a 0.25 m/s stop travelled 1.5x the
+profile's own distance; at 0.05 the brakes took over from the profile on most joints of a
+1 m/s stop and stopped the TCP 26 % short of it, off its path."""
 
 
 def profile_distance_m(tcp_speed_m_s: float, qd: np.ndarray, decel: float) -> float:
@@ -71,8 +79,10 @@ class SafetyStop:
         self.braked_joints: list[int] = []
         """Joints braked because they could not follow the profile (their motor failed)."""
         self.gentle = False
+        self.lock_at_rest = False
         self.locked = False
         """The holding brakes of every joint hold the stopped arm (category 1)."""
+        self._still_steps = 0
         self._last_tcp = (0.0, 0.0, 0.0)
 
     @property
@@ -80,7 +90,7 @@ class SafetyStop:
         """The stop has ended: the arm is still and held."""
         return self.stop_time_s is not None
 
-    def start(self, reason: str, gentle: bool = False) -> None:
+    def start(self, reason: str, gentle: bool = False, brake: bool = True) -> None:
         """Brake from the measured state (read on the safety encoders).
 
         Args:
@@ -88,6 +98,10 @@ class SafetyStop:
             gentle: At the robot's own acceleration limits (the end of a run, a normal stop)
                 rather than at the safety stop's `max_decel_rad_s2` (an abort); the motors,
                 not the brakes, then hold the stopped arm.
+            brake: After an abort, the holding brakes take the arm once the braking profile
+                has ended. False when an `on_abort` response takes the arm over at once:
+                locked for the few steps before it does, a probe pressed into tissue read
+                8 N (the brakes' rigid friction against the soft contact) instead of its 2 N.
         """
         ctx = self.ctx
         if not gentle:
@@ -102,6 +116,7 @@ class SafetyStop:
             decel = ctx.controller.rest_decel if gentle else self.config.max_decel_rad_s2
             ctx.controller.brake(q, qd, decel)
         self.gentle = gentle
+        self.lock_at_rest = brake and not gentle
         self.locked = False
         # a motor that does not deliver what it is commanded cannot brake its joint: its
         # holding brake does, from the start
@@ -112,6 +127,7 @@ class SafetyStop:
         self.reason = reason
         self.start_t = ctx.t
         self.stop_time_s = None
+        self._still_steps = 0
         self.distance_m = 0.0
         x, y, z = self._tcp.tolist()
         self._last_tcp = (x, y, z)
@@ -139,12 +155,20 @@ class SafetyStop:
         drift = np.abs(ctrl.q_d - ctx.data.qpos[ctx.world.arm_qpos]) > BRAKE_TRACKING_RAD
         for j in np.flatnonzero(over | drift):
             self._engage(int(j), f"it does not follow its braking profile ({qd[j]:.3f} rad/s)")
-        if ctrl.brake_left_s > 0.0 or float(np.max(np.abs(qd))) >= self.config.rest_speed_rad_s:
+        if ctrl.brake_left_s > 0.0:
             return
-        if not self.gentle:
+        if self.lock_at_rest and not self.locked:
+            # the profile has brought the commanded speed to zero: the drives hand the arm
+            # to the brakes (SS1): held by the motors' impedance alone, an arm that hit an
+            # obstacle at 1 m/s swung back and forth at 0.02-0.06 rad/s for 170 ms more
             self._lock()
-        self.stop_time_s = ctx.t - self.start_t
-        self.active = False
+        if float(np.max(np.abs(qd))) >= self.config.rest_speed_rad_s:
+            self._still_steps = 0
+            return
+        self._still_steps += 1
+        if self._still_steps >= REST_STEPS:
+            self.stop_time_s = ctx.t - self.start_t
+            self.active = False
 
     def release(self) -> None:
         """Hand the stopped arm back to the motors (an `on_abort` response is about to move
