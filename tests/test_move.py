@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +50,39 @@ class TcpProbe:
         pass
 
 
+class JointSpeed:
+    """The fastest arm joint over the run [rad/s], every control tick."""
+
+    def on_start(self, ctx, executor):
+        self.fastest = 0.0
+
+    def on_tick(self, ctx, executor):
+        self.fastest = max(self.fastest, float(np.max(np.abs(ctx.data.qvel[ctx.world.arm_dof]))))
+
+    def on_end(self, ctx, executor, result):
+        pass
+
+
+class DryRunProbe:
+    """The running move's dry run, and the IK's reference after each of its ticks."""
+
+    def on_start(self, ctx, executor):
+        self.executor, self.dry, self.refs, self.skill = executor, None, [], None
+
+    def on_tick(self, ctx, executor):
+        activity = executor.region.activity if executor.region is not None else None
+        skill = getattr(activity, "skill", None)
+        if skill is None or getattr(skill, "dry", None) is None:
+            return
+        if skill is not self.skill:  # started in this tick: it steps from the next one on
+            self.skill, self.dry = skill, skill.dry
+            return
+        self.refs.append(ctx.ik.q.copy())
+
+    def on_end(self, ctx, executor, result):
+        pass
+
+
 @pytest.fixture
 def one_move(tmp_path: Path):
     (tmp_path / "one_move.yaml").write_text(MACHINE)
@@ -81,12 +115,30 @@ def test_target_out_of_reach_ends_unreachable_at_once(one_move):
     assert result.sim_time < 0.5
 
 
-def test_target_blocked_by_joint_limits_ends_unreachable_not_a_hang(one_move):
-    # inside the reach sphere, but straight down onto the robot's own base
+def test_target_blocked_by_joint_limits_ends_unreachable_at_once(one_move):
+    # inside the reach sphere, but straight down onto the robot's own base: the dry run of
+    # the IK stalls at the joint limits before anything moves
     result = run_episode(one_move("goal=[0.0, 0.0, 0.15]"), 0)
     assert result.outcome == "failed"
     assert result.transitions[-1]["trigger"] == "unreachable"
-    assert result.sim_time < 8.0
+    assert result.transitions[-1]["t"] <= 0.02
+    assert result.metrics["rest_speed_rad_s"] < 0.01
+
+
+def test_a_pose_the_hand_cannot_take_pointing_down_is_unreachable_at_once_with_its_residual(
+    one_move,
+):
+    # 0.82 m out, inside the reach sphere: the hand cannot point down there (a parcel placed
+    # there made the arm strain for 9.8 s at up to 1.76x the datasheet's accelerations)
+    probe = JointSpeed()
+    result = run_episode(one_move("goal=[0.74, -0.34, 0.23]"), 0, [probe])
+    last = result.transitions[-1]
+    assert (result.outcome, last["trigger"]) == ("failed", "unreachable")
+    assert last["t"] <= 0.02  # decided by the dry run, before the arm moved
+    found = re.search(r"the IK gets ([\d.]+) mm and ([\d.]+) deg from it", last["detail"])
+    assert found and float(found.group(1)) > 5.0, last["detail"]
+    assert last["detail"].endswith("at best there (joint limits or the edge of the reach)")
+    assert probe.fastest < 0.05  # the arm never moved towards it
 
 
 def test_a_move_timeout_says_how_far_from_the_tolerance_it_was(one_move, tmp_path):
@@ -114,6 +166,21 @@ def test_a_state_timeout_says_what_the_move_was_waiting_for(one_move, tmp_path):
 def test_an_unreachable_move_says_why(one_move):
     result = run_episode(one_move("goal=[1.5, 0.0, 0.4]"), 0)
     assert "is beyond the arm's reach" in result.transitions[-1]["detail"]
+
+
+def test_a_reachable_move_keeps_its_dry_run_the_ticks_then_follow(one_move):
+    # the IK's reference along the move, computed at the start, is what the ticks command
+    probe = DryRunProbe()
+    result = run_episode(one_move("goal=[0.45, 0.1, 0.35]"), 0, [probe])
+    assert result.outcome == "succeeded"
+    dry = probe.dry
+    assert dry is not None and dry.reached and dry.residual_m <= 0.5e-3
+    assert dry.q_path.shape[1] == 7 and dry.path_ticks <= len(dry.q_path)
+    # the reference the ticks computed, tick by tick, is the dry run's (to 0.1 mrad: the QP
+    # solver starts from its last solution, so the two differ in the last digits)
+    n = min(len(probe.refs), dry.path_ticks)
+    assert n > 20
+    assert np.max(np.abs(np.array(probe.refs[:n]) - dry.q_path[:n])) < 1e-3
 
 
 def test_the_time_limit_says_what_the_running_move_was_waiting_for(one_move):
