@@ -216,6 +216,7 @@ class World:
             robot.finger_bodies,
             f"{tool.name}_tip" if tool else None,
             touchable,
+            (robot.base_body,) if robot.base_body is not None else (),
         )
         model = spec.compile()
         set_tissue_stiffness(model, scenario, seed, robot)
