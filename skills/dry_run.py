@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import mink
+import mujoco
 import numpy as np
 
 from .ik import IKSolver
@@ -52,6 +53,9 @@ class DryRun:
         lag_rad: Largest lag of the limited joint command behind the reference on the path
             [rad] (the joint limiter at the robot's velocity, acceleration and jerk limits:
             a command that lags, lags joint by joint and leaves the Cartesian path).
+        torque_ratio: Largest torque the reference asks of a joint on the path, as a
+            fraction of its limit (inverse dynamics of the robot's model, no payload), and
+            the joint (0-based).
     """
 
     q_path: np.ndarray
@@ -61,6 +65,7 @@ class DryRun:
     residual_rad: float
     reached: bool
     lag_rad: float
+    torque_ratio: tuple[float, int] = (0.0, 0)
 
 
 def dry_run(
@@ -72,6 +77,7 @@ def dry_run(
     tolerance_m: float,
     tolerance_rad: float,
     command: tuple[np.ndarray, np.ndarray] | None = None,
+    effort_limit: np.ndarray | None = None,
 ) -> DryRun:
     """Run the IK along `path` (its time stretched by `stretch`) from the arm angles `q0`
     [rad] at the control rate, then hold its end for up to `settle_s` [s] until the reference
@@ -118,12 +124,48 @@ def dry_run(
         if still >= _STALL_TICKS:
             break  # stuck short of the target: a joint limit, the edge of the reach
     ik.reset(q0)
+    q_path = rows[:count].copy()
+    torque = (
+        (0.0, 0)
+        if effort_limit is None
+        else _torque_ratio(ik, q_path[: min(count, path_ticks)], q0, dt, effort_limit)
+    )
     return DryRun(
-        q_path=rows[:count].copy(),
+        q_path=q_path,
         dt=dt,
         path_ticks=path_ticks,
         residual_m=err_pos,
         residual_rad=err_rot,
         reached=err_pos <= pos_tol and err_rot <= rot_tol,
         lag_rad=lag,
+        torque_ratio=torque,
     )
+
+
+_INVERSE: dict[int, mujoco.MjData] = {}
+"""An MjData per robot model for the dry runs' inverse dynamics (never the IK's own)."""
+
+
+def _torque_ratio(
+    ik: IKSolver, q_path: np.ndarray, q0: np.ndarray, dt: float, limit: np.ndarray
+) -> tuple[float, int]:
+    """The largest |torque| / limit a joint needs along `q_path` (ticks of `dt` [s] from
+    `q0` at rest), by inverse dynamics (`mj_inverse`) of the IK's robot model, and which
+    joint: gravity and the path's own accelerations, no payload."""
+    model = ik.config.model
+    data = _INVERSE.get(id(model))
+    if data is None:
+        data = _INVERSE[id(model)] = mujoco.MjData(model)
+    n = ik.n
+    q = np.vstack([q0[None, :n], q_path[:, :n]])
+    qd = np.gradient(q, dt, axis=0)
+    qdd = np.gradient(qd, dt, axis=0)
+    best, joint = 0.0, 0
+    for i in range(1, len(q)):
+        data.qpos[:n], data.qvel[:n], data.qacc[:n] = q[i], qd[i], qdd[i]
+        mujoco.mj_inverse(model, data)
+        ratio = np.abs(data.qfrc_inverse[:n]) / limit
+        j = int(np.argmax(ratio))
+        if ratio[j] > best:
+            best, joint = float(ratio[j]), j
+    return best, joint

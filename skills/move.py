@@ -37,6 +37,12 @@ MAX_LAG_RAD = 0.03
 beyond it the move is slowed as a whole (`_RETIME`). The nominal flows lag at most 0.018 rad;
 a grasp at the edge of the reach lagged 0.145 rad at its blended corner, the hand left its
 path by 2 cm and a finger came down on the parcel (96 N)."""
+MAX_TORQUE_FRACTION = 0.8
+"""Largest fraction of a joint's torque limit a move's reference may ask for (gravity and its
+own accelerations, the robot's model, no payload); beyond it the move is slowed, and a pose
+that needs it even at rest is unreachable. The `joint_torque` guard aborts at 90 % for 20 ms:
+a lift of a 0.4 kg parcel 0.78 m out did (joint 2 at 61 % holding it still, 90 % lifting it
+at 6 m/s^2). pick_place's moves ask at most 59 %."""
 _RETIME = 1.3
 """Factor by which a move whose command would lag is slowed, per try."""
 _MAX_RETIMES = 6
@@ -174,17 +180,22 @@ class Move(Skill):
             stretch = feasible_time_scale(ctx.ik, line, ctx.q)
             command = (ctx.controller.q_d, ctx.controller.qd_d)
             tol_rad = math.radians(p.tolerance_deg)
-            run = dry_run(ctx.ik, line, stretch, ctx.q, p.settle_s, p.tolerance_m, tol_rad, command)
+            limit = ctx.world.arm_effort_limit
+            args = (p.settle_s, p.tolerance_m, tol_rad, command, limit)
+            run = dry_run(ctx.ik, line, stretch, ctx.q, *args)
             for _ in range(_MAX_RETIMES):
-                if not run.reached or run.lag_rad <= MAX_LAG_RAD:
+                if not run.reached or (
+                    run.lag_rad <= MAX_LAG_RAD and run.torque_ratio[0] <= MAX_TORQUE_FRACTION
+                ):
                     break
                 # the limited command would fall behind and leave the path (near the edge of
-                # the reach, a blend's turn): slower, until it keeps up
+                # the reach, a blend's turn), or a joint would need most of its torque (a lift
+                # at full stretch): slower, until it keeps up
                 stretch *= _RETIME
-                run = dry_run(
-                    ctx.ik, line, stretch, ctx.q, p.settle_s, p.tolerance_m, tol_rad, command
-                )
+                run = dry_run(ctx.ik, line, stretch, ctx.q, *args)
             self.tried.append(run)
+            if run.reached and run.torque_ratio[0] > MAX_TORQUE_FRACTION:
+                continue  # even slowly: holding the pose takes nearly all of a joint's torque
             if run.reached:
                 self.line, self.rot1, self.stretch, self.dry = line, rot1, stretch, run
                 break
@@ -318,6 +329,14 @@ class Move(Skill):
         target = np.round(self.pos1, 3).tolist()
         if not self.tried:
             return f"target {target} is beyond the arm's reach"
+        strained = [r for r in self.tried if r.reached]
+        if strained:
+            ratio, joint = min(r.torque_ratio for r in strained)
+            return (
+                f"target {target} unreachable: joint {joint + 1} would need "
+                f"{ratio * 100:.0f} % of its torque limit to take the arm there, even slowly "
+                f"(at most {MAX_TORQUE_FRACTION * 100:.0f} %: too far out)"
+            )
         best = min(self.tried, key=lambda r: (r.residual_m, r.residual_rad))
         ways = f"in any of {len(self.tried)} orientations" if len(self.tried) > 1 else "there"
         return (

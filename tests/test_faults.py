@@ -8,9 +8,9 @@ import pytest
 
 from orchestrator.batch.fault_matrix import MATRICES
 from orchestrator.engine.runner import run_episode
+from orchestrator.language.bundled import bundled_names
 from orchestrator.language.diagnostics import Diagnostic
 from orchestrator.language.faults import FAULT_KINDS, parse_fault_spec
-from orchestrator.language.bundled import bundled_names
 from orchestrator.language.load import load_scenario
 
 # -- the spec syntax --------------------------------------------------------------------------

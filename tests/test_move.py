@@ -188,3 +188,28 @@ def test_the_time_limit_says_what_the_running_move_was_waiting_for(one_move):
     assert result.outcome == "failed" and result.metrics["time_limit_reached"]
     assert result.metrics["time_limit_detail"].startswith("MOVE: TCP "), result.metrics
     assert "still on its line (0.30 of" in result.metrics["time_limit_detail"]
+
+
+def test_a_dry_run_knows_the_torque_its_path_asks_of_each_joint():
+    # held still 0.78 m out, hand down: gravity alone asks joint 2 for ~61 % of its limit
+    # (a lift there at 6 m/s^2 asked 90 % and the joint_torque guard aborted a sorting run)
+    from orchestrator.robots import get_robot
+    from orchestrator.skills.dry_run import dry_run
+    from orchestrator.skills.ik import IKSolver
+    from orchestrator.skills.targets import rot_down
+    from orchestrator.skills.trajectory import CartesianLine
+
+    from orchestrator.world.world import World, robot_only_model
+
+    robot = get_robot("panda")
+    ik = IKSolver(robot, robot_only_model(robot), 0.01, np.zeros(3))
+    ik.reset(np.array(robot.home))
+    goal = np.array([0.62, -0.47, 0.204])
+    for _ in range(400):
+        ik.reference_step(goal, rot_down(1.0), 0.01)
+    q0 = ik.q.copy()
+    still = CartesianLine(goal, rot_down(1.0), goal, rot_down(1.0), 0.5, 2.0, 2.0, 8.0)
+    limit = World.build(load_scenario("pick_place").scenario, 0).arm_effort_limit
+    run = dry_run(ik, still, 1.0, q0, 0.05, 0.001, 0.01, effort_limit=limit)
+    ratio, joint = run.torque_ratio
+    assert joint == 1 and 0.5 < ratio < 0.75, run.torque_ratio
