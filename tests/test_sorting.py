@@ -18,7 +18,7 @@ from orchestrator.engine.blackboard import Blackboard
 from orchestrator.engine.runner import run_episode
 from orchestrator.exceptions import ConfigError
 from orchestrator.language.load import load_scenario
-from orchestrator.language.parcels import draw_parcels
+from orchestrator.language.parcels import SAME_CLASS_GAP_M, draw_parcels
 from orchestrator.world.footprint import separated
 
 REPO = Path(__file__).resolve().parents[1]
@@ -216,10 +216,41 @@ def test_parcels_are_drawn_per_seed_inside_the_area_apart_or_touching_another_cl
     assert touching >= 5  # some parcels touch
 
 
+def test_single_class_parcels_fit_and_one_class_never_touches(sorting):
+    p = sorting.scenario.scene.parcels
+    one = p.model_copy(update={"classes": {"A": [0.85, 0.15, 0.15, 1.0]}})
+    flush = p.model_copy(update={"gap_m": 0.0})
+    for seed in range(20):
+        drawn = draw_parcels(one, seed)  # random layouts fill ~60 %: then a grid
+        assert len(drawn) == 8
+        boxes = [(x, y, yaw, s[0] / 2, s[1] / 2) for _, (_, s, _, x, y, yaw) in drawn]
+        assert all(separated(a, b, one.gap_m - 1e-9) for i, a in enumerate(boxes)
+                   for b in boxes[:i])  # fmt: skip
+        # gap_m 0: parcels of one class still keep 1 cm (one colour touching is one blob)
+        flat = draw_parcels(flush, seed)
+        for i, (_, (ci, si, _, xi, yi, ai)) in enumerate(flat):
+            for _, (cj, sj, _, xj, yj, aj) in flat[:i]:
+                if ci == cj:
+                    a = (xi, yi, ai, si[0] / 2, si[1] / 2)
+                    b = (xj, yj, aj, sj[0] / 2, sj[1] / 2)
+                    assert separated(a, b, SAME_CLASS_GAP_M - 1e-9)
+
+
+def test_touching_that_can_never_be_laid_out_is_refused_naming_the_limit(cli):
+    res = cli("validate", "sorting")  # the bundled one is fine
+    assert res.exit_code == 0
+    bad = cli("run", "sorting", "--set", "scene.parcels.touching=1.0")
+    assert bad.exit_code == 2
+    assert "scene.parcels.touching: touching 1.0 with 8 parcels can never be laid out" in bad.stderr
+    assert "holds at most 7 parcels" in bad.stderr and "(valid: touching < 1" in bad.stderr
+
+
 def test_too_many_parcels_for_the_area_is_a_clear_error(sorting):
     p = sorting.scenario.scene.parcels.model_copy(update={"count": 60})
-    with pytest.raises(ConfigError, match="cannot place 60 parcels in the pick area"):
+    with pytest.raises(ConfigError, match="cannot place 60 parcels in the pick area") as err:
         draw_parcels(p, 0)
+    # the most any random layout placed, and what the grid holds
+    assert "random layouts, and a grid of 3 x 3 cells holds 9" in str(err.value)
 
 
 def test_set_parcels_sets_the_count_and_bins_are_markers_with_walls():

@@ -19,13 +19,25 @@ from .diagnostics import Diagnostic
 if TYPE_CHECKING:
     from .sorting_scene import Parcels
 
-__all__ = ["LAYOUT_TRIES", "PLACE_TRIES", "draw_parcels", "grid_shape", "parcel_name"]
+__all__ = [
+    "LAYOUT_TRIES",
+    "PLACE_TRIES",
+    "SAME_CLASS_GAP_M",
+    "draw_parcels",
+    "grid_shape",
+    "parcel_name",
+]
 
 PLACE_TRIES = 400
 """Poses tried per parcel before the layout starts over."""
 
 LAYOUT_TRIES = 20
 """Layouts started before the area counts as full (a crowded one can leave no room late)."""
+
+SAME_CLASS_GAP_M = 0.01
+"""Least gap between two parcels of one class, whatever `gap_m` [m]: one colour touching is one
+blob to the camera (with `gap_m` 0, two red parcels side by side were seen as one unsure
+parcel and left unsorted)."""
 
 _TOUCH_GAP_M = 0.0005
 """Gap left between parcels placed touching: contact at rest, never interpenetrating [m]."""
@@ -76,8 +88,9 @@ def grid_shape(p: Parcels) -> tuple[int, int]:
     around it, its long side along the area's longer side."""
     (sx, sy) = p.area_size_xy
     along, across = (sx, sy) if sx >= sy else (sy, sx)
-    cols = int(along // (p.length_m[1] + p.gap_m))
-    rows = int(across // (p.width_m[1] + p.gap_m))
+    gap = max(p.gap_m, SAME_CLASS_GAP_M)  # neighbours in the grid may be of one class
+    cols = int(along // (p.length_m[1] + gap))
+    rows = int(across // (p.width_m[1] + gap))
     return rows, cols
 
 
@@ -94,7 +107,8 @@ def _grid_layout(p: Parcels, rng: np.random.Generator) -> list[_Drawn] | None:
     turned = sx < sy  # the long sides along y
     along, across = (sy, sx) if turned else (sx, sy)
     pitch_u, pitch_v = along / cols, across / rows
-    room_u, room_v = pitch_u - p.gap_m, pitch_v - p.gap_m
+    gap = max(p.gap_m, SAME_CLASS_GAP_M)
+    room_u, room_v = pitch_u - gap, pitch_v - gap
     out: list[_Drawn] = []
     for cell in rng.permutation(rows * cols)[: p.count].tolist():
         r, c = divmod(cell, cols)
@@ -146,9 +160,10 @@ def _layout(p: Parcels, rng: np.random.Generator) -> list[_Drawn]:
             box = (x, y, yaw, hx, hy)
             if any(not (lo[0] <= cx <= hi[0] and lo[1] <= cy <= hi[1]) for cx, cy in corners(box)):
                 continue
-            # the partner it touches: no overlap; every other one: gap_m clear (for fingers)
+            # the partner it touches: no overlap; every other one: gap_m clear (for fingers),
+            # and one of the same class SAME_CLASS_GAP_M at least (the camera would see one)
             if all(
-                separated(box, other, 1e-6 if j == partner else p.gap_m - 1e-9)
+                separated(box, other, 1e-6 if j == partner else _need(p, cls, out[j][0]))
                 for j, other in enumerate(placed)
             ):
                 placed.append(box)
@@ -157,6 +172,12 @@ def _layout(p: Parcels, rng: np.random.Generator) -> list[_Drawn]:
         else:
             return out
     return out
+
+
+def _need(p: Parcels, cls: str, other: str) -> float:
+    """The gap a free parcel of class `cls` keeps from one of class `other` [m]."""
+    need = max(p.gap_m, SAME_CLASS_GAP_M) if cls == other else p.gap_m
+    return need - 1e-9
 
 
 def draw_parcels(p: Parcels, seed: int) -> list[tuple[str, _Drawn]]:
