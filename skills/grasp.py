@@ -8,7 +8,7 @@ import numpy as np
 from pydantic import Field, PositiveFloat
 
 from .base import GRIPPED_OBJECT, Skill, SkillParams
-from .gripper import ANY_OBJECT, held_object
+from .gripper import ANY_OBJECT, held_object, note_grasp
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -100,6 +100,7 @@ class Grasp(Skill):
             ctx.log("skill", f"grasp: {self.verdict}")
             return "missed"
         assert name is not None
+        note_grasp(ctx, name)
         if p.into is not None:
             ctx.blackboard[p.into] = name
         if p.object not in (ANY_OBJECT, name):

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..exceptions import OrchestratorError
 from ..language.scenario import SuccessCheck
+from ..skills.gripper import grasped_height
 from ..skills.targets import resolve_target
 from ..world.randomization import object_poses
 from .context import Context
@@ -90,10 +91,16 @@ def _check(ctx: Context, c: SuccessCheck) -> tuple[bool, str]:
 
 
 def _held(ctx: Context, c: SuccessCheck, pos) -> tuple[bool, str]:
-    """Both fingers touch the object, lifted `min_lift_m` above its seeded start."""
+    """Both fingers touch the object, lifted `min_lift_m` above where it lay when the fingers
+    last closed on it (its seeded start if they never did)."""
     assert c.object is not None
-    start = next(p for name, p, _ in object_poses(ctx.scenario, ctx.world.seed) if name == c.object)
-    lift = float(pos[2] - start[2])
+    grasped = grasped_height(ctx, c.object)
+    start = (
+        grasped
+        if grasped is not None
+        else next(p for n, p, _ in object_poses(ctx.scenario, ctx.world.seed) if n == c.object)[2]
+    )
+    lift = float(pos[2] - start)
     geom = ctx.world.objects[c.object].geom_id
     d, m = ctx.data, ctx.model
     touching = set()
@@ -103,7 +110,8 @@ def _held(ctx: Context, c: SuccessCheck, pos) -> tuple[bool, str]:
             other = g2 if g1 == geom else g1
             if other in ctx.world.finger_geoms:
                 touching.add(int(m.geom_bodyid[other]))
-    what = f"{c.object} {lift * 1000:.0f} mm above its start, {len(touching)} finger(s) on it"
+    since = "where it was grasped" if grasped is not None else "its start"
+    what = f"{c.object} {lift * 1000:.0f} mm above {since}, {len(touching)} finger(s) on it"
     if len(touching) < 2 or lift < c.min_lift_m:
         return False, f"{what} (need 2 and min_lift_m {c.min_lift_m * 1000:g} mm)"
     return True, what

@@ -468,9 +468,11 @@ class SuccessCheck(_Strict):
     `object_at`: the object rests on the table within `xy_tol_m` of the target and is upright
     within `upright_tol_deg`. `gripper_clear`: the gripper is open wider than the object and
     its fingers are at least `min_distance_m` from it. `held`: both fingers touch the object and
-    it is at least `min_lift_m` above where it started. `trace`: a contact trace ran to the end
-    of its path on the real surface — measured every physics step against the true path (not
-    the registered one): cross-track error within `cross_track_max_mm` at every step, the tip
+    it is at least `min_lift_m` above where it lay when the fingers last closed on it (where it
+    started, if they never did: a block pushed off a desk is lifted from the floor). `trace`: a
+    contact trace ran to the end of its path on the real surface — measured every physics step
+    against the true path (not the registered one): cross-track error within
+    `cross_track_max_mm` at every step, the tip
     within `end_tol_mm` of the true path's end along it, the true normal force within
     `force_rms_max_n` RMS of the target and never above `force_peak_max_n`. `parcels_sorted`:
     every parcel of `scene.parcels` ended in the bin of its class or was rejected by the flow
