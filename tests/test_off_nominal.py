@@ -240,3 +240,18 @@ class ChassisTouch:
 
     def on_end(self, ctx, executor, result):
         pass
+
+
+def test_count_bounds_a_loop_and_says_when_it_is_spent():
+    from types import SimpleNamespace
+
+    from orchestrator.skills import get_skill
+
+    from orchestrator.engine.blackboard import Blackboard
+
+    ctx = SimpleNamespace(blackboard=Blackboard({}), log=lambda *a, **k: None)
+    cls = get_skill("count")
+    skill = cls(cls.Params.model_validate({"key": "tries", "max": 2}))
+    assert [skill.step(ctx) for _ in range(4)] == ["again", "again", "exhausted", "exhausted"]
+    assert ctx.blackboard["tries"] == 3  # max + 1, never more
+    assert skill.explain(ctx) == "tries: all 2 passes used"

@@ -216,7 +216,7 @@ class World:
             robot.finger_bodies,
             f"{tool.name}_tip" if tool else None,
             touchable,
-            (robot.base_body,) if robot.base_body is not None else (),
+            _chassis(spec, robot.base_body),
         )
         model = spec.compile()
         set_tissue_stiffness(model, scenario, seed, robot)
@@ -298,6 +298,20 @@ def as_index(idx: np.ndarray) -> slice | np.ndarray:
     if len(idx) and np.all(np.diff(idx) == 1):
         return slice(int(idx[0]), int(idx[-1]) + 1)
     return idx
+
+
+def _chassis(spec: mujoco.MjSpec, base_body: str | None) -> tuple[str, ...]:
+    """A mobile base's chassis and the bodies welded to it (no joint between: the arm's own
+    base link on top of it), by name; () for a robot without a base."""
+    if base_body is None:
+        return ()
+    out, stack = [base_body], list(spec.body(base_body).bodies)
+    while stack:
+        body = stack.pop()
+        if not body.joints:
+            out.append(body.name)
+            stack.extend(body.bodies)
+    return tuple(out)
 
 
 def _is_descendant(m: mujoco.MjModel, body: int, root: int) -> bool:
