@@ -18,7 +18,7 @@ from ..engine.result import EXIT_CODES
 from ..engine.runner import run_episode
 from ..language.load import load_scenario
 
-__all__ = ["MATRICES", "MatrixRow", "RowResult", "matrix_for", "run_matrix"]
+__all__ = ["MATRICES", "MatrixRow", "RowResult", "expected", "matrix_for", "run_matrix"]
 
 
 @dataclass(frozen=True)
@@ -27,9 +27,9 @@ class MatrixRow:
 
     Attributes:
         fault: The `--fault` spec.
-        expect: The guard expected to catch it (`a|b`: either), or `flow:<outcome>` when the
-            machine itself handles the fault (a perception miss is retried), or "" for no
-            expectation.
+        expect: The guard expected to catch it, or `flow:<outcome>` when the machine itself
+            handles the fault (a perception miss is retried; `flow:handled`: it ends without
+            an abort, whatever its outcome), or `a|b` for either, or "" for no expectation.
         within_s: Longest time from the fault to its detection the row accepts [s] (None:
             any); the latency docs/safety.md states for it.
     """
@@ -148,12 +148,16 @@ MATRICES: dict[str, list[MatrixRow]] = {
             "contact_force",
             0.01,
         ),
+        # the block pushed away as the base closes in: the grasp misses, the flow backs out,
+        # looks again and grasps (or, the block out of reach, gives up naming it)
         MatrixRow(
             "push:object=cube,force_n=[-2,0,0],duration_ms=300@APPROACHING.CLOSE_IN+0.5",
-            "flow:succeeded",
+            "flow:handled",
         ),
         MatrixRow("perception_miss@0", "flow:succeeded"),
-        MatrixRow("perception_offset:offset_m=[0,0,-0.02]@0", "collision", 30.0),
+        # the block seen 2 cm low: on a table the grasp plan refuses the fingertips below its
+        # top (the flow gives up, naming it); on the floor (no box) the fingers touch it
+        MatrixRow("perception_offset:offset_m=[0,0,-0.02]@0", "collision|flow:failed", 30.0),
     ],
     "surgical": _SURGICAL,
     "surgical_complication": _SURGICAL,
@@ -173,6 +177,22 @@ _GENERIC_KINDS = (
     "actuator_lost",
     "perception_miss",
 )
+
+
+def expected(row: MatrixRow, guard: str | None, outcome: str, detect_s: float | None) -> bool:
+    """Whether a run of `row` that ended `outcome`, aborted by `guard` (None: no abort)
+    `detect_s` [s] after the fault, is what the row expects."""
+    for want in row.expect.split("|"):
+        if want.startswith("flow:"):
+            if guard is None and want[5:] in ("handled", outcome):
+                return True
+        elif guard == want and outcome == "aborted":
+            within = row.within_s is None or (
+                detect_s is not None and detect_s <= row.within_s + 1e-9
+            )
+            if within:
+                return True
+    return False
 
 
 def matrix_for(scenario_name: str) -> list[MatrixRow]:
@@ -204,16 +224,8 @@ def run_matrix(
         abort_t = m.get("abort_t")
         guard = result.reason["guard"] if result.reason else None
         detect = None if abort_t is None or fault_t is None else round(abort_t - fault_t, 4)
-        undetected = False
-        if row.expect.startswith("flow:"):
-            ok: bool | None = guard is None and result.outcome == row.expect[5:]
-        elif row.expect:
-            undetected = guard is None
-            ok = guard in row.expect.split("|") and result.outcome == "aborted"
-            if ok and row.within_s is not None:
-                ok = detect is not None and detect <= row.within_s + 1e-9
-        else:
-            ok = None
+        ok = expected(row, guard, result.outcome, detect) if row.expect else None
+        undetected = bool(row.expect) and guard is None and not ok
         done = RowResult(
             fault=row.fault,
             expect=row.expect,
