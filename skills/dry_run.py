@@ -53,9 +53,11 @@ class DryRun:
         lag_rad: Largest lag of the limited joint command behind the reference on the path
             [rad] (the joint limiter at the robot's velocity, acceleration and jerk limits:
             a command that lags, lags joint by joint and leaves the Cartesian path).
-        torque_ratio: Largest torque the reference asks of a joint on the path, as a
+        torque_ratio: Largest torque the limited command asks of a joint on the path, as a
             fraction of its limit (inverse dynamics of the robot's model, no payload), and
-            the joint (0-based).
+            the joint (0-based). The command, not the reference: near the edge of the reach
+            the IK's reference can chatter tick to tick (+-60 rad/s^2 on joint 2), which the
+            limiter smooths and the arm never sees.
     """
 
     q_path: np.ndarray
@@ -96,6 +98,7 @@ def dry_run(
     limiter = ik.limiter
     lag = 0.0
     rows = np.empty((path_ticks + settle_ticks, ik.n))
+    commands = np.empty((path_ticks, ik.n))
     end_pos, end_rot = path.sample_so3(path.duration)
     pos_tol, rot_tol = 0.5 * tolerance_m, 0.5 * tolerance_rad
     err_pos = err_rot = math.inf
@@ -112,6 +115,7 @@ def dry_run(
         count = i + 1
         if i < path_ticks:
             limiter.step(q_ref, v)  # what `IKSolver.step` hands the controller
+            commands[i] = limiter.position
             lag = max(lag, ik.lag)
         if i + 1 < path_ticks:
             continue
@@ -128,7 +132,7 @@ def dry_run(
     torque = (
         (0.0, 0)
         if effort_limit is None
-        else _torque_ratio(ik, q_path[: min(count, path_ticks)], q0, dt, effort_limit)
+        else _torque_ratio(ik, commands[: min(count, path_ticks)], q0, dt, effort_limit)
     )
     return DryRun(
         q_path=q_path,
@@ -149,9 +153,10 @@ _INVERSE: dict[int, mujoco.MjData] = {}
 def _torque_ratio(
     ik: IKSolver, q_path: np.ndarray, q0: np.ndarray, dt: float, limit: np.ndarray
 ) -> tuple[float, int]:
-    """The largest |torque| / limit a joint needs along `q_path` (ticks of `dt` [s] from
-    `q0` at rest), by inverse dynamics (`mj_inverse`) of the IK's robot model, and which
-    joint: gravity and the path's own accelerations, no payload."""
+    """The largest |torque| / limit a joint needs along the joint path `q_path` (the command
+    at the end of each tick of `dt` [s], from `q0`), by inverse dynamics (`mj_inverse`) of the
+    IK's robot model, and which joint: gravity and the path's own accelerations, no
+    payload."""
     model = ik.config.model
     data = _INVERSE.get(id(model))
     if data is None:
