@@ -68,6 +68,7 @@ class DryRun:
     reached: bool
     lag_rad: float
     torque_ratio: tuple[float, int] = (0.0, 0)
+    sigma_min: float = float("inf")
 
 
 def dry_run(
@@ -143,11 +144,31 @@ def dry_run(
         reached=err_pos <= pos_tol and err_rot <= rot_tol,
         lag_rad=lag,
         torque_ratio=torque,
+        sigma_min=_sigma_min(ik, q_path[-1]),
     )
 
 
 _INVERSE: dict[int, mujoco.MjData] = {}
 """An MjData per robot model for the dry runs' inverse dynamics (never the IK's own)."""
+
+
+def _data(ik: IKSolver) -> mujoco.MjData:
+    model = ik.config.model
+    data = _INVERSE.get(id(model))
+    if data is None:
+        data = _INVERSE[id(model)] = mujoco.MjData(model)
+    return data
+
+
+def _sigma_min(ik: IKSolver, q: np.ndarray) -> float:
+    """The smallest singular value of the TCP's 6-D Jacobian over the IK's joints at `q`."""
+    model, data = ik.config.model, _data(ik)
+    data.qpos[: ik.n] = q[: ik.n]
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    jac = np.zeros((6, model.nv))
+    mujoco.mj_jacSite(model, data, jac[:3], jac[3:], model.site(ik.robot.tcp_site).id)
+    return float(np.linalg.svd(jac[:, : ik.n], compute_uv=False)[-1])
 
 
 def _torque_ratio(
@@ -157,10 +178,7 @@ def _torque_ratio(
     at the end of each tick of `dt` [s], from `q0`), by inverse dynamics (`mj_inverse`) of the
     IK's robot model, and which joint: gravity and the path's own accelerations, no
     payload."""
-    model = ik.config.model
-    data = _INVERSE.get(id(model))
-    if data is None:
-        data = _INVERSE[id(model)] = mujoco.MjData(model)
+    model, data = ik.config.model, _data(ik)
     n = ik.n
     q = np.vstack([q0[None, :n], q_path[:, :n]])
     qd = np.gradient(q, dt, axis=0)

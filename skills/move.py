@@ -43,6 +43,11 @@ own accelerations, the robot's model, no payload); beyond it the move is slowed,
 that needs it even at rest is unreachable. The `joint_torque` guard aborts at 90 % for 20 ms:
 a lift of a 0.4 kg parcel 0.78 m out did (joint 2 at 61 % holding it still, 90 % lifting it
 at 6 m/s^2). pick_place's moves ask at most 59 %."""
+MIN_SIGMA = 0.05
+"""Smallest singular value of the TCP's Jacobian a move's target may have: nearer a
+singularity (the arm stretched out), the IK's reference reaches the pose, but the settling
+correction that takes out the arm's sag turns into large joint motions (a grasp with 0.04
+there swung joint 2 by 0.17 rad and hit its torque limit). Poses the flows use: 0.06-0.2."""
 _RETIME = 1.3
 """Factor by which a move whose command would lag is slowed, per try."""
 _MAX_RETIMES = 6
@@ -196,6 +201,8 @@ class Move(Skill):
             self.tried.append(run)
             if run.reached and run.torque_ratio[0] > MAX_TORQUE_FRACTION:
                 continue  # even slowly: holding the pose takes nearly all of a joint's torque
+            if run.reached and run.sigma_min < MIN_SIGMA:
+                continue  # the arm stretched out: no correction could settle it there
             if run.reached:
                 self.line, self.rot1, self.stretch, self.dry = line, rot1, stretch, run
                 break
@@ -329,6 +336,14 @@ class Move(Skill):
         target = np.round(self.pos1, 3).tolist()
         if not self.tried:
             return f"target {target} is beyond the arm's reach"
+        stretched = [r for r in self.tried if r.reached and r.sigma_min < MIN_SIGMA]
+        if stretched:
+            sigma = max(r.sigma_min for r in stretched)
+            return (
+                f"target {target} unreachable: the arm would be stretched out there, close to "
+                f"a singularity (the TCP Jacobian's smallest singular value {sigma:.3f}, at "
+                f"least {MIN_SIGMA:g})"
+            )
         strained = [r for r in self.tried if r.reached]
         if strained:
             ratio, joint = min(r.torque_ratio for r in strained)

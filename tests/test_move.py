@@ -213,3 +213,14 @@ def test_a_dry_run_knows_the_torque_its_path_asks_of_each_joint():
     run = dry_run(ik, still, 1.0, q0, 0.05, 0.001, 0.01, effort_limit=limit)
     ratio, joint = run.torque_ratio
     assert joint == 1 and 0.5 < ratio < 0.75, run.torque_ratio
+
+
+def test_a_pose_next_to_a_singularity_is_unreachable_saying_so(one_move):
+    # 0.79 m out, hand down: the IK's reference gets there, but the arm is stretched out (the
+    # TCP Jacobian's smallest singular value 0.04): a grasp there swung joint 2 by 0.17 rad
+    # while settling and hit its torque limit
+    result = run_episode(one_move("goal=[0.677, -0.41, 0.227]"), 0)
+    last = result.transitions[-1]
+    assert (result.outcome, last["trigger"]) == ("failed", "unreachable")
+    assert last["t"] <= 0.02
+    assert "stretched out there, close to a singularity" in last["detail"], last["detail"]
