@@ -135,8 +135,16 @@ class Move(Skill):
     """Drive the TCP to a pose along a straight line with jerk-limited timing, or through
     `via` points with blended corners and a time-optimal timing law.
 
-    Outcomes: `reached` (TCP within tolerance and at rest), `unreachable` (outside the arm's
-    reach, or the IK cannot get there), `timeout` (the arm did not settle in `settle_s`).
+    Before anything moves, the IK runs along the whole motion (its dry run, kept as `dry`:
+    the joint path the ticks then command), for each orientation the target allows (with
+    `align_yaw`, its symmetric yaws, the least wrist turn first): the first that gets there
+    is the motion. A motion whose joint command would lag the IK by more than 0.03 rad, or ask
+    a joint for more than 80 % of its torque, is slowed as a whole until it does not.
+
+    Outcomes: `reached` (TCP within tolerance and at rest), `unreachable` (at once, before
+    moving: beyond the arm's reach, the IK stuck short of the pose in every orientation — the
+    residual is in the transition's detail —, too close to a singularity, or too much torque
+    even slowly; or, later, the IK stalled), `timeout` (the arm did not settle in `settle_s`).
     """
 
     name: ClassVar[str] = "move"

@@ -112,13 +112,7 @@ def _grid_layout(p: Parcels, rng: np.random.Generator) -> list[_Drawn] | None:
     out: list[_Drawn] = []
     for cell in rng.permutation(rows * cols)[: p.count].tolist():
         r, c = divmod(cell, cols)
-        cls = classes[int(rng.integers(len(classes)))]
-        size = [
-            float(rng.uniform(p.length_m[0], p.length_m[1])),
-            float(rng.uniform(p.width_m[0], p.width_m[1])),
-            float(rng.uniform(p.height_m[0], p.height_m[1])),
-        ]
-        mass = float(rng.uniform(p.mass_kg[0], p.mass_kg[1]))
+        cls, size, mass = _parcel(p, classes, rng)
         u = -along / 2 + (c + 0.5) * pitch_u
         v = -across / 2 + (r + 0.5) * pitch_v
         u += float(rng.uniform(-1.0, 1.0)) * max(0.0, room_u - size[0]) / 2
@@ -126,6 +120,20 @@ def _grid_layout(p: Parcels, rng: np.random.Generator) -> list[_Drawn] | None:
         x, y = (ax - v, ay + u) if turned else (ax + u, ay + v)
         out.append((cls, size, mass, x, y, math.pi / 2 if turned else 0.0))
     return out
+
+
+def _parcel(
+    p: Parcels, classes: list[str], rng: np.random.Generator
+) -> tuple[str, list[float], float]:
+    """One parcel's class, size `[length, width, height]` [m] and mass [kg], drawn in this
+    order from `rng` (uniformly within `p`'s ranges)."""
+    cls = classes[int(rng.integers(len(classes)))]
+    size = [
+        float(rng.uniform(p.length_m[0], p.length_m[1])),
+        float(rng.uniform(p.width_m[0], p.width_m[1])),
+        float(rng.uniform(p.height_m[0], p.height_m[1])),
+    ]
+    return cls, size, float(rng.uniform(p.mass_kg[0], p.mass_kg[1]))
 
 
 def _layout(p: Parcels, rng: np.random.Generator) -> list[_Drawn]:
@@ -136,13 +144,7 @@ def _layout(p: Parcels, rng: np.random.Generator) -> list[_Drawn]:
     placed: list[Box] = []
     out: list[_Drawn] = []
     for _ in range(p.count):
-        cls = classes[int(rng.integers(len(classes)))]
-        size = [
-            float(rng.uniform(p.length_m[0], p.length_m[1])),
-            float(rng.uniform(p.width_m[0], p.width_m[1])),
-            float(rng.uniform(p.height_m[0], p.height_m[1])),
-        ]
-        mass = float(rng.uniform(p.mass_kg[0], p.mass_kg[1]))
+        cls, size, mass = _parcel(p, classes, rng)
         hx, hy = size[0] / 2, size[1] / 2
         for _ in range(PLACE_TRIES):
             touch = bool(placed) and rng.random() < p.touching
