@@ -5,7 +5,9 @@ An `estop` is injected at several points of a pick_place cycle (while it carries
 full speed, while it descends, while it lifts); for each deceleration limit
 (`physics.safe_stop.max_decel_rad_s2`) the table gives the arm's fastest joint and the TCP's
 speed at the moment of the stop, and the reported `stop_time_s` (violation -> every joint
-below 0.05 rad/s) and `stop_distance_mm` (TCP travel after the violation).
+below `rest_speed_rad_s`, 0.01 rad/s, and the brakes on), `stop_distance_mm` (TCP travel after
+the violation), `stop_distance_min_mm` (the braking profile's own travel from the speed at the
+trip) and their ratio.
 
     python bench/stop_distance.py [--seed 0] [--decel 25 50 100]
 """
@@ -32,27 +34,21 @@ WHEN = (
 
 
 class _AtAbort:
-    """Keeps the arm's joint speed and TCP speed of the last tick before the stop began."""
+    """Keeps the arm's fastest joint speed of the last tick before the stop began."""
 
     def __init__(self) -> None:
-        self.prev_tcp: np.ndarray | None = None
         self.qd_max = 0.0
-        self.tcp_speed = 0.0
         self.frozen = False
 
     def on_start(self, ctx, executor) -> None:
-        self.prev_tcp = ctx.tcp_pos.copy()
+        pass
 
     def on_tick(self, ctx, executor) -> None:
-        tcp = ctx.tcp_pos.copy()
         if not self.frozen:
             if executor.violation_t is not None:
                 self.frozen = True
             else:
                 self.qd_max = float(np.max(np.abs(ctx.qd)))
-                assert self.prev_tcp is not None
-                self.tcp_speed = float(np.linalg.norm(tcp - self.prev_tcp)) / ctx.dt_control
-        self.prev_tcp = tcp
 
     def on_end(self, ctx, executor, result) -> None:
         pass
@@ -65,9 +61,9 @@ def main() -> None:
     args = ap.parse_args()
     print(
         "| e-stop at | max decel [rad/s²] | fastest joint [rad/s] | TCP speed [m/s] "
-        "| stop time [s] | stop distance [mm] | outcome |"
+        "| stop time [s] | stop distance [mm] | profile's own [mm] | ratio | outcome |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for when in WHEN:
         for decel in args.decel:
             loaded = load_scenario(
@@ -78,9 +74,12 @@ def main() -> None:
             probe = _AtAbort()
             result = run_episode(loaded, args.seed, [probe])
             m = result.metrics
+            low = m.get("stop_distance_min_mm") or 0.0
+            ratio = f"{m['stop_distance_mm'] / low:.2f}" if low > 0 else "-"
             print(
-                f"| {when} | {decel:g} | {probe.qd_max:.2f} | {probe.tcp_speed:.2f} "
-                f"| {m.get('stop_time_s')} | {m.get('stop_distance_mm')} | {result.outcome} |"
+                f"| {when} | {decel:g} | {probe.qd_max:.2f} | {m.get('stop_speed_m_s')} "
+                f"| {m.get('stop_time_s')} | {m.get('stop_distance_mm')} | {low} | {ratio} "
+                f"| {result.outcome} |"
             )
 
 

@@ -425,6 +425,12 @@ def faults(
                 mark,
             )
         out.print(table)
+        undetected = sum(r.undetected for r in rows)
+        out.print(
+            f"{len(rows)} faults: {sum(r.ok is True for r in rows)} as expected, "
+            f"{undetected} undetected",
+            markup=False,
+        )
     raise typer.Exit(0 if all(r.ok is not False for r in rows) else 1)
 
 

@@ -11,7 +11,7 @@ from pydantic import Field, PositiveFloat
 
 from .base import SCENE_TARGET, SkillParams
 from .base_map import base_map
-from .base_motion import BaseMotionParams, BaseMotionSkill, base_pose
+from .base_motion import BaseMotionParams, BaseMotionSkill, back_out, base_pose
 from .targets import resolve_target
 
 if TYPE_CHECKING:
@@ -84,6 +84,10 @@ class Approach(BaseMotionSkill):
         target = target3[:2]
         room = base_map(ctx.scenario)
         here = base_pose(ctx)
+        lead = back_out(ctx, room, here)
+        if lead is None:
+            return None
+        start = lead[-1][:2] if lead else here[:2]
         rect = (BASE.length_m / 2, BASE.width_m / 2)
         options = []
         for k in range(_HEADINGS):
@@ -99,12 +103,12 @@ class Approach(BaseMotionSkill):
                 for s in steps
             ):
                 continue
-            options.append((float(np.linalg.norm(run_in - here[:2])), th, stand, run_in))
+            options.append((float(np.linalg.norm(run_in - start)), th, stand, run_in))
         for _, th, stand, run_in in sorted(options, key=lambda o: o[0]):
-            corners = room.plan(here[:2], run_in)
+            corners = room.plan(start, run_in)
             if corners is None:
                 continue
-            poses = [np.array([*c, _facing(c, target)]) for c in corners]
+            poses = [*lead, *(np.array([*c, _facing(c, target)]) for c in corners)]
             poses.append(np.array([*stand, th + math.radians(p.face_offset_deg)]))
             ctx.log(
                 "skill",

@@ -20,7 +20,7 @@ import numpy as np
 if TYPE_CHECKING:
     from orchestrator.language.scenario import Scenario
 
-__all__ = ["PLAN_RADIUS_M", "BaseMap", "base_map"]
+__all__ = ["ESCAPE_REACH_M", "PLAN_RADIUS_M", "BaseMap", "base_map"]
 
 PLAN_RADIUS_M = 0.55
 """Clearance of the base's centre from every box on planned paths [m]: the chassis' half
@@ -28,6 +28,11 @@ diagonal (0.39 m) plus the arm's reach beyond it at home (the hand, 0.48 m ahead
 centre), plus 7 cm."""
 CELL_M = 0.05
 """Grid resolution [m]."""
+ESCAPE_REACH_M = 1.5
+"""Farthest the base backs out of a tight spot before a planned path can start [m]."""
+_ESCAPE_STEP_M = 0.025
+_ESCAPE_DIRECTIONS = 24
+"""Directions tried to back out (every 15 deg, straight back first)."""
 
 
 @dataclass(frozen=True)
@@ -128,6 +133,31 @@ class BaseMap:
                 if abs(x - cx) < hx and abs(y - cy) < hy:
                     return False
         return True
+
+    def escape(
+        self, start: np.ndarray, yaw: float, rect, margin: float, reach_m: float = ESCAPE_REACH_M
+    ) -> np.ndarray | None:
+        """Where the base can back straight out to from `start` (world xy [m], heading `yaw`
+        [rad]), a spot closer to the boxes than the planning radius (a standoff by the
+        furniture, where planned paths cannot start), keeping its heading and the chassis
+        rectangle `rect` (half length, half width [m]) `margin` [m] clear of every box all
+        the way: the nearest free point of the first direction that has one within `reach_m`
+        [m], trying straight back first (the way it came in), then ever further round.
+        None if no direction has one (boxed in)."""
+        start = np.asarray(start, float)
+        back = yaw + math.pi
+        turns = [0] + [k * s for k in range(1, _ESCAPE_DIRECTIONS // 2 + 1) for s in (1, -1)]
+        steps = np.arange(_ESCAPE_STEP_M, reach_m + 1e-9, _ESCAPE_STEP_M).tolist()
+        for k in turns[:_ESCAPE_DIRECTIONS]:
+            th = back + 2.0 * math.pi * k / _ESCAPE_DIRECTIONS
+            u = np.array([math.cos(th), math.sin(th)])
+            for d in steps:
+                p = start + d * u
+                if not self.footprint_clear(p[0], p[1], yaw, margin, rect):
+                    break  # the chassis would touch a box this way
+                if self.is_free(*p):
+                    return p
+        return None
 
     def segment_free(self, a: np.ndarray, b: np.ndarray) -> bool:
         """Every point of the straight segment a -> b (world xy [m]) is free."""

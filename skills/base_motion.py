@@ -15,23 +15,56 @@ import math
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
+from orchestrator.robots.mobile import BASE
 from pydantic import Field, PositiveFloat
 
 from orchestrator.exceptions import SkillError
 
 from .base import Skill, SkillParams
+from .base_map import BaseMap
 from .ik import COMMAND_MARGIN
 from .trajectory import Profile
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
 
-__all__ = ["BaseMotion", "BaseMotionParams", "BaseMotionSkill", "base_pose", "wrap_angle"]
+__all__ = [
+    "BaseMotion",
+    "BaseMotionParams",
+    "BaseMotionSkill",
+    "back_out",
+    "base_pose",
+    "wrap_angle",
+]
 
 
 def wrap_angle(a: float) -> float:
     """`a` [rad] wrapped to [-pi, pi)."""
     return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+ESCAPE_MARGIN_M = 0.02
+"""Clearance of the chassis from every box while it backs out of a tight spot [m] (it came in
+along the same line with `approach`'s 5 cm)."""
+
+
+def back_out(ctx: Context, room: BaseMap, here: np.ndarray) -> list[np.ndarray] | None:
+    """The way out of a spot closer to the boxes than planned paths may start (where an
+    approach left the base, by the furniture): `[]` when the base stands free, one pose
+    straight out with the heading kept (`BaseMap.escape`), or None (logged) when boxed in."""
+    if room.is_free(here[0], here[1]):
+        return []
+    rect = (BASE.length_m / 2, BASE.width_m / 2)
+    out = room.escape(here[:2], float(here[2]), rect, ESCAPE_MARGIN_M)
+    if out is None:
+        ctx.log("skill", f"base boxed in at {np.round(here[:2], 3).tolist()}", level="WARN")
+        return None
+    ctx.log(
+        "skill",
+        f"base backs out {float(np.linalg.norm(out - here[:2])):.2f} m to "
+        f"{np.round(out, 3).tolist()} before its path",
+    )
+    return [np.array([out[0], out[1], here[2]])]
 
 
 def base_pose(ctx: Context) -> np.ndarray:

@@ -9,7 +9,7 @@ import numpy as np
 from pydantic import Field, NonNegativeFloat, model_validator
 
 from orchestrator.exceptions import SkillError
-from orchestrator.perception.detections import Detection, detect_objects
+from orchestrator.perception.detections import Detection, detect_objects, sort_detections
 from orchestrator.perception.truth import match_detections, true_objects
 from orchestrator.world.pose import Pose
 
@@ -41,6 +41,12 @@ class DetectParams(SkillParams):
         default=None, description="Region of interest `[x0, y0, x1, y1]` [px], end exclusive."
     )
     into: str = Field(default="detections", description="Blackboard key of the detection list.")
+    all_into: str | None = Field(
+        default=None,
+        description="Blackboard key the detections of every class go to, `class` or not "
+        "(what lies around the target: the neighbours `grasp_pose` keeps the fingers clear "
+        "of); default: none, and only `class` is segmented.",
+    )
     pose_into: str | None = Field(
         default=None,
         description="Blackboard key the pose of the best detection (the first at or above "
@@ -81,7 +87,7 @@ class Detect(Skill):
     name: ClassVar[str] = "detect"
     Params: ClassVar[type[SkillParams]] = DetectParams
     outcomes: ClassVar[tuple[str, ...]] = ("found", "none")
-    writes: ClassVar[dict[str, str]] = {"into": "list", "pose_into": "pose"}
+    writes: ClassVar[dict[str, str]] = {"into": "list", "all_into": "list", "pose_into": "pose"}
 
     params: DetectParams
 
@@ -103,12 +109,16 @@ class Detect(Skill):
         scn = ctx.scenario
         frame = ctx.cameras.capture(ctx.data, p.camera)
         classes = scn.perception.class_boxes()
-        if p.class_ is not None:
+        if p.class_ is not None and p.all_into is None:
             classes = {p.class_: classes[p.class_]}
         roi = (p.roi[0], p.roi[1], p.roi[2], p.roi[3]) if p.roi is not None else None
         found = detect_objects(
             frame, classes, p.min_pixels, roi, scn.perception.randomize.depth_noise_m
         )
+        if p.all_into is not None:
+            ctx.blackboard[p.all_into] = [d.to_blackboard() for d in found]
+            if p.class_ is not None:  # each class is segmented on its own: the same blobs
+                found = sort_detections([d for d in found if d.cls == p.class_])
         self._score(ctx, found)
         if ctx.keep_camera_shots:
             ctx.camera_shots.append((ctx.tick, ctx.t, frame, found))

@@ -10,7 +10,7 @@ from pydantic import Field
 
 from .base import SkillParams
 from .base_map import base_map
-from .base_motion import BaseMotionParams, BaseMotionSkill, base_pose, wrap_angle
+from .base_motion import BaseMotionParams, BaseMotionSkill, back_out, base_pose, wrap_angle
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -50,16 +50,21 @@ class Drive(BaseMotionSkill):
         if not self.params.plan:
             return [goal]
         here = base_pose(ctx)
-        corners = base_map(ctx.scenario).plan(here[:2], goal[:2])
+        room = base_map(ctx.scenario)
+        lead = back_out(ctx, room, here)
+        if lead is None:
+            return None
+        start = lead[-1] if lead else here
+        corners = room.plan(start[:2], goal[:2])
         if corners is None:
             ctx.log("skill", f"drive: no collision-free path to {self.params.to}", level="WARN")
             return None
         # turn on the way: the yaw changes in proportion to the distance covered
-        starts = [here[:2], *corners[:-1]]
+        starts = [start[:2], *corners[:-1]]
         lengths = np.cumsum([np.linalg.norm(c - a) for a, c in zip(starts, corners, strict=True)])
         total = float(lengths[-1]) or 1.0
-        dyaw = wrap_angle(goal[2] - here[2])
-        return [
-            np.array([*c, here[2] + dyaw * float(s) / total])
+        dyaw = wrap_angle(goal[2] - start[2])
+        return lead + [
+            np.array([*c, start[2] + dyaw * float(s) / total])
             for c, s in zip(corners, lengths, strict=True)
         ]

@@ -1,4 +1,4 @@
-"""`grasp`: close the gripper on an object and check that it is held."""
+"""`grasp`: close the gripper and check, by the fingers, what it holds."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 from pydantic import Field, PositiveFloat
 
 from .base import GRIPPED_OBJECT, Skill, SkillParams
-from .gripper import ANY_OBJECT, finger_contact_forces, gripped_object
+from .gripper import ANY_OBJECT, held_object, note_grasp
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -22,11 +22,18 @@ _STILL_MPS = 0.005
 
 class GraspParams(SkillParams):
     object: str = Field(
-        description="Name of the scene object to grasp (`*`: whichever the fingers close on).",
+        description="Name of the scene object that should end up in the hand (`*`: whichever "
+        "the fingers close on).",
         json_schema_extra=GRIPPED_OBJECT,
     )
     min_force_n: PositiveFloat = Field(
         default=5.0, description="Normal force each finger must press with for `grasped` [N]."
+    )
+    min_width_m: PositiveFloat = Field(
+        default=0.005,
+        le=0.2,
+        description="Narrowest gap between the stopped fingers that can be an object in the "
+        "hand [m]: closer, they closed on nothing (or pinch an edge).",
     )
     settle_s: PositiveFloat = Field(
         default=0.1, description="Minimum closing time before the check [s]."
@@ -34,16 +41,28 @@ class GraspParams(SkillParams):
     close_timeout_s: PositiveFloat = Field(
         default=1.5, description="Longest time to wait for the fingers to stop [s]."
     )
+    into: str | None = Field(
+        default=None,
+        description="Blackboard key the name of the object in the hand is written to (when "
+        "the fingers hold one).",
+    )
 
 
 class Grasp(Skill):
-    """Close the fingers until they stop and squeeze with the hand's force; `grasped` only if
-    the object is between them and both fingers press on it with at least `min_force_n`,
-    else `missed`."""
+    """Close the fingers until they stop and squeeze with the hand's force, then judge what
+    the hand holds the way a gripper does: the fingers stopped at a plausible width
+    (`min_width_m` or more) with both pads pressing on one object with at least
+    `min_force_n`, its centre between the pads — whichever object it is.
+
+    Outcomes: `grasped` (it holds `object`, or any one for `*`), `missed` (nothing held),
+    `wrong_object` (it holds another object than `object`: the log and the transition's
+    detail name it). The held object's name goes to `into`.
+    """
 
     name: ClassVar[str] = "grasp"
     Params: ClassVar[type[SkillParams]] = GraspParams
-    outcomes: ClassVar[tuple[str, ...]] = ("grasped", "missed")
+    outcomes: ClassVar[tuple[str, ...]] = ("grasped", "missed", "wrong_object")
+    writes: ClassVar[dict[str, str]] = {"into": "str"}
 
     params: GraspParams
 
@@ -52,6 +71,7 @@ class Grasp(Skill):
             ctx.object_handle(self.params.object)  # an unknown name stops the run here
         self.t0 = ctx.clock
         self.still_ticks = 0
+        self.verdict = ""
         ctx.controller.hold_setpoint()
         ctx.set_gripper(0.0)
 
@@ -63,22 +83,38 @@ class Grasp(Skill):
         closed = self.still_ticks >= 3 and ctx.gripper_commanded  # stopped, and squeezing
         if elapsed < p.settle_s or (not closed and elapsed < p.close_timeout_s):
             return None
-        name = gripped_object(ctx, p.object)
-        if name is None:
-            ctx.log("skill", f"grasp: width {ctx.gripper_width * 1000:.1f} mm, no object in it")
-            return "missed"
-        left, right = finger_contact_forces(ctx, ctx.object_handle(name).geom_id)
-        between = _between_fingers(ctx, name)
-        held = min(left, right) >= p.min_force_n and between
-        ctx.log(
-            "skill",
-            f"grasp: width {ctx.gripper_width * 1000:.1f} mm, finger forces "
-            f"{left:.1f}/{right:.1f} N, between fingers: {between}",
+        width = ctx.gripper_width
+        name, left, right = held_object(ctx)
+        between = name is not None and _between_fingers(ctx, name)
+        held = (
+            name is not None
+            and width >= p.min_width_m
+            and min(left, right) >= p.min_force_n
+            and between
         )
-        return "grasped" if held else "missed"
+        figures = f"width {width * 1000:.1f} mm, finger forces {left:.1f}/{right:.1f} N"
+        if not held:
+            self.verdict = f"{figures}: nothing held" + (
+                f" ({name} touched, between fingers: {between})" if name else ""
+            )
+            ctx.log("skill", f"grasp: {self.verdict}")
+            return "missed"
+        assert name is not None
+        note_grasp(ctx, name)
+        if p.into is not None:
+            ctx.blackboard[p.into] = name
+        if p.object not in (ANY_OBJECT, name):
+            self.verdict = f"holding {name}, not {p.object} ({figures})"
+            ctx.log("skill", f"grasp: {self.verdict}", level="WARN")
+            return "wrong_object"
+        ctx.log("skill", f"grasp: holding {name} ({figures})")
+        return "grasped"
 
     def stop(self, ctx: Context) -> None:
         ctx.controller.hold_setpoint()
+
+    def explain(self, ctx: Context) -> str | None:
+        return self.verdict or None
 
 
 def _between_fingers(ctx: Context, name: str) -> bool:

@@ -13,6 +13,7 @@ from orchestrator.world.pose import Pose
 
 from .base import SCENE_TARGET, Skill, SkillParams
 from .blended_path import BlendedPath
+from .dry_run import DryRun, dry_run
 from .targets import resolve_target, rot_down, yaw_of_rot
 from .time_scaling import feasible_time_scale, fit_path_to_joints
 from .trajectory import CartesianLine
@@ -20,7 +21,7 @@ from .trajectory import CartesianLine
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
 
-__all__ = ["Move"]
+__all__ = ["Move", "symmetric_yaws"]
 
 _AT_REST_MPS = 0.005
 """TCP speed below which the arm counts as at rest [m/s]."""
@@ -31,6 +32,26 @@ _MAX_CORRECTION_M = 0.015
 """Largest settling correction of the position [m] (4.8 mm are needed at a 0.5 kg payload)."""
 _MAX_CORRECTION_RAD = math.radians(3.0)
 """Largest settling correction of the orientation [rad] (0.63 deg at a 0.5 kg payload)."""
+MAX_LAG_RAD = 0.03
+"""Largest lag of the limited joint command behind the IK's reference a move accepts [rad];
+beyond it the move is slowed as a whole (`_RETIME`). The nominal flows lag at most 0.018 rad;
+a grasp at the edge of the reach lagged 0.145 rad at its blended corner, the hand left its
+path by 2 cm and a finger came down on the parcel (96 N)."""
+MAX_TORQUE_FRACTION = 0.8
+"""Largest fraction of a joint's torque limit a move's reference may ask for (gravity and its
+own accelerations, the robot's model, no payload); beyond it the move is slowed, and a pose
+that needs it even at rest is unreachable. The `joint_torque` guard aborts at 90 % for 20 ms:
+a lift of a 0.4 kg parcel 0.78 m out did (joint 2 at 61 % holding it still, 90 % lifting it
+at 6 m/s^2). pick_place's moves ask at most 59 %."""
+MIN_SIGMA = 0.05
+"""Smallest singular value of the TCP's Jacobian a move's target may have: nearer a
+singularity (the arm stretched out), the IK's reference reaches the pose, but the settling
+correction that takes out the arm's sag turns into large joint motions (a grasp with 0.04
+there swung joint 2 by 0.17 rad and hit its torque limit). Poses the flows use: 0.06-0.2."""
+_RETIME = 1.3
+"""Factor by which a move whose command would lag is slowed, per try."""
+_MAX_RETIMES = 6
+"""Tries at slowing a lagging move (1.3^6 = 4.8x its duration at most)."""
 
 
 class Via(BaseModel):
@@ -114,8 +135,16 @@ class Move(Skill):
     """Drive the TCP to a pose along a straight line with jerk-limited timing, or through
     `via` points with blended corners and a time-optimal timing law.
 
-    Outcomes: `reached` (TCP within tolerance and at rest), `unreachable` (outside the arm's
-    reach, or the IK cannot get there), `timeout` (the arm did not settle in `settle_s`).
+    Before anything moves, the IK runs along the whole motion (its dry run, kept as `dry`:
+    the joint path the ticks then command), for each orientation the target allows (with
+    `align_yaw`, its symmetric yaws, the least wrist turn first): the first that gets there
+    is the motion. A motion whose joint command would lag the IK by more than 0.03 rad, or ask
+    a joint for more than 80 % of its torque, is slowed as a whole until it does not.
+
+    Outcomes: `reached` (TCP within tolerance and at rest), `unreachable` (at once, before
+    moving: beyond the arm's reach, the IK stuck short of the pose in every orientation — the
+    residual is in the transition's detail —, too close to a singularity, or too much torque
+    even slowly; or, later, the IK stalled), `timeout` (the arm did not settle in `settle_s`).
 
     Metrics (of the last `move` that ended, however it ended): `tcp_error_mm`, the true TCP's
     distance to the target position [mm], and `tcp_target_m`, that position [m].
@@ -133,24 +162,80 @@ class Move(Skill):
         pos1 = np.asarray(goal.pos) + np.asarray(p.offset)
         rot0 = ctx.tcp_rot.copy()
         if p.orientation == "keep":
-            rot1 = rot0
+            rots = [rot0]
         elif p.orientation == "down":
             yaw = yaw_of_rot(rot0)
-            if p.align_yaw:
-                yaw = _nearest_symmetric(goal.yaw, yaw, math.radians(p.yaw_symmetry_deg))
-            rot1 = rot_down(yaw)
+            yaws = (
+                symmetric_yaws(goal.yaw, yaw, math.radians(p.yaw_symmetry_deg))
+                if p.align_yaw
+                else [yaw]
+            )
+            rots = [rot_down(y) for y in yaws]
         else:
-            rot1 = _quat_to_rot(np.asarray(p.orientation, float))
-        self.pos1, self.rot1 = pos1, rot1
+            rots = [_quat_to_rot(np.asarray(p.orientation, float))]
+        self.pos1, self.rot1 = pos1, rots[0]
         vias = [np.asarray(resolve_target(ctx, v.target).pos) + np.asarray(v.offset) for v in p.via]
         self.reachable = all(_within_reach(ctx, x) for x in (*vias, pos1))
         ctx.ik.reset(ctx.q)
         if p.gripper_m is not None:
             ctx.set_gripper(p.gripper_m)
-        self.line: CartesianLine | BlendedPath
+        self.t0 = ctx.clock
+        self.stretch = 1.0
+        self.dry: DryRun | None = None
+        """The IK's reference along the chosen motion (skills/dry_run.py), None when the
+        target is beyond the arm's reach (no dry run then)."""
+        self.tried: list[DryRun] = []
+        """The dry runs of the orientations tried, in order (the last is `dry`)."""
+        self.line = self._line(ctx, vias, rot0, rots[0])
+        for rot1 in rots if self.reachable else ():
+            # each orientation the target allows (its symmetric yaws, nearest first): the
+            # first whose dry run reaches it is the motion; none: unreachable, at once
+            line = self._line(ctx, vias, rot0, rot1)
+            if isinstance(line, BlendedPath):
+                fit_path_to_joints(ctx.ik, line, ctx.q)
+            stretch = feasible_time_scale(ctx.ik, line, ctx.q)
+            command = (ctx.controller.q_d, ctx.controller.qd_d)
+            tol_rad = math.radians(p.tolerance_deg)
+            limit = ctx.world.arm_effort_limit
+            args = (p.settle_s, p.tolerance_m, tol_rad, command, limit)
+            run = dry_run(ctx.ik, line, stretch, ctx.q, *args)
+            for _ in range(_MAX_RETIMES):
+                if not run.reached or (
+                    run.lag_rad <= MAX_LAG_RAD and run.torque_ratio[0] <= MAX_TORQUE_FRACTION
+                ):
+                    break
+                # the limited command would fall behind and leave the path (near the edge of
+                # the reach, a blend's turn), or a joint would need most of its torque (a lift
+                # at full stretch): slower, until it keeps up
+                stretch *= _RETIME
+                run = dry_run(ctx.ik, line, stretch, ctx.q, *args)
+            self.tried.append(run)
+            if run.reached and run.torque_ratio[0] > MAX_TORQUE_FRACTION:
+                continue  # even slowly: holding the pose takes nearly all of a joint's torque
+            if run.reached and run.sigma_min < MIN_SIGMA:
+                continue  # the arm stretched out: no correction could settle it there
+            if run.reached:
+                self.line, self.rot1, self.stretch, self.dry = line, rot1, stretch, run
+                break
+        else:
+            self.reachable = False
+        # the command starts from the controller's setpoint, not the measured (sagging) joints
+        ctx.ik.restart_from(ctx.controller.q_d, ctx.controller.qd_d)
+        self.duration = self.line.duration * self.stretch
+        self.corr_pos = np.zeros(3)
+        self.corr_rot = np.zeros(3)
+        self.ik_stalled_ticks = 0
+        self.last_tcp = ctx.tcp_pos.copy()
+        ctx.ik_target = Pose(pos=pos1.tolist(), quat=_rot_to_quat(self.rot1).tolist())
+
+    def _line(
+        self, ctx: Context, vias: list[np.ndarray], rot0: np.ndarray, rot1: np.ndarray
+    ) -> CartesianLine | BlendedPath:
+        """The motion from the TCP to `pos1` with orientation `rot1` (through `vias`)."""
+        p = self.params
         if vias:
-            self.line = BlendedPath(
-                np.array([ctx.tcp_pos, *vias, pos1]),
+            return BlendedPath(
+                np.array([ctx.tcp_pos, *vias, self.pos1]),
                 rot0,
                 rot1,
                 p.max_speed,
@@ -159,33 +244,20 @@ class Move(Skill):
                 p.max_angular_accel,
                 p.blend_m,
             )
-        else:
-            self.line = CartesianLine(
-                ctx.tcp_pos.copy(),
-                rot0,
-                pos1,
-                rot1,
-                p.max_speed,
-                p.max_accel,
-                p.max_angular_speed,
-                p.max_angular_accel,
-            )
-        self.t0 = ctx.clock
-        if self.reachable and isinstance(self.line, BlendedPath):
-            fit_path_to_joints(ctx.ik, self.line, ctx.q)
-        self.stretch = feasible_time_scale(ctx.ik, self.line, ctx.q) if self.reachable else 1.0
-        # the command starts from the controller's setpoint, not the measured (sagging) joints
-        ctx.ik.restart_from(ctx.controller.q_d, ctx.controller.qd_d)
-        self.duration = self.line.duration * self.stretch
-        self.corr_pos = np.zeros(3)
-        self.corr_rot = np.zeros(3)
-        self.ik_stalled_ticks = 0
-        self.last_tcp = ctx.tcp_pos.copy()
-        ctx.ik_target = Pose(pos=pos1.tolist(), quat=_rot_to_quat(rot1).tolist())
+        return CartesianLine(
+            ctx.tcp_pos.copy(),
+            rot0,
+            self.pos1,
+            rot1,
+            p.max_speed,
+            p.max_accel,
+            p.max_angular_speed,
+            p.max_angular_accel,
+        )
 
     def step(self, ctx: Context) -> str | None:
         if not self.reachable:
-            ctx.log("skill", f"move: target {np.round(self.pos1, 3).tolist()} is out of reach")
+            ctx.log("skill", f"move: {self.explain(ctx)}")
             return "unreachable"
         p = self.params
         elapsed = ctx.clock - self.t0
@@ -259,7 +331,7 @@ class Move(Skill):
         """The TCP's remaining error against the tolerance, or why the target is unreachable."""
         p = self.params
         if not self.reachable:
-            return f"target {np.round(self.pos1, 3).tolist()} is beyond the arm's reach"
+            return self._unreachable()
         pos_err, ang_err = self.tcp_error(ctx)
         ik_pos = float(np.linalg.norm(ctx.ik.error[:3]))
         text = (
@@ -274,6 +346,35 @@ class Move(Skill):
             text += f"; the IK is stuck {ik_pos * 1000:.1f} mm short (joint limits)"
         return text
 
+    def _unreachable(self) -> str:
+        """Why the target is unreachable, with the dry run's residual."""
+        target = np.round(self.pos1, 3).tolist()
+        if not self.tried:
+            return f"target {target} is beyond the arm's reach"
+        stretched = [r for r in self.tried if r.reached and r.sigma_min < MIN_SIGMA]
+        if stretched:
+            sigma = max(r.sigma_min for r in stretched)
+            return (
+                f"target {target} unreachable: the arm would be stretched out there, close to "
+                f"a singularity (the TCP Jacobian's smallest singular value {sigma:.3f}, at "
+                f"least {MIN_SIGMA:g})"
+            )
+        strained = [r for r in self.tried if r.reached]
+        if strained:
+            ratio, joint = min(r.torque_ratio for r in strained)
+            return (
+                f"target {target} unreachable: joint {joint + 1} would need "
+                f"{ratio * 100:.0f} % of its torque limit to take the arm there, even slowly "
+                f"(at most {MAX_TORQUE_FRACTION * 100:.0f} %: too far out)"
+            )
+        best = min(self.tried, key=lambda r: (r.residual_m, r.residual_rad))
+        ways = f"in any of {len(self.tried)} orientations" if len(self.tried) > 1 else "there"
+        return (
+            f"target {target} unreachable: the IK gets {best.residual_m * 1000:.1f} mm and "
+            f"{math.degrees(best.residual_rad):.1f} deg from it at best {ways} (joint limits "
+            "or the edge of the reach)"
+        )
+
     def tcp_error(self, ctx: Context) -> tuple[float, float]:
         """Measured TCP position error [m] and orientation error [rad] to the goal."""
         pos_err = float(np.linalg.norm(ctx.tcp_pos - self.pos1))
@@ -287,9 +388,19 @@ def _within_reach(ctx: Context, pos: np.ndarray) -> bool:
     return bool(np.linalg.norm(pos - shoulder) <= ctx.robot.reach_m and np.all(np.isfinite(pos)))
 
 
-def _nearest_symmetric(target_yaw: float, current_yaw: float, period: float) -> float:
-    k = round((current_yaw - target_yaw) / period)
-    return target_yaw + k * period
+def symmetric_yaws(target_yaw: float, current_yaw: float, period: float) -> list[float]:
+    """The yaws [rad] a target of symmetry `period` [rad] can be taken at, within half a turn
+    of `current_yaw` [rad] (unwrapped, as the wrist stands), nearest first: the nearest is the
+    least wrist turn; the others when it cannot be reached."""
+    k0 = round((current_yaw - target_yaw) / period)
+    n = max(1, round(2.0 * math.pi / period))
+    ks = sorted(range(k0 - n, k0 + n + 1), key=lambda k: (abs(k - k0), k))
+    out: list[float] = []
+    for k in ks:
+        yaw = target_yaw + k * period
+        if abs(yaw - current_yaw) <= math.pi + 1e-9 and len(out) < n:
+            out.append(yaw)
+    return out or [target_yaw + k0 * period]
 
 
 def _quat_to_rot(quat: np.ndarray) -> np.ndarray:

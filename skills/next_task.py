@@ -22,7 +22,7 @@ COLOUR_CLASS = {"scene_ref": "colour_class"}
 
 def new_schedule() -> dict[str, Any]:
     """The scheduler's memory before the first task."""
-    return {"started": 0, "done": 0, "open": None, "rejected": []}
+    return {"started": 0, "done": 0, "open": None, "rejected": [], "deferred": []}
 
 
 class NextTaskParams(SkillParams):
@@ -80,7 +80,9 @@ class NextTask(Skill):
     after `max_attempts`, rejected — its item is ignored from then on — or, when no item is
     near it any more, dropped from the schedule as lost. Every outcome makes progress: a task
     is retried at most `max_attempts` times and at most `max_tasks` start, so a loop
-    `next_task` -> ... -> `next_task` ends.
+    `next_task` -> ... -> `next_task` ends. A task `end_task` deferred waits until every other
+    item is served, then is tried again on its item (an attempt counted), or rejected after
+    `max_attempts`; a rejection names the last attempt's failure.
 
     Writes the chosen item to `into`, with `task` (its number) and `attempt` added, and its
     pose to `pose_into`. Outcome `next`, or `empty` when no item is left to do.
@@ -105,21 +107,39 @@ class NextTask(Skill):
         items = self._unrejected(state, [x for x in map(self._candidate, p.items) if x])
         chosen = self._retry(ctx, state, items)
         items = self._unrejected(state, items)  # without one the retry has just rejected
-        if chosen is None and state["started"] >= p.max_tasks:
-            ctx.log("skill", f"next_task: max_tasks {p.max_tasks} reached")
-            ctx.blackboard[p.state] = state
-            return "empty"
-        if chosen is None:
-            chosen = self._first(ctx, items)
-            if chosen is None:
+        while chosen is None:
+            if state["started"] >= p.max_tasks:
+                ctx.log("skill", f"next_task: max_tasks {p.max_tasks} reached")
+                self._close_deferred(ctx, state, [])
+                ctx.blackboard[p.state] = state
+                return "empty"
+            ranked = self._ranked(ctx, state, items)
+            if not ranked:
+                self._close_deferred(ctx, state, items)
                 ctx.log("skill", f"next_task: nothing to do ({len(p.items)} item(s))")
                 ctx.blackboard[p.state] = state
                 return "empty"
-            state["started"] += 1
-            task = state["started"]
-            item, pos = chosen
-            state["open"] = {"task": task, "class": item[p.priority_by], "pos": pos, "attempts": 1}
-            ctx.tasks.begin(ctx, task, str(item[p.priority_by]), pos)
+            item, pos = ranked[0]
+            waiting = self._deferred_at(state, pos)
+            if waiting is not None:  # a task set aside, its turn now that nothing else is left
+                state["deferred"].remove(waiting)
+                if waiting["attempts"] >= p.max_attempts:
+                    self._reject(ctx, state, waiting, pos)
+                    items = self._unrejected(state, items)
+                    continue
+                state["open"] = {
+                    **waiting, "pos": pos, "attempts": waiting["attempts"] + 1, "t": ctx.t
+                }  # fmt: skip
+                ctx.tasks.attempt(ctx, waiting["task"], state["open"]["attempts"])
+            else:
+                state["started"] += 1
+                task = state["started"]
+                state["open"] = {
+                    "task": task, "class": item[p.priority_by], "pos": pos, "attempts": 1,
+                    "t": ctx.t,
+                }  # fmt: skip
+                ctx.tasks.begin(ctx, task, str(item[p.priority_by]), pos)
+            chosen = item, pos
         item, pos = chosen
         open_ = state["open"]
         ctx.blackboard[p.state] = state
@@ -164,26 +184,54 @@ class NextTask(Skill):
             return None
         match = min(near, key=lambda x: math.dist(x[1][:2], open_["pos"][:2]))
         if open_["attempts"] >= p.max_attempts:
-            why = f"{open_['attempts']} failed attempts (max_attempts {p.max_attempts})"
-            state["rejected"].append({"task": task, "class": open_["class"], "pos": match[1],
-                                      "reason": why})  # fmt: skip
-            ctx.tasks.end(ctx, task, "rejected", why)
+            self._reject(ctx, state, open_, match[1])
             return None
-        open_ = {**open_, "pos": match[1], "attempts": open_["attempts"] + 1}
+        open_ = {**open_, "pos": match[1], "attempts": open_["attempts"] + 1, "t": ctx.t}
         state["open"] = open_
         ctx.tasks.attempt(ctx, task, open_["attempts"])
         return match
 
-    def _first(
-        self, ctx: Context, items: list[tuple[dict, list[float]]]
-    ) -> tuple[dict, list[float]] | None:
+    def _reject(self, ctx: Context, state: dict, task: dict, pos: list[float]) -> None:
+        """Give up on `task` after its attempts, its item (now at `pos`) ignored from now on."""
+        why = f"{task['attempts']} failed attempts (max_attempts {self.params.max_attempts})"
+        if task.get("reason"):
+            why += f", the last: {task['reason']}"
+        state["rejected"].append(
+            {"task": task["task"], "class": task["class"], "pos": pos, "reason": why}
+        )
+        ctx.tasks.end(ctx, task["task"], "rejected", why)
+
+    def _deferred_at(self, state: dict, pos: list[float]) -> dict | None:
+        """The deferred task whose item is at `pos` (nearest within the match radius)."""
+        r = self.params.match_radius_m
+        near = [d for d in state["deferred"] if _near(pos, d["pos"], r)]
+        return min(near, key=lambda d: math.dist(pos[:2], d["pos"][:2])) if near else None
+
+    def _close_deferred(
+        self, ctx: Context, state: dict, items: list[tuple[dict, list[float]]]
+    ) -> None:
+        """Nothing left to do: a deferred task whose item is no longer seen is lost."""
+        for waiting in list(state["deferred"]):
+            if not any(_near(x[1], waiting["pos"], self.params.match_radius_m) for x in items):
+                state["deferred"].remove(waiting)
+                ctx.tasks.end(ctx, waiting["task"], "lost", "no longer seen where it was")
+
+    def _ranked(
+        self, ctx: Context, state: dict, items: list[tuple[dict, list[float]]]
+    ) -> list[tuple[dict, list[float]]]:
+        """`items` in the order they are served: by `priority`, nearest first; items whose
+        task was deferred after all the others."""
         p = self.params
         ref = p.nearest_to if p.nearest_to is not None else ctx.tcp_pos.tolist()
         order = {v: i for i, v in enumerate(p.priority)}
-        ranked = sorted(
-            items, key=lambda x: (order[x[0][p.priority_by]], math.dist(x[1][:2], ref[:2]))
+        return sorted(
+            items,
+            key=lambda x: (
+                self._deferred_at(state, x[1]) is not None,
+                order[x[0][p.priority_by]],
+                math.dist(x[1][:2], ref[:2]),
+            ),
         )
-        return ranked[0] if ranked else None
 
 
 def _near(a: list[float], b: list[float], radius: float) -> bool:
@@ -196,4 +244,8 @@ def _copy(memory: Any) -> dict[str, Any]:
             f"the scheduler's memory {memory!r} is not one next_task wrote "
             "(keys: started, done, open, rejected)"
         )
-    return {**memory, "rejected": list(memory["rejected"])}
+    return {
+        **memory,
+        "rejected": list(memory["rejected"]),
+        "deferred": list(memory.get("deferred", [])),
+    }

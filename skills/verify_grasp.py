@@ -10,7 +10,7 @@ from pydantic import Field, PositiveFloat
 from orchestrator.world.randomization import object_poses
 
 from .base import GRIPPED_OBJECT, Skill, SkillParams
-from .gripper import ANY_OBJECT, finger_contact_forces, gripped_object
+from .gripper import ANY_OBJECT, finger_contact_forces, grasped_height, gripped_object
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -31,8 +31,8 @@ class VerifyGraspParams(SkillParams):
     )
     min_height_m: float = Field(
         default=0.02,
-        description="The object must be at least this far above where it started (the table, "
-        "the floor) [m].",
+        description="The object must be at least this far above where it lay when the "
+        "fingers closed on it (else where it started: the table, the floor) [m].",
     )
     duration_s: PositiveFloat = Field(
         default=0.05, description="How long the check must hold continuously [s]."
@@ -41,8 +41,9 @@ class VerifyGraspParams(SkillParams):
 
 class VerifyGrasp(Skill):
     """`held` if, for `duration_s`, both fingers press on the object, its centre stays within
-    `max_offset_m` of the TCP and it is `min_height_m` above the surface it started on (the
-    table, or the floor); `dropped` as soon as any fails."""
+    `max_offset_m` of the TCP and it is `min_height_m` above where it lay when the fingers
+    closed on it (a block pushed off a desk is lifted from the floor); `dropped` as soon as
+    any fails."""
 
     name: ClassVar[str] = "verify_grasp"
     Params: ClassVar[type[SkillParams]] = VerifyGraspParams
@@ -70,7 +71,8 @@ class VerifyGrasp(Skill):
         left, right = finger_contact_forces(ctx, handle.geom_id)
         pos = np.asarray(ctx.object_pose(name).pos)
         offset = float(np.linalg.norm(pos - ctx.tcp_pos))
-        lifted = pos[2] - self.rest_z[name] >= p.min_height_m
+        rest = grasped_height(ctx, name)  # where it lay when the fingers closed on it
+        lifted = pos[2] - (self.rest_z[name] if rest is None else rest) >= p.min_height_m
         if min(left, right) < p.min_force_n or offset > p.max_offset_m or not lifted:
             ctx.log(
                 "skill",

@@ -82,6 +82,7 @@ class InstantStop:
 
     def __init__(self) -> None:
         self.reasons: list[str] = []
+        self.released = 0
 
     def step(self) -> None:
         pass
@@ -90,8 +91,11 @@ class InstantStop:
     def at_rest(self) -> bool:
         return True
 
-    def start(self, reason: str, gentle: bool = False) -> None:
+    def start(self, reason: str, gentle: bool = False, brake: bool = True) -> None:
         self.reasons.append(reason)
+
+    def release(self) -> None:
+        self.released += 1
 
     def timed_out(self) -> bool:
         return False

@@ -6,7 +6,9 @@ import json
 
 import pytest
 
+from orchestrator.batch.fault_matrix import MATRICES
 from orchestrator.engine.runner import run_episode
+from orchestrator.language.bundled import bundled_names
 from orchestrator.language.diagnostics import Diagnostic
 from orchestrator.language.faults import FAULT_KINDS, parse_fault_spec
 from orchestrator.language.load import load_scenario
@@ -105,6 +107,44 @@ def test_a_slip_while_carrying_aborts_with_grasp_lost():
     assert result.outcome == "aborted" and result.reason["guard"] == "grasp_lost"
 
 
+def test_a_slip_of_what_the_hand_holds_acts_on_the_object_in_the_hand():
+    # `object: held` (parcels are drawn per seed): resolved by the fingers when it starts
+    held = run_episode(
+        load_scenario("pick_place", faults=["slip:object=held,factor=0.005@TRANSPORT"]), 3
+    )
+    named = run_episode(
+        load_scenario("pick_place", faults=["slip:object=cube,factor=0.005@TRANSPORT"]), 3
+    )
+    assert held.reason == named.reason and held.reason["guard"] == "grasp_lost"
+    # nothing in the hand: nothing to act on, said, and the run goes on
+    empty = run_episode(load_scenario("pick_place", faults=["slip:object=held@0.05"]), 3)
+    assert empty.outcome == "succeeded"
+
+
+def test_a_fault_naming_no_object_lists_held_among_the_valid_ones(cli):
+    res = cli("run", "pick_place", "--fault", "slip:object=nothing@0.5")
+    assert res.exit_code == 2
+    assert "no scene object 'nothing'" in res.stderr and "held" in res.stderr, res.stderr
+
+
+def test_every_bundled_scenario_has_a_matrix_with_a_latency_for_each_guard_row():
+    for name in bundled_names("scenarios"):
+        rows = MATRICES[name]
+        kinds = {r.fault.split("@")[0].split(":")[0] for r in rows}
+        assert {"estop", "ft_dropout", "encoder_freeze", "actuator_lost"} <= kinds, name
+        for r in rows:
+            if r.expect and not r.expect.startswith("flow:"):
+                assert r.within_s is not None and r.within_s > 0, (name, r)
+
+
+@pytest.mark.slow
+def test_the_mobile_search_fault_matrix_leaves_no_fault_undetected(cli):
+    res = cli("faults", "mobile_search", "--json")
+    rows = json.loads(res.stdout)
+    assert res.exit_code == 0, [r for r in rows if not r["ok"]]
+    assert not any(r["undetected"] for r in rows)
+
+
 def test_the_pick_place_fault_matrix_is_caught_and_stopped_in_time(cli):
     res = cli("faults", "pick_place", "--json")
     assert res.exit_code == 0, res.stderr
@@ -115,6 +155,7 @@ def test_the_pick_place_fault_matrix_is_caught_and_stopped_in_time(cli):
         assert row["ok"], row
         if row["guard"] is not None:
             assert row["exit_code"] == 3 and row["outcome"] == "aborted"
+            assert row["detect_s"] <= row["within_s"], row
             assert row["stop_time_s"] <= 0.15, row
             assert row["stop_distance_mm"] <= 5.0, row
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +50,39 @@ class TcpProbe:
         pass
 
 
+class JointSpeed:
+    """The fastest arm joint over the run [rad/s], every control tick."""
+
+    def on_start(self, ctx, executor):
+        self.fastest = 0.0
+
+    def on_tick(self, ctx, executor):
+        self.fastest = max(self.fastest, float(np.max(np.abs(ctx.data.qvel[ctx.world.arm_dof]))))
+
+    def on_end(self, ctx, executor, result):
+        pass
+
+
+class DryRunProbe:
+    """The running move's dry run, and the IK's reference after each of its ticks."""
+
+    def on_start(self, ctx, executor):
+        self.executor, self.dry, self.refs, self.skill = executor, None, [], None
+
+    def on_tick(self, ctx, executor):
+        activity = executor.region.activity if executor.region is not None else None
+        skill = getattr(activity, "skill", None)
+        if skill is None or getattr(skill, "dry", None) is None:
+            return
+        if skill is not self.skill:  # started in this tick: it steps from the next one on
+            self.skill, self.dry = skill, skill.dry
+            return
+        self.refs.append(ctx.ik.q.copy())
+
+    def on_end(self, ctx, executor, result):
+        pass
+
+
 @pytest.fixture
 def one_move(tmp_path: Path):
     (tmp_path / "one_move.yaml").write_text(MACHINE)
@@ -81,12 +115,30 @@ def test_target_out_of_reach_ends_unreachable_at_once(one_move):
     assert result.sim_time < 0.5
 
 
-def test_target_blocked_by_joint_limits_ends_unreachable_not_a_hang(one_move):
-    # inside the reach sphere, but straight down onto the robot's own base
+def test_target_blocked_by_joint_limits_ends_unreachable_at_once(one_move):
+    # inside the reach sphere, but straight down onto the robot's own base: the dry run of
+    # the IK stalls at the joint limits before anything moves
     result = run_episode(one_move("goal=[0.0, 0.0, 0.15]"), 0)
     assert result.outcome == "failed"
     assert result.transitions[-1]["trigger"] == "unreachable"
-    assert result.sim_time < 8.0
+    assert result.transitions[-1]["t"] <= 0.02
+    assert result.metrics["rest_speed_rad_s"] < 0.01
+
+
+def test_a_pose_the_hand_cannot_take_pointing_down_is_unreachable_at_once_with_its_residual(
+    one_move,
+):
+    # 0.82 m out, inside the reach sphere: the hand cannot point down there (a parcel placed
+    # there made the arm strain for 9.8 s at up to 1.76x the datasheet's accelerations)
+    probe = JointSpeed()
+    result = run_episode(one_move("goal=[0.74, -0.34, 0.23]"), 0, [probe])
+    last = result.transitions[-1]
+    assert (result.outcome, last["trigger"]) == ("failed", "unreachable")
+    assert last["t"] <= 0.02  # decided by the dry run, before the arm moved
+    found = re.search(r"the IK gets ([\d.]+) mm and ([\d.]+) deg from it", last["detail"])
+    assert found and float(found.group(1)) > 5.0, last["detail"]
+    assert last["detail"].endswith("at best there (joint limits or the edge of the reach)")
+    assert probe.fastest < 0.05  # the arm never moved towards it
 
 
 def test_a_move_timeout_says_how_far_from_the_tolerance_it_was(one_move, tmp_path):
@@ -116,8 +168,59 @@ def test_an_unreachable_move_says_why(one_move):
     assert "is beyond the arm's reach" in result.transitions[-1]["detail"]
 
 
+def test_a_reachable_move_keeps_its_dry_run_the_ticks_then_follow(one_move):
+    # the IK's reference along the move, computed at the start, is what the ticks command
+    probe = DryRunProbe()
+    result = run_episode(one_move("goal=[0.45, 0.1, 0.35]"), 0, [probe])
+    assert result.outcome == "succeeded"
+    dry = probe.dry
+    assert dry is not None and dry.reached and dry.residual_m <= 0.5e-3
+    assert dry.q_path.shape[1] == 7 and dry.path_ticks <= len(dry.q_path)
+    # the reference the ticks computed, tick by tick, is the dry run's (to 0.1 mrad: the QP
+    # solver starts from its last solution, so the two differ in the last digits)
+    n = min(len(probe.refs), dry.path_ticks)
+    assert n > 20
+    assert np.max(np.abs(np.array(probe.refs[:n]) - dry.q_path[:n])) < 1e-3
+
+
 def test_the_time_limit_says_what_the_running_move_was_waiting_for(one_move):
     result = run_episode(one_move("physics.time_limit_s=0.3"), 0)
     assert result.outcome == "failed" and result.metrics["time_limit_reached"]
     assert result.metrics["time_limit_detail"].startswith("MOVE: TCP "), result.metrics
     assert "still on its line (0.30 of" in result.metrics["time_limit_detail"]
+
+
+def test_a_dry_run_knows_the_torque_its_path_asks_of_each_joint():
+    # held still 0.78 m out, hand down: gravity alone asks joint 2 for ~61 % of its limit
+    # (a lift there at 6 m/s^2 asked 90 % and the joint_torque guard aborted a sorting run)
+    from orchestrator.robots import get_robot
+    from orchestrator.skills.dry_run import dry_run
+    from orchestrator.skills.ik import IKSolver
+    from orchestrator.skills.targets import rot_down
+    from orchestrator.skills.trajectory import CartesianLine
+
+    from orchestrator.world.world import World, robot_only_model
+
+    robot = get_robot("panda")
+    ik = IKSolver(robot, robot_only_model(robot), 0.01, np.zeros(3))
+    ik.reset(np.array(robot.home))
+    goal = np.array([0.62, -0.47, 0.204])
+    for _ in range(400):
+        ik.reference_step(goal, rot_down(1.0), 0.01)
+    q0 = ik.q.copy()
+    still = CartesianLine(goal, rot_down(1.0), goal, rot_down(1.0), 0.5, 2.0, 2.0, 8.0)
+    limit = World.build(load_scenario("pick_place").scenario, 0).arm_effort_limit
+    run = dry_run(ik, still, 1.0, q0, 0.05, 0.001, 0.01, effort_limit=limit)
+    ratio, joint = run.torque_ratio
+    assert joint == 1 and 0.5 < ratio < 0.75, run.torque_ratio
+
+
+def test_a_pose_next_to_a_singularity_is_unreachable_saying_so(one_move):
+    # 0.79 m out, hand down: the IK's reference gets there, but the arm is stretched out (the
+    # TCP Jacobian's smallest singular value 0.04): a grasp there swung joint 2 by 0.17 rad
+    # while settling and hit its torque limit
+    result = run_episode(one_move("goal=[0.677, -0.41, 0.227]"), 0)
+    last = result.transitions[-1]
+    assert (result.outcome, last["trigger"]) == ("failed", "unreachable")
+    assert last["t"] <= 0.02
+    assert "stretched out there, close to a singularity" in last["detail"], last["detail"]

@@ -19,7 +19,8 @@ def test_pick_place_succeeds(pick_place, seed):
     assert result.reason is None
     assert result.metrics["cycle_time"] <= 5.0
     states = [t["to"] for t in result.transitions]
-    assert states[:4] == [
+    assert states[:5] == [
+        "PICK.GRASP.PLAN",
         "PICK.GRASP.APPROACH",
         "PICK.GRASP.CLOSE",
         "PICK.GRASP.LIFT",

@@ -9,7 +9,7 @@ from orchestrator.robots import Controller, get_robot
 from orchestrator.engine.runner import run_episode
 from orchestrator.language.load import load_scenario
 
-REST_RAD_S = 0.05
+REST_RAD_S = 0.01
 WORKSPACE_WALL = "guards.workspace.max=[0.95,0.1,1.2]"
 """A workspace wall the cube's transport crosses at speed (y = 0.1 m)."""
 
@@ -26,6 +26,25 @@ class JointSpeeds:
 
     def on_end(self, ctx, executor, result):
         pass
+
+
+class HoldSpeeds:
+    """Largest arm joint speed [rad/s] of every physics step after the stop is at rest."""
+
+    def on_start(self, ctx, executor):
+        self.executor = executor
+        self.speeds: list[float] = []
+
+    def on_tick(self, ctx, executor):
+        pass
+
+    def on_step(self, ctx):
+        stop = self.executor.stop
+        if stop is not None and stop.at_rest:
+            self.speeds.append(float(np.max(np.abs(ctx.data.qvel[ctx.world.arm_dof]))))
+
+    def on_end(self, ctx, executor, result):
+        self.braked = set(ctx.world.braked)
 
 
 def test_controller_brake_profile_stops_2_rad_s_in_time():
@@ -102,3 +121,33 @@ def test_the_stop_never_pushes_into_an_obstacle_it_hit():
     assert result.reason["guard"] == "collision"
     assert result.metrics["stop_distance_mm"] < 8.0  # hit at 0.8 m/s: contact + rebound only
     assert result.metrics["rest_speed_rad_s"] < REST_RAD_S
+
+
+@pytest.mark.parametrize(
+    "fault", ["actuator_lost", "actuator_saturate:fraction=0.05"], ids=["lost", "saturated"]
+)
+def test_the_brakes_hold_the_stopped_arm_with_a_failed_motor(fault):
+    # joint 2's motor fails while the arm approaches the cube: sensor_health stops the arm,
+    # then the holding brakes keep it still over the whole hold, every physics step (the
+    # motors alone let joint 2 sag at 0.022-0.024 rad/s under gravity)
+    probe = HoldSpeeds()
+    loaded = load_scenario("pick_place", faults=[f"{fault}@PICK.GRASP.APPROACH+0.75"])
+    result = run_episode(loaded, 0, [probe])
+    assert result.reason["guard"] == "sensor_health" and result.final_state == "SAFE_STOP"
+    hold_steps = round(loaded.scenario.physics.safe_stop.hold_s / 0.002)
+    assert len(probe.speeds) >= hold_steps
+    assert max(probe.speeds) < REST_RAD_S
+    assert probe.braked == set(range(7))  # a category-1 stop: every joint's brake holds
+
+
+def test_the_stop_reports_the_profiles_own_distance_and_stays_near_it():
+    # an e-stop at 0.98 m/s (carrying the cube) and one at 0.25 m/s (lifting it)
+    fast = run_episode(load_scenario("pick_place", faults=["estop@TRANSPORT+0.3"]), 0)
+    slow = run_episode(load_scenario("pick_place", faults=["estop@PICK.GRASP.LIFT+0.1"]), 0)
+    for result in (fast, slow):
+        m = result.metrics
+        assert 0.0 < m["stop_distance_min_mm"] <= m["stop_distance_mm"]
+    assert fast.metrics["stop_speed_m_s"] > 0.9
+    assert fast.metrics["stop_distance_mm"] <= 1.25 * fast.metrics["stop_distance_min_mm"]
+    assert slow.metrics["stop_speed_m_s"] <= 0.25
+    assert slow.metrics["stop_distance_mm"] <= 5.0

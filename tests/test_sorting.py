@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import shutil
 from pathlib import Path
 from types import SimpleNamespace
@@ -17,7 +18,8 @@ from orchestrator.engine.blackboard import Blackboard
 from orchestrator.engine.runner import run_episode
 from orchestrator.exceptions import ConfigError
 from orchestrator.language.load import load_scenario
-from orchestrator.language.parcels import _gap, draw_parcels
+from orchestrator.language.parcels import SAME_CLASS_GAP_M, draw_parcels
+from orchestrator.world.footprint import separated
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -43,6 +45,8 @@ def _ctx(**values):
         blackboard=Blackboard(values),
         tasks=_Tasks(),
         clock=0.0,
+        t=0.0,
+        events=[],
         tcp_pos=np.array([0.5, 0.25, 0.4]),
         log=lambda *a, **k: None,
     )
@@ -125,6 +129,48 @@ def test_every_schedule_ends_within_its_attempt_budget():
     assert len(ctx.blackboard["schedule"]["rejected"]) == len(items)
 
 
+def test_a_deferred_task_waits_until_nothing_else_is_left_then_is_retried_or_rejected():
+    ctx = _ctx()
+    items = [_det("A", 0.50, -0.10), _det("B", 0.40, -0.30)]
+    assert _next(ctx, items, max_attempts=2) == "next"
+    assert ctx.blackboard["task"]["class"] == "A"
+    _run("end_task", ctx, outcome="deferred", reason="blocked: a neighbour")
+    # A first by priority, but deferred: B is served, then A again (attempt 2, task 1)
+    assert _next(ctx, items, max_attempts=2) == "next"
+    assert ctx.blackboard["task"]["class"] == "B"
+    _run("end_task", ctx, outcome="done")
+    assert _next(ctx, [items[0]], max_attempts=2) == "next"
+    task = ctx.blackboard["task"]
+    assert (task["class"], task["task"], task["attempt"]) == ("A", 1, 2)
+    _run("end_task", ctx, outcome="deferred", reason="blocked: still")
+    # out of attempts: rejected with the last reason, and nothing is left
+    assert _next(ctx, [items[0]], max_attempts=2) == "empty"
+    reason = ctx.blackboard["schedule"]["rejected"][0]["reason"]
+    assert reason == "2 failed attempts (max_attempts 2), the last: blocked: still"
+    assert ("end", 1, "rejected", reason) in ctx.tasks.calls
+
+
+def test_a_deferred_task_whose_item_is_gone_ends_lost():
+    ctx = _ctx()
+    _next(ctx, [_det("A", 0.5, -0.1)])
+    _run("end_task", ctx, outcome="deferred", reason="blocked")
+    assert _next(ctx, []) == "empty"
+    assert ctx.tasks.calls[-1][:3] == ("end", 1, "lost")
+    assert ctx.blackboard["schedule"]["deferred"] == []
+
+
+def test_end_task_puts_the_detail_of_the_failed_state_into_its_reason():
+    ctx = _ctx()
+    _next(ctx, [_det("A", 0.5, -0.1)])
+    detail = "the IK gets 38.2 mm from it"
+    ctx.events.append(
+        SimpleNamespace(t=0.0, kind="transition", data={"transition": {"detail": detail}})
+    )
+    ctx.events.append(SimpleNamespace(t=0.0, kind="transition", data={"transition": {}}))
+    _run("end_task", ctx, outcome="rejected", reason="out of reach: {detail}")
+    assert ctx.blackboard["schedule"]["rejected"][0]["reason"] == f"out of reach: {detail}"
+
+
 def test_lookup_branches_on_a_value_through_a_table():
     ctx = _ctx()
     table = {"A": "bin_A", "B": "bin_B"}
@@ -160,9 +206,9 @@ def test_parcels_are_drawn_per_seed_inside_the_area_apart_or_touching_another_cl
             assert abs(y - p.area_center_xy[1]) <= p.area_size_xy[1] / 2
         for i in range(len(boxes)):
             for j in range(i):
-                if _gap(boxes[i], boxes[j], p.gap_m - 1e-9):
+                if separated(boxes[i], boxes[j], p.gap_m - 1e-9):
                     continue
-                assert _gap(boxes[i], boxes[j], 0.0)  # closer than gap_m only if touching
+                assert separated(boxes[i], boxes[j], 0.0)  # closer than gap_m only if touching
                 d = math.hypot(boxes[i][0] - boxes[j][0], boxes[i][1] - boxes[j][1])
                 assert d == pytest.approx(boxes[i][3] + boxes[j][3] + 0.0005, abs=1e-6)
                 assert drawn[i][1][0] != drawn[j][1][0]
@@ -170,10 +216,41 @@ def test_parcels_are_drawn_per_seed_inside_the_area_apart_or_touching_another_cl
     assert touching >= 5  # some parcels touch
 
 
+def test_single_class_parcels_fit_and_one_class_never_touches(sorting):
+    p = sorting.scenario.scene.parcels
+    one = p.model_copy(update={"classes": {"A": [0.85, 0.15, 0.15, 1.0]}})
+    flush = p.model_copy(update={"gap_m": 0.0})
+    for seed in range(20):
+        drawn = draw_parcels(one, seed)  # random layouts fill ~60 %: then a grid
+        assert len(drawn) == 8
+        boxes = [(x, y, yaw, s[0] / 2, s[1] / 2) for _, (_, s, _, x, y, yaw) in drawn]
+        assert all(separated(a, b, one.gap_m - 1e-9) for i, a in enumerate(boxes)
+                   for b in boxes[:i])  # fmt: skip
+        # gap_m 0: parcels of one class still keep 1 cm (one colour touching is one blob)
+        flat = draw_parcels(flush, seed)
+        for i, (_, (ci, si, _, xi, yi, ai)) in enumerate(flat):
+            for _, (cj, sj, _, xj, yj, aj) in flat[:i]:
+                if ci == cj:
+                    a = (xi, yi, ai, si[0] / 2, si[1] / 2)
+                    b = (xj, yj, aj, sj[0] / 2, sj[1] / 2)
+                    assert separated(a, b, SAME_CLASS_GAP_M - 1e-9)
+
+
+def test_touching_that_can_never_be_laid_out_is_refused_naming_the_limit(cli):
+    res = cli("validate", "sorting")  # the bundled one is fine
+    assert res.exit_code == 0
+    bad = cli("run", "sorting", "--set", "scene.parcels.touching=1.0")
+    assert bad.exit_code == 2
+    assert "scene.parcels.touching: touching 1.0 with 8 parcels can never be laid out" in bad.stderr
+    assert "holds at most 7 parcels" in bad.stderr and "(valid: touching < 1" in bad.stderr
+
+
 def test_too_many_parcels_for_the_area_is_a_clear_error(sorting):
     p = sorting.scenario.scene.parcels.model_copy(update={"count": 60})
-    with pytest.raises(ConfigError, match="cannot place 60 parcels in the pick area"):
+    with pytest.raises(ConfigError, match="cannot place 60 parcels in the pick area") as err:
         draw_parcels(p, 0)
+    # the most any random layout placed, and what the grid holds
+    assert "random layouts, and a grid of 3 x 3 cells holds 9" in str(err.value)
 
 
 def test_set_parcels_sets_the_count_and_bins_are_markers_with_walls():
@@ -243,8 +320,12 @@ def test_a_parcel_out_of_reach_is_rejected_at_once():
     r = _one(["robot.base_pos=[-0.15, 0.0, 0.0]", "scene.parcels.area_center_xy=[0.66, -0.38]",
               "scene.parcels.area_size_xy=[0.09, 0.09]"])  # fmt: skip
     (task,) = r.tasks
-    assert (task["outcome"], task["attempts"], task["reason"]) == ("rejected", 1, "out of reach")
-    assert [t["to"] for t in r.transitions].count("PICK.APPROACH") == 1
+    assert (task["outcome"], task["attempts"]) == ("rejected", 1)
+    # the IK's dry run of the grasp pose, before anything moves: its residual is the reason
+    found = re.fullmatch(r"out of reach: .*IK gets only within ([\d.]+) mm .*", task["reason"])
+    assert found and float(found.group(1)) > 5.0, task["reason"]
+    assert "PICK.APPROACH" not in [t["to"] for t in r.transitions]  # rejected at once
+    assert task["end_t"] - task["start_t"] < 0.1
     assert r.outcome == "succeeded"
 
 

@@ -2,10 +2,11 @@
 
 Each row injects one fault (a `--fault` spec) into the same seed of a scenario and records the
 guard that fired, the exit code, the time from the fault to the abort, and the controlled
-stop's time and distance. The bundled scenarios have matrices that inject each fault where it
-matters (pick_place: on the approach to the cube, the transport for world faults; surgical:
-while the probe traces the incision); any other scenario gets the generic matrix, every fault
-at t = 1 s, with no expectation.
+stop's time and distance. Every bundled scenario has a matrix that injects each fault where it
+matters (the sensor and motor faults while the arm approaches what it grasps, or while the
+probe traces the incision; the world's faults while an object is carried, lifted or
+perceived), with the guard expected to catch it and the latency within which it must; any
+other scenario gets the generic matrix, every fault at t = 1 s, with no expectation.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from ..engine.result import EXIT_CODES
 from ..engine.runner import run_episode
 from ..language.load import load_scenario
 
-__all__ = ["MATRICES", "MatrixRow", "RowResult", "matrix_for", "run_matrix"]
+__all__ = ["MATRICES", "MatrixRow", "RowResult", "expected", "matrix_for", "run_matrix"]
 
 
 @dataclass(frozen=True)
@@ -27,11 +28,15 @@ class MatrixRow:
     Attributes:
         fault: The `--fault` spec.
         expect: The guard expected to catch it, or `flow:<outcome>` when the machine itself
-            handles the fault (a perception miss is retried), or "" for no expectation.
+            handles the fault (a perception miss is retried; `flow:handled`: it ends without
+            an abort, whatever its outcome), or `a|b` for either, or "" for no expectation.
+        within_s: Longest time from the fault to its detection the row accepts [s] (None:
+            any); the latency docs/safety.md states for it.
     """
 
     fault: str
     expect: str = ""
+    within_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -49,47 +54,110 @@ class RowResult:
     stop_distance_mm: float | None
     ok: bool | None
     message: str
+    within_s: float | None = None
+    stop_distance_min_mm: float | None = None
+    undetected: bool = False
+    """A guard should have caught the fault and none did (the run ended without an abort)."""
 
     def to_dict(self) -> dict:
         return asdict(self)
 
 
+def _sensor_rows(when: str, joint: int | None = None, saturate: float = 0.05) -> list[MatrixRow]:
+    """The sensor and motor faults, injected at `when` (while the arm moves), on arm joint
+    `joint` (the fault's default, 2, if None), each with the latency its detection takes
+    there (measured on seed 0, with margin: docs/safety.md)."""
+    j = "" if joint is None else f"joint={joint},"
+    js = "" if joint is None else f":joint={joint}"
+    return [
+        MatrixRow(f"estop@{when}", "estop", 0.002),
+        MatrixRow(f"ft_dropout@{when}", "sensor_health", 0.02),
+        MatrixRow(f"ft_bias@{when}", "contact_force", 0.002),
+        MatrixRow(f"ft_spike@{when}", "sensor_health", 0.002),
+        MatrixRow(f"ft_nan@{when}", "sensor_health", 0.002),
+        MatrixRow(f"encoder_freeze{js}@{when}", "sensor_health", 0.1),
+        MatrixRow(f"encoder_noise{js}@{when}", "sensor_health", 0.002),
+        MatrixRow(f"encoder_nan{js}@{when}", "sensor_health", 0.002),
+        MatrixRow(f"actuator_saturate:{j}fraction={saturate:g}@{when}", "sensor_health", 0.01),
+        MatrixRow(f"actuator_lost{js}@{when}", "sensor_health", 0.01),
+    ]
+
+
 _APPROACH = "PICK.GRASP.APPROACH+0.75"
 _TRACE = "EXECUTE.TRACE+0.5"
 _SURGICAL = [
-    MatrixRow(f"estop@{_TRACE}", "estop"),
-    MatrixRow(f"ft_dropout@{_TRACE}", "sensor_health"),
-    MatrixRow(f"ft_bias:force_n=[0,0,8]@{_TRACE}", "contact_force"),
-    MatrixRow(f"ft_spike@{_TRACE}", "sensor_health"),
-    MatrixRow(f"ft_nan@{_TRACE}", "sensor_health"),
-    MatrixRow(f"encoder_freeze@{_TRACE}", "sensor_health"),
-    MatrixRow(f"encoder_noise@{_TRACE}", "sensor_health"),
-    MatrixRow(f"encoder_nan@{_TRACE}", "sensor_health"),
-    MatrixRow(f"actuator_saturate@{_TRACE}", "sensor_health"),
-    MatrixRow(f"actuator_lost@{_TRACE}", "sensor_health"),
-    MatrixRow("obstacle:pos=[0.47,0.0,0.34],size=[0.03,0.08,0.03]@NAVIGATE", "collision"),
+    MatrixRow(f"estop@{_TRACE}", "estop", 0.002),
+    MatrixRow(f"ft_dropout@{_TRACE}", "sensor_health", 0.02),
+    MatrixRow(f"ft_bias:force_n=[0,0,8]@{_TRACE}", "contact_force", 0.002),
+    MatrixRow(f"ft_spike@{_TRACE}", "sensor_health", 0.002),
+    MatrixRow(f"ft_nan@{_TRACE}", "sensor_health", 0.002),
+    MatrixRow(f"encoder_freeze@{_TRACE}", "sensor_health", 1.0),
+    MatrixRow(f"encoder_noise@{_TRACE}", "sensor_health", 0.002),
+    MatrixRow(f"encoder_nan@{_TRACE}", "sensor_health", 0.002),
+    MatrixRow(f"actuator_saturate@{_TRACE}", "sensor_health", 0.01),
+    MatrixRow(f"actuator_lost@{_TRACE}", "sensor_health", 0.01),
+    MatrixRow("obstacle:pos=[0.47,0.0,0.34],size=[0.03,0.08,0.03]@NAVIGATE", "collision", 1.5),
     MatrixRow("perception_miss@0", "flow:failed"),
 ]
+_PICK_PLACE_WORLD = [
+    MatrixRow(
+        "obstacle:pos=[0.5,0.28,0.42],size=[0.08,0.03,0.08]@TRANSPORT+0.05", "collision", 1.0
+    ),
+    MatrixRow("slip:object=cube,factor=0.005@TRANSPORT", "grasp_lost", 0.3),
+    MatrixRow(
+        "push:object=cube,force_n=[0,0,-150],duration_ms=20@PICK.GRASP.VERIFY+0.04",
+        "contact_force",
+        0.01,
+    ),
+    MatrixRow("perception_miss@0", "flow:succeeded"),
+    # the cube seen 2 cm into the table: the grasp plan refuses to put the fingertips there
+    MatrixRow("perception_offset:offset_m=[0,0,-0.02]@0", "flow:failed"),
+]
+_SORTING_WORLD = [
+    # a plate across the carry to the bins, in front of them, put there as the carry starts
+    MatrixRow("obstacle:pos=[0.47,0.12,0.42],size=[0.36,0.03,0.1]@TO_BIN+0.05", "collision", 1.5),
+    MatrixRow("slip:object=held,factor=0.005@TO_BIN", "grasp_lost", 0.3),
+    # 150 N on the parcel in the hand: past the force limit, or (a heavy parcel) the
+    # sensor's range in the same step
+    MatrixRow(
+        "push:object=held,force_n=[0,0,-150],duration_ms=20@PICK.VERIFY+0.02",
+        "contact_force|sensor_health",
+        0.01,
+    ),
+    MatrixRow("perception_miss@0", "flow:succeeded"),
+    # every parcel seen 2 cm into the table: each grasp is refused, each parcel rejected
+    MatrixRow("perception_offset:offset_m=[0,0,-0.02]@0", "flow:succeeded"),
+]
+_MOBILE = "GRASPING.APPROACH+0.5"
 MATRICES: dict[str, list[MatrixRow]] = {
     "pick_place": [
-        MatrixRow(f"estop@{_APPROACH}", "estop"),
-        MatrixRow(f"ft_dropout@{_APPROACH}", "sensor_health"),
-        MatrixRow(f"ft_bias@{_APPROACH}", "contact_force"),
-        MatrixRow(f"ft_spike@{_APPROACH}", "sensor_health"),
-        MatrixRow(f"ft_nan@{_APPROACH}", "sensor_health"),
-        MatrixRow(f"encoder_freeze@{_APPROACH}", "sensor_health"),
-        MatrixRow(f"encoder_noise@{_APPROACH}", "sensor_health"),
-        MatrixRow(f"encoder_nan@{_APPROACH}", "sensor_health"),
-        MatrixRow(f"actuator_saturate:fraction=0.05@{_APPROACH}", "sensor_health"),
-        MatrixRow(f"actuator_lost@{_APPROACH}", "sensor_health"),
-        MatrixRow("obstacle:pos=[0.5,0.28,0.42],size=[0.08,0.03,0.08]@TRANSPORT+0.05", "collision"),
-        MatrixRow("slip:object=cube,factor=0.005@TRANSPORT", "grasp_lost"),
+        *_sensor_rows(_APPROACH),
+        *_PICK_PLACE_WORLD,
+    ],
+    "pick_place_vision": [
+        *_sensor_rows(_APPROACH),
+        *_PICK_PLACE_WORLD,
+    ],
+    "sorting": [*_sensor_rows("PICK.APPROACH+0.5"), *_SORTING_WORLD],
+    "sorting_conveyor": [*_sensor_rows("PICK.APPROACH+0.5"), *_SORTING_WORLD],
+    "mobile_search": [
+        *_sensor_rows(_MOBILE, joint=5),
+        MatrixRow("slip:object=cube,factor=0.005@LIFT", "grasp_lost", 0.5),
         MatrixRow(
-            "push:object=cube,force_n=[0,0,-150],duration_ms=20@PICK.GRASP.VERIFY+0.04",
+            "push:object=cube,force_n=[0,0,-150],duration_ms=20@GRASPING.VERIFY+0.02",
             "contact_force",
+            0.01,
+        ),
+        # the block pushed away as the base closes in: the grasp misses, the flow backs out,
+        # looks again and grasps (or, the block out of reach, gives up naming it)
+        MatrixRow(
+            "push:object=cube,force_n=[-2,0,0],duration_ms=300@APPROACHING.CLOSE_IN+0.5",
+            "flow:handled",
         ),
         MatrixRow("perception_miss@0", "flow:succeeded"),
-        MatrixRow("perception_offset:offset_m=[0,0,-0.02]@0", "collision"),
+        # the block seen 2 cm low: on a table the grasp plan refuses the fingertips below its
+        # top (the flow gives up, naming it); on the floor (no box) the fingers touch it
+        MatrixRow("perception_offset:offset_m=[0,0,-0.02]@0", "collision|flow:failed", 30.0),
     ],
     "surgical": _SURGICAL,
     "surgical_complication": _SURGICAL,
@@ -109,6 +177,22 @@ _GENERIC_KINDS = (
     "actuator_lost",
     "perception_miss",
 )
+
+
+def expected(row: MatrixRow, guard: str | None, outcome: str, detect_s: float | None) -> bool:
+    """Whether a run of `row` that ended `outcome`, aborted by `guard` (None: no abort)
+    `detect_s` [s] after the fault, is what the row expects."""
+    for want in row.expect.split("|"):
+        if want.startswith("flow:"):
+            if guard is None and want[5:] in ("handled", outcome):
+                return True
+        elif guard == want and outcome == "aborted":
+            within = row.within_s is None or (
+                detect_s is not None and detect_s <= row.within_s + 1e-9
+            )
+            if within:
+                return True
+    return False
 
 
 def matrix_for(scenario_name: str) -> list[MatrixRow]:
@@ -140,12 +224,8 @@ def run_matrix(
         abort_t = m.get("abort_t")
         guard = result.reason["guard"] if result.reason else None
         detect = None if abort_t is None or fault_t is None else round(abort_t - fault_t, 4)
-        if row.expect.startswith("flow:"):
-            ok: bool | None = guard is None and result.outcome == row.expect[5:]
-        elif row.expect:
-            ok = guard == row.expect and result.outcome == "aborted"
-        else:
-            ok = None
+        ok = expected(row, guard, result.outcome, detect) if row.expect else None
+        undetected = bool(row.expect) and guard is None and not ok
         done = RowResult(
             fault=row.fault,
             expect=row.expect,
@@ -158,6 +238,9 @@ def run_matrix(
             stop_distance_mm=m.get("stop_distance_mm"),
             ok=ok,
             message=result.reason["message"] if result.reason else "",
+            within_s=row.within_s,
+            stop_distance_min_mm=m.get("stop_distance_min_mm"),
+            undetected=undetected,
         )
         rows.append(done)
         if on_row is not None:

@@ -85,8 +85,9 @@ class Stopper(Protocol):
 
     @property
     def at_rest(self) -> bool: ...
-    def start(self, reason: str, gentle: bool = False) -> None: ...
+    def start(self, reason: str, gentle: bool = False, brake: bool = True) -> None: ...
     def step(self) -> None: ...
+    def release(self) -> None: ...
     def timed_out(self) -> bool: ...
 
 
@@ -655,6 +656,7 @@ class Executor:
             if self._on_abort is not None:
                 target, self._on_abort = self._on_abort, None
                 self.final_state = None
+                self.stop.release()  # the response moves the arm: the motors take it back
                 assert self.region is not None
                 self.region.abort_to(target, SAFE_STOP)
                 self._check_end(self.region.final)
@@ -773,7 +775,8 @@ class Executor:
         self.final_state = SAFE_STOP
         self.safe_stop_until = None
         self.stop = self.new_stop()
-        self.stop.start(f"{violation.guard}: {violation.message}")
+        # the brakes hold the stopped arm unless an on_abort response takes it over
+        self.stop.start(f"{violation.guard}: {violation.message}", brake=self._on_abort is None)
 
     def estop(self, source: str) -> None:
         """An emergency stop: outranks every guard and any `on_abort` response."""

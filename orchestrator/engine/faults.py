@@ -17,6 +17,7 @@ import numpy as np
 
 from ..language import faults as F
 from ..language.machine import ESTOP
+from ..skills.gripper import held_object
 from ..world.actuators import ActuatorFault
 from ..world.sensors import WristForceFault
 
@@ -122,12 +123,17 @@ class FaultInjector:
             ctx.actuator_fault = ActuatorFault(fault.kind, j, limit, fraction)
         elif isinstance(fault, F.ObstacleFault):
             effects.show_obstacle(index)
-        elif isinstance(fault, F.Slip):
-            effects.slip(fault.object, fault.factor)
-        elif isinstance(fault, F.Push):
-            force, obj = np.asarray(fault.force_n, float), fault.object
-            effects.push(obj, force)
-            self._schedule(t + fault.duration_ms / 1000.0, lambda: effects.end_push(obj, force))
+        elif isinstance(fault, (F.Slip, F.Push)):
+            obj = fault.object if fault.object != F.HELD else held_object(ctx)[0]
+            if obj is None:
+                ctx.log("fault", f"{fault.kind}: nothing in the hand to act on", level="WARN")
+            elif isinstance(fault, F.Slip):
+                effects.slip(obj, fault.factor)
+            else:
+                force, name = np.asarray(fault.force_n, float), obj
+                effects.push(name, force)
+                end = t + fault.duration_ms / 1000.0
+                self._schedule(end, lambda: effects.end_push(name, force))
         elif isinstance(fault, F.PerceptionMiss):
             ctx.perception.miss(fault.count)
         elif isinstance(fault, F.PerceptionOffset):

@@ -6,7 +6,9 @@ the guard reads one small block of numbers per physics step. A collision is any 
 * a link or the hand with anything (the scene, or another link: each link carries a
   self-collision proxy capsule);
 * an end-effector contact element (a finger, a mounted tool) with anything but what it is
-  meant to touch: the scene's free objects, the tissue phantom, and the names in `allow`.
+  meant to touch: the scene's free objects, the tissue phantom, and the names in `allow`;
+* a mobile base's chassis with anything but the scene's free objects (a block pushed against
+  the base is not a collision; a wall or a piece of furniture is).
 """
 
 from __future__ import annotations
@@ -61,8 +63,12 @@ class Collision(Guard):
         lo = min(s.adr for s in sensors)
         hi = max(s.adr for s in sensors) + 1
         mask = np.zeros(hi - lo)
+        objects = set(w.objects)
         for s in sensors:
-            if not (s.end_effector and s.partner in touchable):
+            allowed = (s.end_effector and s.partner in touchable) or (
+                s.chassis and s.partner in objects
+            )
+            if not allowed:
                 mask[s.adr - lo] = 1.0
         self._lo = lo
         self._mask = mask

@@ -26,6 +26,7 @@ from .yamlio import parse_yaml
 
 __all__ = [
     "FAULT_KINDS",
+    "HELD",
     "Fault",
     "FaultSpec",
     "parse_fault_spec",
@@ -166,11 +167,18 @@ class ObstacleFault(_Fault):
         return self
 
 
+HELD = "held"
+"""A fault's `object: held`: the object in the hand when the fault starts (parcels are drawn
+per seed: which one is carried is known only then)."""
+
+
 class Slip(_Fault):
     """The grip loses friction: friction between the fingers and `object` x `factor`."""
 
     kind: Literal["slip"]
-    object: str = Field(description="Scene object whose grip slips.")
+    object: str = Field(
+        description="Scene object whose grip slips (`held`: the one in the hand then)."
+    )
     factor: float = Field(default=0.02, gt=0.0, le=1.0, description="Friction multiplier.")
 
 
@@ -178,7 +186,7 @@ class Push(_Fault):
     """An external force on a scene object for a while (someone bumps it)."""
 
     kind: Literal["push"]
-    object: str = Field(description="Scene object pushed.")
+    object: str = Field(description="Scene object pushed (`held`: the one in the hand then).")
     force_n: Annotated[list[PushNewtons], Field(min_length=3, max_length=3)] = Field(
         description="Force at its centre, world frame [N] (at most 1 kN per axis)."
     )

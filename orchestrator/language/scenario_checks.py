@@ -12,6 +12,7 @@ from ..guards import GUARDS
 from ..robots import ROBOTS
 from ..skills import SKILLS, skill_names
 from .diagnostics import Diagnostic
+from .faults import HELD
 from .loading import MachineNode, initial_values
 from .machine import guard_entries
 from .param_values import check_values
@@ -222,10 +223,10 @@ def check_faults(
                 )
             )
         obj = getattr(fault, "object", None)
-        if obj is not None and obj not in objects:
+        if obj is not None and obj not in objects and obj != HELD:
             none = "" if objects else "; it has no free objects at all"
             out.append(
-                source.diag((*at, "object"), f"no scene object {obj!r}{none}", tuple(objects))
+                source.diag((*at, "object"), f"no scene object {obj!r}{none}", (*objects, HELD))
             )
         joint = getattr(fault, "joint", None)
         if joint is not None and joint > n_arm:

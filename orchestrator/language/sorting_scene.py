@@ -3,9 +3,10 @@ with walls (`scene.bins`) a released parcel falls into."""
 
 from __future__ import annotations
 
+import math
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 __all__ = ["Bin", "Parcels", "bin_walls"]
 
@@ -84,6 +85,35 @@ class Parcels(_Strict):
                 "side is what perception reports as the parcel's heading"
             )
         return self
+
+    @field_validator("touching")
+    @classmethod
+    def _touching_fits(cls, touching: float, info: ValidationInfo) -> float:
+        """`touching` 1.0 puts every parcel but the first end to end with one of another
+        class, along that one's long side: all in one chain along the first parcel's
+        heading, which only the area's diagonal can hold (and never with a single class)."""
+        d = info.data
+        if touching < 1.0 or not {"count", "classes", "area_size_xy", "length_m"} <= set(d):
+            return touching
+        count, classes, area, length = d["count"], d["classes"], d["area_size_xy"], d["length_m"]
+        if count < 2:
+            return touching
+        if len(classes) < 2:
+            raise ValueError(
+                "touching 1.0 puts every parcel against one of another class, and there is "
+                f"only one class ({', '.join(classes)}) (valid: touching < 1)"
+            )
+        diagonal = math.hypot(*area)
+        most = int(diagonal // length[0])
+        if count > most:
+            raise ValueError(
+                f"touching 1.0 with {count} parcels can never be laid out: it puts every "
+                "parcel end to end with another, all in one chain along the first one's long "
+                f"side, and the pick area's diagonal ({diagonal:.3f} m) holds at most {most} "
+                f"parcels of length_m {length[0]:g} m or more (valid: touching < 1, or at "
+                f"most {most} parcels)"
+            )
+        return touching
 
 
 class Bin(_Strict):

@@ -1,4 +1,4 @@
-"""`held`: an object is held in the gripper, lifted above where it started."""
+"""`held`: an object is held in the gripper, lifted above where it was grasped."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 from pydantic import Field
 
+from ..skills.gripper import grasped_height
 from ..world.randomization import object_poses
 from .base import SCENE_OBJECT, CheckParams, SuccessCheck, Verdict
 
@@ -23,8 +24,9 @@ class HeldParams(CheckParams):
 
 
 class Held(SuccessCheck):
-    """Both fingers touch the object and it is at least `min_lift_m` above where it started
-    (its seeded start pose)."""
+    """Both fingers touch the object and it is at least `min_lift_m` above where it lay when the
+    fingers last closed on it (where it started, if they never did: a block pushed off a desk is
+    lifted from the floor)."""
 
     kind: ClassVar[str] = "held"
     Params: ClassVar[type[CheckParams]] = HeldParams
@@ -33,10 +35,17 @@ class Held(SuccessCheck):
     def evaluate(self, ctx: Context) -> Verdict:
         p = self.params
         pos = ctx.object_pose(p.object).pos
-        start = next(
-            pose for name, pose, _ in object_poses(ctx.scenario, ctx.world.seed) if name == p.object
+        grasped = grasped_height(ctx, p.object)
+        start = (
+            grasped
+            if grasped is not None
+            else next(
+                pose
+                for name, pose, _ in object_poses(ctx.scenario, ctx.world.seed)
+                if name == p.object
+            )[2]
         )
-        lift = float(pos[2] - start[2])
+        lift = float(pos[2] - start)
         geom = ctx.world.objects[p.object].geom_id
         d, m = ctx.data, ctx.model
         touching = set()
@@ -46,7 +55,8 @@ class Held(SuccessCheck):
                 other = g2 if g1 == geom else g1
                 if other in ctx.world.finger_geoms:
                     touching.add(int(m.geom_bodyid[other]))
-        what = f"{p.object} {lift * 1000:.0f} mm above its start, {len(touching)} finger(s) on it"
+        since = "where it was grasped" if grasped is not None else "its start"
+        what = f"{p.object} {lift * 1000:.0f} mm above {since}, {len(touching)} finger(s) on it"
         if len(touching) < 2 or lift < p.min_lift_m:
             return Verdict(False, f"{what} (need 2 and min_lift_m {p.min_lift_m * 1000:g} mm)")
         return Verdict(True, what)

@@ -9,6 +9,8 @@ reads a few numbers per physics step instead of walking the contact list in Pyth
 * The end effector's contact elements (each finger; a tool's geoms) get one sensor per scene
   body: the guard decides which of those partners they may touch (free objects for the
   fingers, the phantom for a tool, plus the guard's `allow` list).
+* A mobile base's chassis gets one sensor per scene body too: a free object pushed against it
+  (a block someone kicks) is not a collision; a wall, furniture or a fixed obstacle is.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ class ContactSensor:
         partner: The scene body it counts contacts with, or None for anything.
         end_effector: The robot side is an end-effector contact element (a finger, a tool tip).
         adr: Address of its value in `MjData.sensordata` (-1 until compiled).
+        chassis: The robot side is a mobile base's chassis.
     """
 
     name: str
@@ -41,6 +44,7 @@ class ContactSensor:
     partner: str | None
     end_effector: bool
     adr: int = -1
+    chassis: bool = False
 
 
 def _add(spec, name, objtype, objname, partner) -> None:
@@ -57,6 +61,7 @@ def add_contact_sensors(
     finger_bodies: tuple[str, ...],
     tool_tip: str | None,
     touchable: set[str],
+    chassis: tuple[str, ...] = (),
 ) -> list[ContactSensor]:
     """Add the contact sensors (after the whole scene is in `spec`).
 
@@ -67,6 +72,7 @@ def add_contact_sensors(
         tool_tip: The tip geom of a mounted tool (its body's geoms are the tool), or None.
         touchable: Scene bodies the end effector touches by default (free objects, a
             phantom): their sensors come last.
+        chassis: Bodies of a mobile base's chassis (one sensor per scene body each).
     """
     robot: set[str] = set()
     stack = [spec.body(robot_root)]
@@ -79,19 +85,25 @@ def add_contact_sensors(
     # contacts form one block the guard reads in one go
     scene.sort(key=lambda name: name in touchable)
     out: list[ContactSensor] = []
-    late: list[tuple[str, str, bool]] = []
+    late: list[tuple[str, str, bool, bool]] = []
 
-    def sensor(robot_side: str, partner: str | None, ee: bool, geom: bool) -> None:
-        if partner in touchable and (robot_side, partner, geom) not in late:
-            late.append((robot_side, partner, geom))  # added after every forbidden one
+    def sensor(
+        robot_side: str, partner: str | None, ee: bool, geom: bool, base: bool = False
+    ) -> None:
+        if partner in touchable and (robot_side, partner, geom, base) not in late:
+            late.append((robot_side, partner, geom, base))  # added after every forbidden one
             return
         name = f"contact__{robot_side}__{partner or 'any'}"
         objtype = mujoco.mjtObj.mjOBJ_GEOM if geom else mujoco.mjtObj.mjOBJ_BODY
         _add(spec, name, objtype, robot_side, partner)
-        out.append(ContactSensor(name, robot_side, partner, ee))
+        out.append(ContactSensor(name, robot_side, partner, ee and not base, chassis=base))
 
     for body in spec.bodies:
         if body.name not in robot or not body.geoms:
+            continue
+        if body.name in chassis:
+            for partner in scene:
+                sensor(body.name, partner, False, geom=False, base=True)
             continue
         if body.name in finger_bodies:
             for partner in scene:
@@ -104,8 +116,8 @@ def add_contact_sensors(
             continue
         sensor(body.name, None, False, geom=False)
     touchable = set()  # every forbidden sensor is in: now the late ones, in order
-    for robot_side, partner, geom in late:
-        sensor(robot_side, partner, True, geom)
+    for robot_side, partner, geom, base in late:
+        sensor(robot_side, partner, True, geom, base)
     return out
 
 
@@ -120,6 +132,7 @@ def bind_contact_sensors(
             s.partner,
             s.end_effector,
             int(model.sensor_adr[model.sensor(s.name).id]),
+            s.chassis,
         )
         for s in sensors
     )

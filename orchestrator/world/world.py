@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -29,10 +30,17 @@ from .scene import add_scene
 if TYPE_CHECKING:
     from ..language.scenario import Scenario
 
-__all__ = ["SLEEP", "ObjectHandle", "World", "as_index", "robot_only_model"]
+__all__ = ["BRAKE_SOLIMP", "SLEEP", "ObjectHandle", "World", "as_index", "robot_only_model"]
 
 SLEEP = int(mujoco.mjtEnableBit.mjENBL_SLEEP)
 """MuJoCo's enable flag of island sleeping, set on every world."""
+
+BRAKE_SOLIMP = (0.9999, 0.9999)
+"""Impedance (`solimp` dmin, dmax) of an engaged holding brake's friction: nearly rigid, so a
+braked joint holds its load instead of creeping (see `World.engage_brake`)."""
+BRAKE_TIMECONST_S = 0.004
+"""Time constant of an engaged brake's friction [s] (`solref`; MuJoCo's default 0.02 let a
+joint still turning at 0.2 rad/s when its brake engaged run on for ~40 ms)."""
 
 
 @dataclass(frozen=True)
@@ -90,6 +98,12 @@ class World:
         self.arm_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot.arm_joints])
         self._friction0 = m.dof_frictionloss[self.arm_dof].copy()
         """Each arm joint's own friction loss, restored when its holding brake is released."""
+        self._solimp0 = m.dof_solimp[self.arm_dof].copy()
+        self._solref0 = m.dof_solref[self.arm_dof].copy()
+        """Each arm joint's friction impedance and time constant, restored when its holding
+        brake is released."""
+        self.braked: set[int] = set()
+        """Arm joints (0-based) whose holding brake is engaged."""
         robot_joints = (*robot.arm_joints, *robot.finger_joints)
         self.robot_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot_joints])
         self.robot_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot_joints])
@@ -210,6 +224,7 @@ class World:
             robot.finger_bodies,
             f"{tool.name}_tip" if tool else None,
             touchable,
+            _chassis(spec, robot.base_body),
         )
         model = spec.compile()
         set_tissue_stiffness(model, scenario, seed, robot)
@@ -224,16 +239,33 @@ class World:
 
     def engage_brake(self, joint: int, torque_nm: float | None = None) -> None:
         """Engage the holding brake of arm joint `joint` (0-based): a dry friction of
-        `torque_nm` (default: the joint's torque limit) that holds it where it is."""
+        `torque_nm` (default: the joint's torque limit) that holds it where it is.
+
+        The brake is MuJoCo's friction loss made nearly rigid (`BRAKE_SOLIMP`): the default
+        soft friction constraint lets a joint creep at a speed proportional to the load it
+        holds (a Panda's shoulder sagged at 0.022-0.024 rad/s under gravity with its motor
+        lost); at an impedance of 0.9999 the creep is below 1e-4 rad/s, and the brake still
+        slips when a load beyond its holding torque pushes it, as a real one does.
+        """
         dof = int(self.arm_dof[joint])
         self.model.dof_frictionloss[dof] = (
             float(self.arm_effort_limit[joint]) if torque_nm is None else torque_nm
         )
+        self.model.dof_solimp[dof, :2] = BRAKE_SOLIMP
+        self.model.dof_solref[dof, 0] = BRAKE_TIMECONST_S
+        self.braked.add(joint)
 
-    def release_brakes(self) -> None:
-        """Release every holding brake `engage_brake` engaged (a live session does before
-        its next task: the motors take over again)."""
-        self.model.dof_frictionloss[self.arm_dof] = self._friction0
+    def release_brakes(self, keep: Iterable[int] = ()) -> None:
+        """Release every holding brake `engage_brake` engaged but those of the joints in
+        `keep` (a live session releases all before its next task, an `on_abort` response
+        all but those of joints whose motor failed): the motors take over again."""
+        kept = set(keep) & self.braked
+        for joint in self.braked - kept:
+            dof = int(self.arm_dof[joint])
+            self.model.dof_frictionloss[dof] = self._friction0[joint]
+            self.model.dof_solimp[dof] = self._solimp0[joint]
+            self.model.dof_solref[dof] = self._solref0[joint]
+        self.braked = kept
 
     def static_moved(self) -> None:
         """Recompute the world after a static body's model pose changed (`model.body_pos` or
@@ -274,6 +306,20 @@ def as_index(idx: np.ndarray) -> slice | np.ndarray:
     if len(idx) and np.all(np.diff(idx) == 1):
         return slice(int(idx[0]), int(idx[-1]) + 1)
     return idx
+
+
+def _chassis(spec: mujoco.MjSpec, base_body: str | None) -> tuple[str, ...]:
+    """A mobile base's chassis and the bodies welded to it (no joint between: the arm's own
+    base link on top of it), by name; () for a robot without a base."""
+    if base_body is None:
+        return ()
+    out, stack = [base_body], list(spec.body(base_body).bodies)
+    while stack:
+        body = stack.pop()
+        if not body.joints:
+            out.append(body.name)
+            stack.extend(body.bodies)
+    return tuple(out)
 
 
 def _is_descendant(m: mujoco.MjModel, body: int, root: int) -> bool:

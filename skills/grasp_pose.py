@@ -1,0 +1,328 @@
+"""`grasp_pose`: choose how to grasp an object so that the fingers land beside it, not on a
+neighbour or a wall, and the arm can take the pose.
+
+Of the hand's headings the object allows — its symmetric yaws, and turned by each of `turns_deg`
+(closing across its other side, where the open hand spans it) — the first whose two finger
+footprints, at the opening they come down with, clear every neighbour seen (`neighbours`: the
+detections) and every fixed box of the scene by `clearance_m`, and whose grasp pose the IK
+reaches from where the arm is, becomes the grasp: its pose, with the chosen yaw, goes to
+`into` for the approach (`move` with `align_yaw` and `yaw_symmetry_deg: 360`). Headings are
+tried in order of `turns_deg`, then of the wrist's turn from where it stands.
+
+Two parcels touching along their long sides leave no room for a finger between them: the
+grasp is `blocked` before the hand goes down (with touching parcels, a finger used to come
+down on the neighbour at 87-214 N and the run aborted).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import mujoco
+import numpy as np
+from pydantic import Field, NonNegativeFloat, PositiveFloat
+
+from orchestrator.world.footprint import Box, separation
+from orchestrator.world.pose import Pose
+from orchestrator.world.world import robot_only_model
+
+from .base import SCENE_TARGET, Skill, SkillParams
+from .ik import IKSolver
+from .move import symmetric_yaws
+from .targets import resolve_target, rot_down, yaw_of_rot
+
+if TYPE_CHECKING:
+    from orchestrator.engine.context import Context
+
+__all__ = ["GraspPose", "finger_boxes"]
+
+_MATCH_M = 0.02
+"""A neighbour this close (xy) to the target is the target itself, seen [m]."""
+_IK_DT = 0.02
+_IK_ITERATIONS = 200
+_STALL_ITERATIONS = 15
+
+
+class GraspPoseParams(SkillParams):
+    target: Any = Field(
+        description="The object: a pose (`$object_pose`, its top-face centre from `detect`), "
+        "an object or marker name, or `[x, y, z]` [m].",
+        json_schema_extra=SCENE_TARGET,
+    )
+    offset: list[float] = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0],
+        min_length=3,
+        max_length=3,
+        description="TCP from the target when the fingers close, world frame [m].",
+    )
+    size_m: list[float] | None = Field(
+        default=None,
+        min_length=2,
+        max_length=2,
+        description="The object's top face `[long side, short side]` [m] (a detection's "
+        "`size_m`): each heading needs the open fingers to clear it by `clearance_m`. "
+        "Default: the size of the detection in `neighbours` that is the target, if any.",
+    )
+    neighbours: list[Any] = Field(
+        default_factory=list,
+        description="What else lies around (`$detections`): mappings with a `pose` and a "
+        "`size_m`; the target itself among them is recognised and skipped.",
+    )
+    yaw_symmetry_deg: PositiveFloat = Field(
+        default=90.0, le=360.0, description="Symmetry of the object about z [deg]."
+    )
+    turns_deg: list[float] = Field(
+        default_factory=lambda: [0.0, 90.0],
+        min_length=1,
+        max_length=8,
+        description="Headings of the hand to try, turned from the object's own (0: the "
+        "fingers close across its short side; 90: across its long side, if the open hand "
+        "spans it), in order of preference [deg].",
+    )
+    opening_m: PositiveFloat = Field(
+        default=0.04, le=0.2, description="Each finger's opening as it comes down [m]."
+    )
+    clearance_m: NonNegativeFloat = Field(
+        default=0.004, le=0.1, description="Least gap between a finger and anything else [m]."
+    )
+    tolerance_m: PositiveFloat = Field(
+        default=0.001,
+        description="Position tolerance of the approach [m] (`move`'s): the IK must get the "
+        "TCP within half of it, as the approach's own dry run will.",
+    )
+    tolerance_deg: PositiveFloat = Field(
+        default=0.5, description="Orientation tolerance of the approach [deg] (`move`'s)."
+    )
+    into: str = Field(
+        default="grasp_pose",
+        description="Blackboard key the grasp pose (the target's position, the chosen yaw) "
+        "is written to.",
+    )
+
+
+class GraspPose(Skill):
+    """Choose the grasp heading whose fingers clear the neighbours and the walls and whose
+    pose the arm reaches (see the module's description).
+
+    Outcomes: `ready` (the pose is in `into`), `blocked` (no heading leaves the fingers room:
+    the detail names what is in the way), `unreachable` (the fingers would fit, but the arm
+    cannot take any of those poses: the detail gives the IK's residual).
+    """
+
+    name: ClassVar[str] = "grasp_pose"
+    Params: ClassVar[type[SkillParams]] = GraspPoseParams
+    outcomes: ClassVar[tuple[str, ...]] = ("ready", "blocked", "unreachable")
+    writes: ClassVar[dict[str, str]] = {"into": "pose"}
+
+    params: GraspPoseParams
+
+    def start(self, ctx: Context) -> None:
+        self.why = ""
+
+    def step(self, ctx: Context) -> str | None:
+        p = self.params
+        goal = resolve_target(ctx, p.target)
+        centre = np.asarray(goal.pos, float)
+        tcp = centre + np.asarray(p.offset, float)
+        here = yaw_of_rot(ctx.tcp_rot)
+        fingers = finger_boxes(ctx, p.opening_m)
+        others = _neighbours(p.neighbours, centre) + _walls(ctx, tcp[2] - fingers.depth_m)
+        size = p.size_m if p.size_m is not None else _seen_size(p.neighbours, centre)
+        blocked: list[str] = []
+        misses: list[float] = []
+        for turn in p.turns_deg:
+            base = goal.yaw + math.radians(turn)
+            across = _across(size, turn)
+            if across is not None and p.opening_m - across / 2.0 < p.clearance_m:
+                blocked.append(
+                    f"turned {turn:g} deg the open hand ({2 * p.opening_m * 1000:.0f} mm) does "
+                    f"not span the object ({across * 1000:.0f} mm)"
+                )
+                continue
+            for yaw in symmetric_yaws(base, here, math.radians(p.yaw_symmetry_deg)):
+                hit = _first_hit(fingers.at(tcp[0], tcp[1], yaw), others, p.clearance_m)
+                if hit is not None:
+                    blocked.append(f"turned {turn:g} deg a finger comes within {hit}")
+                    continue
+                miss = _ik_miss(ctx, tcp, yaw, p.tolerance_m, math.radians(p.tolerance_deg))
+                if miss[0] > 0.5 * p.tolerance_m or miss[1] > 0.5 * math.radians(p.tolerance_deg):
+                    misses.append(miss[0])
+                    continue
+                ctx.blackboard[p.into] = Pose(pos=goal.pos, quat=_yaw_quat(yaw))
+                ctx.log(
+                    "skill",
+                    f"grasp_pose: heading {math.degrees(yaw):.1f} deg (turned {turn:g} deg), "
+                    f"fingers clear of {len(others)} neighbour(s) and wall(s)",
+                )
+                return "ready"
+        if misses:
+            self.why = (
+                f"the fingers fit but the IK gets only within {min(misses) * 1000:.1f} mm of "
+                f"the grasp pose at {np.round(tcp, 3).tolist()} (joint limits or the edge of "
+                "the reach)"
+            )
+            outcome = "unreachable"
+        else:
+            self.why = "no room for the fingers: " + "; ".join(dict.fromkeys(blocked))
+            outcome = "blocked"
+        ctx.log("skill", f"grasp_pose: {self.why}", level="WARN")
+        return outcome
+
+    def stop(self, ctx: Context) -> None:
+        """Nothing to leave behind: choosing a grasp moves nothing."""
+
+    def explain(self, ctx: Context) -> str | None:
+        return self.why or None
+
+
+class FingerBoxes:
+    """The fingers' footprints around the TCP, for a hand pointing down.
+
+    Attributes:
+        half_x: Half their extent along the hand's x axis (across the finger) [m].
+        inner: Distance of a finger's inner face from the TCP (the opening) [m].
+        outer: Distance of its outer face [m].
+        depth_m: How far the fingertips reach below the TCP [m].
+    """
+
+    def __init__(self, half_x: float, inner: float, outer: float, depth_m: float) -> None:
+        self.half_x, self.inner, self.outer, self.depth_m = half_x, inner, outer, depth_m
+
+    def at(self, x: float, y: float, yaw: float) -> list[Box]:
+        """The two footprints with the TCP at (x, y) [m], the hand at heading `yaw` [rad]
+        (its closing axis, the TCP's y, at yaw - 90 deg)."""
+        mid, half_y = 0.5 * (self.inner + self.outer), 0.5 * (self.outer - self.inner)
+        cy, sy = math.sin(yaw), -math.cos(yaw)  # the closing axis in the world
+        return [
+            (x + side * mid * cy, y + side * mid * sy, yaw, self.half_x, half_y)
+            for side in (1.0, -1.0)
+        ]
+
+
+def finger_boxes(ctx: Context, opening_m: float) -> FingerBoxes:
+    """The fingers' footprints at each finger's opening `opening_m` [m], measured on the
+    model: every collision box of the finger bodies, in the TCP's frame."""
+    m, d, w = ctx.model, ctx.data, ctx.world
+    tcp = d.site_xpos[w.tcp_site]
+    rot = d.site_xmat[w.tcp_site].reshape(3, 3)
+    opening_now = 0.5 * ctx.gripper_width
+    half_x, inner, outer, depth = 0.0, math.inf, 0.0, 0.0
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    for g in sorted(w.finger_geoms):
+        if m.geom_type[g] != mujoco.mjtGeom.mjGEOM_BOX or not (
+            m.geom_contype[g] or m.geom_conaffinity[g]
+        ):
+            continue
+        local = signs * m.geom_size[g]
+        world = d.geom_xpos[g] + local @ d.geom_xmat[g].reshape(3, 3).T
+        pts = (world - tcp) @ rot  # in the TCP frame: x across the finger, y closing, z down
+        half_x = max(half_x, float(np.max(np.abs(pts[:, 0]))))
+        ys = np.abs(pts[:, 1]) - opening_now
+        inner, outer = min(inner, float(np.min(ys))), max(outer, float(np.max(ys)))
+        depth = max(depth, float(np.max(pts[:, 2])))
+    if not math.isfinite(inner):  # no box fingers: a point gripper at the opening
+        inner = outer = 0.0
+    return FingerBoxes(half_x, opening_m + max(inner, 0.0), opening_m + outer, depth)
+
+
+def _across(size_m: list[float] | None, turn_deg: float) -> float | None:
+    """The object's extent along the closing axis for a hand turned `turn_deg` [m]."""
+    if size_m is None:
+        return None
+    long, short = max(size_m), min(size_m)
+    t = math.radians(turn_deg)
+    return abs(math.cos(t)) * short + abs(math.sin(t)) * long
+
+
+def _seen_size(items: list[Any], centre: np.ndarray) -> list[float] | None:
+    """The `size_m` of the detection among `items` that is the target (at `centre`)."""
+    for item in items:
+        if isinstance(item, dict) and "pose" in item and item.get("size_m"):
+            if math.dist(Pose.coerce(item["pose"]).pos[:2], centre[:2]) <= _MATCH_M:
+                return [float(v) for v in item["size_m"]]
+    return None
+
+
+def _neighbours(items: list[Any], centre: np.ndarray) -> list[tuple[str, Box]]:
+    """Footprints of the detections around the target (the target itself skipped)."""
+    out = []
+    for i, item in enumerate(items):
+        if not isinstance(item, dict) or "pose" not in item:
+            continue
+        pose = Pose.coerce(item["pose"])
+        if math.dist(pose.pos[:2], centre[:2]) <= _MATCH_M:
+            continue
+        size = item.get("size_m") or [0.05, 0.05]
+        name = f"{item.get('class', 'object')} #{item.get('id', i)} at " + str(
+            np.round(pose.pos[:2], 3).tolist()
+        )
+        out.append((name, (pose.pos[0], pose.pos[1], pose.yaw, size[0] / 2, size[1] / 2)))
+    return out
+
+
+def _walls(ctx: Context, fingertip_z: float) -> list[tuple[str, Box]]:
+    """Footprints of the scene's fixed boxes a finger can collide with that stand higher than
+    the fingertips at the grasp (walls, bins, furniture; the surface the object lies on is
+    lower)."""
+    m, d, w = ctx.model, ctx.data, ctx.world
+    fingers = [g for g in w.finger_geoms if m.geom_contype[g] or m.geom_conaffinity[g]]
+    out = []
+    for g in range(m.ngeom):
+        if m.geom_type[g] != mujoco.mjtGeom.mjGEOM_BOX or m.body_dofnum[m.geom_bodyid[g]] > 0:
+            continue
+        if g in w.robot_geoms or not any(
+            m.geom_contype[g] & m.geom_conaffinity[f] or m.geom_contype[f] & m.geom_conaffinity[g]
+            for f in fingers
+        ):
+            continue  # the robot's own, or what no finger can touch (a hidden fault obstacle)
+        rot = d.geom_xmat[g].reshape(3, 3)
+        if abs(rot[2, 2]) < 0.999:
+            continue  # not standing upright: not a wall
+        hx, hy, hz = (float(v) for v in m.geom_size[g])
+        x, y, z = (float(v) for v in d.geom_xpos[g])
+        if z + hz <= fingertip_z:
+            continue  # lower than the fingertips: the surface the object lies on
+        name = m.geom(g).name or f"geom {g}"
+        out.append((name, (x, y, math.atan2(rot[1, 0], rot[0, 0]), hx, hy)))
+    return out
+
+
+def _first_hit(fingers: list[Box], others: list[tuple[str, Box]], clearance: float) -> str | None:
+    """The first neighbour or wall a finger comes within `clearance` [m] of, in words."""
+    for name, box in others:
+        for finger in fingers:
+            gap = separation(finger, box)
+            if gap < clearance:
+                return f"{max(gap, 0.0) * 1000:.1f} mm of {name}"
+    return None
+
+
+def _ik_miss(
+    ctx: Context, pos: np.ndarray, yaw: float, tol_m: float, tol_rad: float
+) -> tuple[float, float]:
+    """How close the IK gets the TCP to `pos` [m] pointing down at heading `yaw` [rad] from
+    the measured joints: (position [m], orientation [rad]) left. On the robot's own IK model,
+    never the running solver."""
+    ik = IKSolver(ctx.robot, robot_only_model(ctx.robot), _IK_DT, ctx.scenario.robot.base_pos)
+    ik.reset(ctx.q)
+    rot = rot_down(yaw)
+    history: list[float] = []
+    err = np.full(6, math.inf)
+    for _ in range(_IK_ITERATIONS):
+        ik.reference_step(pos, rot, _IK_DT)
+        err = ik.error
+        miss = float(np.linalg.norm(err[:3]))
+        if miss <= 0.5 * tol_m and float(np.linalg.norm(err[3:])) <= 0.5 * tol_rad:
+            break
+        history.append(miss + float(np.linalg.norm(err[3:])))
+        if (
+            len(history) > _STALL_ITERATIONS
+            and history[-_STALL_ITERATIONS - 1] - history[-1] < 1e-5
+        ):
+            break  # stuck: a joint limit or the edge of the reach
+    return float(np.linalg.norm(err[:3])), float(np.linalg.norm(err[3:]))
+
+
+def _yaw_quat(yaw: float) -> list[float]:
+    return [math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0)]
