@@ -160,7 +160,8 @@ class Marker(_Strict):
 
 
 class PhantomRandomize(_Strict):
-    """Uniform per-seed variation of the phantom: position offsets and a stiffness scale."""
+    """Uniform per-seed variation of the phantom: position offsets, a stiffness scale and
+    turns about its own axes (added to the nominal `roll_deg`, `pitch_deg`, `yaw_deg`)."""
 
     x: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
     y: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
@@ -168,10 +169,13 @@ class PhantomRandomize(_Strict):
         default_factory=lambda: [1.0, 1.0],
         description="True stiffness = nominal stiffness x a factor drawn from this range.",
     )
+    yaw_deg: AngleRange = Field(default_factory=lambda: [0.0, 0.0], description="[deg]")
+    roll_deg: AngleRange = Field(default_factory=lambda: [0.0, 0.0], description="[deg]")
+    pitch_deg: AngleRange = Field(default_factory=lambda: [0.0, 0.0], description="[deg]")
 
     @model_validator(mode="after")
     def _ordered(self) -> PhantomRandomize:
-        for name in ("x", "y", "stiffness_scale"):
+        for name in ("x", "y", "stiffness_scale", "yaw_deg", "roll_deg", "pitch_deg"):
             lo, hi = getattr(self, name)
             if lo > hi:
                 raise ValueError(f"{name}: lower bound {lo} is above upper bound {hi}")
@@ -203,13 +207,17 @@ class Phantom(_Strict):
     The stiffness is set through MuJoCo's solref/solimp so that the tool tip pressed into it
     x metres deep pushes back with f(x) = stiffness(x) x newtons at rest: stiffness(x) is
     `stiffness_n_per_m` near the surface and grows with `stiffening`. Its frame (the `phantom`
-    frame of zones and obstacles) is the centre of its top surface, z up, turned by `yaw_deg`.
+    frame of zones and obstacles) is the centre of its top surface, z out of the tissue, turned
+    by `yaw_deg` about the world z, then tilted by `pitch_deg` about its y and `roll_deg` about
+    its x (R = Rz(yaw) Ry(pitch) Rx(roll)) about that centre: a tilted phantom lies on a wedge.
     """
 
     name: str = "phantom"
     size: Size3 = Field(description="Full edge lengths [m].")
     xy: XY = Field(description="Nominal position of its centre on the table [m].")
     yaw_deg: Angle = 0.0
+    roll_deg: float = Field(default=0.0, ge=-30.0, le=30.0, description="Tilt about x [deg].")
+    pitch_deg: float = Field(default=0.0, ge=-30.0, le=30.0, description="Tilt about y [deg].")
     stiffness_n_per_m: float = Field(
         default=500.0,
         ge=1.0,
@@ -495,9 +503,10 @@ class SuccessCheck(_Strict):
         default=0.05, ge=0.0, le=3.0, description="`held`: lifted at least this high [m]."
     )
     cross_track_max_mm: PositiveFloat = Field(
-        default=1.0,
+        default=0.1,
         le=1000.0,
-        description="`trace`: largest lateral error from the true path [mm].",
+        description="`trace`: largest lateral error from the true path [mm] (the surgical "
+        "write-up's bar: a deviation of 0.1 mm already matters).",
     )
     end_tol_mm: PositiveFloat = Field(
         default=2.0, le=1000.0, description="`trace`: tip within this of the true path's end [mm]."
