@@ -20,14 +20,14 @@ a force law of its own). One value for all, so that no pair mixes a soft and a s
 table kept MuJoCo's 0.02 s: parcels dropped into a bin sank 8 mm into it). 4 ms is twice the
 2 ms physics step, the stiffest MuJoCo integrates stably (it raises a smaller one to that
 itself; at 2.5 ms, written directly, a dropped cube kept bouncing at 2-3 m/s)."""
-CONTACT_SOLIMP = (0.5, 0.99, 0.002, 0.5, 2.0)
+CONTACT_SOLIMP = (0.5, 0.99, 0.001, 0.5, 2.0)
 """MuJoCo solimp of the same surfaces: the constraint's impedance rises from 0.5 at first touch
-to 0.99 at 2 mm. Firm deep down, where an impact goes (a 20 cm drop, 2 m/s: 1.6 mm flat, 2.5
+to 0.99 at 1 mm. Firm deep down, where an impact goes (a 20 cm drop, 2 m/s: 1.6 mm flat, 2.5
 mm on a corner, after the step in which the contact is found; in that step a corner can cross
-up to 4 mm, the 2 m/s times the 2 ms step, before anything pushes back), and giving at the
-surface: at MuJoCo's 0.9-0.95 over 1 mm, a cube squeezed by the fingers against the table,
-both stiff, jammed with up to 49 N at the wrist (pick_place, 6 seeds; 4-7 N with this).
-At rest: 0.08 mm."""
+up to 4 mm, the 2 m/s times the 2 ms step, before anything pushes back) and where the 20 N grip
+sits (0.7 mm; 1.1 mm with the rise over 2 mm), and giving at the surface: at MuJoCo's
+0.9-0.95, a cube squeezed by the fingers against the table, both stiff, jammed with up to 49 N
+at the wrist (pick_place, 6 seeds; 4-8 N with this). A cube at rest on the table: 0.07 mm."""
 
 
 @dataclass(frozen=True)

@@ -52,6 +52,10 @@ motor that meets an object at full speed stalls at once and, without the limit, 
 with its whole stall force (16 N at the wrist as a finger knocked a pick_place cube against
 the table, seed 2). The drive acts once per control tick, so the first 10 ms of an impact
 can still see the stall force."""
+GRIP_SPEED_MARGIN = 0.95
+"""Fraction of the motor's speed the drive runs the fingers at, moving: the rest is for what
+pushes them (a squeezed object springing back as they open pushed them 2 % past the motor's
+0.05 m/s at full voltage), as the arm's commands keep 15 % of its limits (`COMMAND_MARGIN`)."""
 GRIP_SQUEEZE_RAMP_S = 0.1
 """Time the drive takes to raise the force from the moving limit to the full grip force once
 the fingers are blocked by what they grasp [s] (at once: 12 N at the wrist on pick_place's
@@ -112,10 +116,12 @@ class Context:
         finger_index = as_index(world.finger_qpos)
         self._fingers = d.qpos[finger_index] if isinstance(finger_index, slice) else None
         self._two_fingers = self._fingers is not None and len(self._fingers) == 2
-        self._grip_step = world.robot.gripper_speed_mps * dt_control
+        self._grip_step = GRIP_SPEED_MARGIN * world.robot.gripper_speed_mps * dt_control
         self._grip_ref = world.robot.gripper_open_m
         """Where the hand's drive is taking each finger [m]: the reference it servoes to."""
-        self._grip_gain = GRIP_SERVO_GAIN / (world.robot.gripper_speed_mps * dt_control)
+        self._grip_volt_step = world.robot.gripper_speed_mps * dt_control
+        """How far a free finger goes in a control tick at full voltage [m]."""
+        self._grip_gain = GRIP_SERVO_GAIN / self._grip_volt_step
         """Motor voltage per metre of finger error [1/m]."""
         self._grip_limit = 1.0
         """The drive's limit on the motor voltage this tick (its current limit)."""
@@ -414,7 +420,7 @@ class Context:
             ref = max(ref, finger)
         short = goal < finger - _GRIP_CONTACT_M
         # what the last tick's voltage would have moved a free finger [m]
-        free = abs(self._ctrl[self.world.gripper_act]) * self._grip_step
+        free = abs(self._ctrl[self.world.gripper_act]) * self._grip_volt_step
         if self._grip_squeeze is not None:  # until the target opens or the object slips out
             if not short or finger < self._grip_squeeze - _GRIP_SLIP_M:
                 self._grip_squeeze, self._grip_still = None, 0
@@ -431,13 +437,15 @@ class Context:
         if not squeeze:  # a reference that runs away from the finger would wind up
             new = min(max(new, finger - _GRIP_LEAD_M), finger + _GRIP_LEAD_M)
         self._grip_ref = new
-        voltage = (new - ref) / self._grip_step + self._grip_gain * (new - finger)
+        voltage = (new - ref) / self._grip_volt_step + self._grip_gain * (new - finger)
         if squeeze:  # the force rises to the full grip force
             limit = min(self._grip_limit + self._grip_ramp * rate, 1.0)
         elif abs(moved) >= _GRIP_HELD * free:  # the fingers went where the voltage sent them
-            limit = 1.0
+            limit = GRIP_SPEED_MARGIN
         else:  # held back: the current limit, stall force x (voltage - speed / v_max) <= move
-            limit = min(GRIP_MOVE_FORCE_FRACTION + abs(moved) / self._grip_step, 1.0)
+            limit = min(
+                GRIP_MOVE_FORCE_FRACTION + abs(moved) / self._grip_volt_step, GRIP_SPEED_MARGIN
+            )
         self._grip_limit = limit
         self._ctrl[self.world.gripper_act] = min(max(voltage, -limit), limit)
 
