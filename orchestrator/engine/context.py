@@ -37,8 +37,6 @@ _GRIP_HELD = 0.5
 back by something (the drive's current limit applies; closing, it is blocked)."""
 _GRIP_STILL_TICKS = 2
 """Control ticks a closing finger must stay held back, short of its target, to be blocked."""
-_GRIP_SLIP_M = 0.001
-"""A squeezing finger that closes this much further has lost what it held [m]."""
 _GRIP_LEAD_M = 0.001
 """Farthest a finger's reference runs ahead of the finger while moving [m]."""
 GRIP_SERVO_GAIN = 0.5
@@ -410,8 +408,9 @@ class Context:
         the speed, robots/panda/model.py), its force limited to `GRIP_MOVE_FORCE_FRACTION` of
         the grip force while the fingers move. Closing fingers that stay still short of the
         target are blocked by what they grasp: they squeeze, the force rising to the motor's
-        whole stall force over `GRIP_SQUEEZE_RAMP_S`, until the target opens or they move
-        again (the object slipped out)."""
+        whole stall force over `GRIP_SQUEEZE_RAMP_S`, until the target opens or they reach it
+        (an object that slips out of the grasp: they close on after it, as a real hand's grasp
+        command does)."""
         goal = self.gripper_target
         finger = 0.5 * self.gripper_width
         moved, self._grip_prev = finger - self._grip_prev, finger
@@ -419,13 +418,15 @@ class Context:
         if goal > ref:  # opening: from where the fingers are, not from a squeezing reference
             ref = max(ref, finger)
         short = goal < finger - _GRIP_CONTACT_M
-        # what the last tick's voltage would have moved a free finger [m]
+        # what the last tick's voltage would have moved a free finger [m]; only a finger the
+        # drive pushed can be held back (not one a pause holds still)
         free = abs(self._ctrl[self.world.gripper_act]) * self._grip_volt_step
-        if self._grip_squeeze is not None:  # until the target opens or the object slips out
-            if not short or finger < self._grip_squeeze - _GRIP_SLIP_M:
+        if self._grip_squeeze is not None:  # until the target opens or the fingers reach it
+            if not short:  # (an object that slips out: they close on, at the motor's speed)
                 self._grip_squeeze, self._grip_still = None, 0
         else:
-            held = short and goal < finger and -moved < _GRIP_HELD * free
+            pushed = rate > 0.0 and free > GRIP_MOVE_FORCE_FRACTION * self._grip_volt_step
+            held = short and pushed and -moved < _GRIP_HELD * free
             self._grip_still = self._grip_still + 1 if held else 0
             if self._grip_still >= _GRIP_STILL_TICKS:
                 self._grip_squeeze = finger
