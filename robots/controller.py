@@ -47,9 +47,11 @@ class ControlMode(enum.Enum):
     CARTESIAN = "cartesian"
     """Cartesian impedance: tau = J^T (K e - D xdot) + g(q) + nullspace posture term, with
     K and D diagonal in the gains' frame (a surface's normal and tangents, or the base axes)
-    and xdot from joint velocities low-passed at `VELOCITY_FILTER_HZ`. Meanwhile q_d follows
-    the measured joints, so that `hold(q_d)` or a joint move starting from q_d afterwards
-    continues from where the arm is."""
+    and xdot from joint velocities low-passed at `VELOCITY_FILTER_HZ`. Meanwhile (q_d, qd_d)
+    follow the measured joints and their filtered velocity, so that `hold(q_d)` or a joint move
+    starting from the setpoint afterwards continues from where the arm is and as it moves (a
+    velocity left over from before the Cartesian phase kicked joint 3 to 1.18x its acceleration
+    limit as a move took over, surgical RETRACT)."""
     HOLD = "hold"
     """Joint impedance to the pose captured when hold() was called, zero velocity."""
     BRAKE = "brake"
@@ -301,6 +303,8 @@ class Controller:
             g = pin.computeGeneralizedGravity(self.model, self.data, q)[:n]
             tau = self._cartesian(q, qd) + g
             self.q_d[:] = q[:n]
+            self.qd_d[:] = self.qd_filtered
+            self.qdd_d[:] = 0.0
         else:
             tau = self._brake(q, qd)
         np.minimum(tau, self.effort_limit, out=self.tau)
