@@ -197,9 +197,9 @@ class TouchProbe:
             return None
         return self.outcome
 
-    def _rezero(self, ctx: Context, force: np.ndarray) -> str | None:
-        """At rest in free space after the touch, the reading is the drift since the zero:
-        take it out of every level, in proportion to the time elapsed (a linear bridge)."""
+    def _at_standoff(self, ctx: Context, force: np.ndarray) -> np.ndarray | None:
+        """Hold the standoff point: after `settle_s`, the mean reading over `tare_s` [N]
+        (world frame, shape (3,)); None until then."""
         impedance.command(ctx, self.standoff, self.rot, self.pressing, self.q_null)
         elapsed = ctx.clock - self.t0
         if elapsed < self.cfg.settle_s - 1e-9:
@@ -207,7 +207,23 @@ class TouchProbe:
         self.tare.append(force.copy())
         if elapsed < self.cfg.settle_s + self.cfg.tare_s - 1e-9:
             return None
-        drift = np.mean(self.tare, axis=0)
+        return np.mean(self.tare, axis=0)
+
+    def _tare(self, ctx: Context, force: np.ndarray) -> str | None:
+        offset = self._at_standoff(ctx, force)
+        if offset is not None:
+            ctx.zero_wrist_force(offset)
+            self.t_zero = ctx.clock - 0.5 * self.cfg.tare_s
+            self.f_filt = 0.0
+            self.phase = "approach"
+        return None
+
+    def _rezero(self, ctx: Context, force: np.ndarray) -> str | None:
+        """At rest in free space after the touch, the reading is the drift since the zero:
+        take it out of every level, in proportion to the time elapsed (a linear bridge)."""
+        drift = self._at_standoff(ctx, force)
+        if drift is None:
+            return None
         span = ctx.clock - self.t_zero
         r = self.result
         r.forces = [
@@ -219,20 +235,6 @@ class TouchProbe:
             self._segments(ctx, [self.standoff, *self.plan.retreat], "retreat")
             return None
         return self.outcome
-
-    def _tare(self, ctx: Context, force: np.ndarray) -> str | None:
-        impedance.command(ctx, self.standoff, self.rot, self.pressing, self.q_null)
-        elapsed = ctx.clock - self.t0
-        if elapsed < self.cfg.settle_s - 1e-9:
-            return None
-        self.tare.append(force.copy())
-        if elapsed < self.cfg.settle_s + self.cfg.tare_s - 1e-9:
-            return None
-        ctx.zero_wrist_force(np.mean(self.tare, axis=0))
-        self.t_zero = ctx.clock - 0.5 * self.cfg.tare_s
-        self.f_filt = 0.0
-        self.phase = "approach"
-        return None
 
     def _approach(self, ctx: Context) -> str | None:
         c = self.cfg
