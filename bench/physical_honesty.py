@@ -125,8 +125,8 @@ class StepProbe:
         contact_event = False
         pen = 0.0
         qvel = d.qvel
-        for g, a in self.object_vel.items():
-            if qvel[a] ** 2 + qvel[a + 1] ** 2 + qvel[a + 2] ** 2 >= REST_SPEED_MPS**2:
+        for g, adr in self.object_vel.items():
+            if qvel[adr] ** 2 + qvel[adr + 1] ** 2 + qvel[adr + 2] ** 2 >= REST_SPEED_MPS**2:
                 self.moving_t[g] = d.time
         pairs = set()
         for i in range(d.ncon):
