@@ -8,14 +8,23 @@ For each episode an observer's `on_step` reads MuJoCo's ground truth after every
   events" (no contact of a robot geom other than the grasp in the last 10 ms);
 * motor torque |τ| over the effort limit, and how many steps a motor sat at its limit
   (all, and outside contact events);
+* how many steps any joint's acceleration was above its limit (also outside contact events);
 * finger penetration into any object (the deepest finger contact) [mm];
+* the fastest finger [m/s] (the Franka Hand: 0.05 m/s per finger);
+* the deepest contact of a free object with anything but the tissue phantom (the table, a bin,
+  the floor, the belt, another object, a finger) [mm]: at rest (every free object in the
+  contact slower than `REST_SPEED_MPS` for `REST_S`), overall (impacts included) and overall
+  but for the step a contact is found in (contacts are found once a step: in that step a
+  falling corner has crossed the surface by up to its speed x the step, before anything
+  pushes back);
 * the true wrist force (noise-free sensor, true hand + tool weight removed) [N];
 
 and the run's own metrics. Prints one line per episode and a summary (worst, p50, p99) per
 scenario; `--json PATH` writes every figure.
 
-    python bench/physical_honesty.py                      # 100 pick_place + 20 + 20 surgical
-    python bench/physical_honesty.py --pick 30 --surgical 5 --set physics.realism.enabled=false
+    python bench/physical_honesty.py                   # every bundled scenario (see --help)
+    python bench/physical_honesty.py --only pick_place=30,surgical=5 \
+        --set physics.realism.enabled=false
 """
 
 from __future__ import annotations
@@ -37,6 +46,29 @@ CONTACT_EVENT_S = 0.01
 held between the fingers) is inside a contact event [s]."""
 SATURATED = 0.999
 """|τ| at or above this fraction of the effort limit counts as saturated."""
+REST_SPEED_MPS = 0.01
+"""A free object slower than this for `REST_S` counts as at rest [m/s] (not the bottom of a
+bounce, where the speed passes through zero)."""
+REST_S = 0.1
+"""How long a free object must have been slow to be at rest [s]."""
+RUNS = {
+    "pick_place": 100,
+    "pick_place_vision": 20,
+    "mobile_search": 10,
+    "sorting": 8,
+    "sorting_conveyor": 4,
+    "surgical": 20,
+    "surgical_complication": 20,
+}
+"""Every bundled scenario and its default number of seeds (0..N-1)."""
+LIMITS = {
+    "max_accel_ratio": 1.0,
+    "accel_steps": 0,
+    "finger_speed_mps": 0.05,
+    "penetration_rest_mm": 1.0,
+    "penetration_after_contact_mm": 3.0,
+}
+"""What the datasheets allow of each figure (the summary marks a figure above its limit)."""
 
 
 class StepProbe:
@@ -55,6 +87,11 @@ class StepProbe:
         self.fingers = w.finger_geoms
         self.robot = w.robot_geoms
         self.objects = {h.geom_id for h in w.objects.values()}
+        self.object_vel = {h.geom_id: h.qvel_adr for h in w.objects.values()}
+        self.moving_t = dict.fromkeys(self.object_vel, 0.0)
+        """Per object geom, when it last moved faster than `REST_SPEED_MPS` [s]."""
+        self.tissue = m.geom(w.phantom.name).id if w.phantom is not None else -1
+        self.finger_dof = [int(m.jnt_dofadr[m.joint(j).id]) for j in ctx.robot.finger_joints]
         self.geom_body = m.geom_bodyid
         self.last_contact_t = -math.inf
         self.v = np.zeros(len(self.dof))
@@ -63,6 +100,14 @@ class StepProbe:
         self.tau = np.zeros(len(self.dof))
         self.sat_steps = 0
         self.sat_free_steps = 0
+        self.accel_steps = 0
+        self.accel_free_steps = 0
+        self.finger_speed = 0.0
+        self.obj_pen_rest = 0.0
+        self.obj_pen = 0.0
+        self.obj_pen_after = 0.0
+        self.pairs: set[tuple[int, int]] = set()
+        """Object contact pairs of the last step (a pair not among them is new)."""
         self.pen_m = 0.0
         self.force_sq = 0.0
         self.where: dict[str, str] = {}
@@ -79,9 +124,26 @@ class StepProbe:
         self.prev_v = v.copy()
         contact_event = False
         pen = 0.0
+        qvel = d.qvel
+        for g, adr in self.object_vel.items():
+            if qvel[adr] ** 2 + qvel[adr + 1] ** 2 + qvel[adr + 2] ** 2 >= REST_SPEED_MPS**2:
+                self.moving_t[g] = d.time
+        pairs = set()
         for i in range(d.ncon):
             c = d.contact[i]
             g1, g2 = int(c.geom1), int(c.geom2)
+            if (g1 in self.objects or g2 in self.objects) and self.tissue not in (g1, g2):
+                depth = -float(c.dist)
+                pair = (min(g1, g2), max(g1, g2))
+                pairs.add(pair)
+                self.obj_pen = max(self.obj_pen, depth)
+                if pair in self.pairs and depth > self.obj_pen_after:
+                    self.obj_pen_after, self.where["pen_after"] = depth, self.executor.leaf
+                at_rest = all(
+                    d.time - self.moving_t[g] >= REST_S for g in (g1, g2) if g in self.objects
+                )
+                if at_rest and depth > self.obj_pen_rest:
+                    self.obj_pen_rest, self.where["pen_rest"] = depth, self.executor.leaf
             r1, r2 = g1 in self.robot, g2 in self.robot
             if not (r1 or r2):
                 continue
@@ -92,14 +154,23 @@ class StepProbe:
                 pen = max(pen, -float(c.dist))
             else:
                 contact_event = True
+        self.pairs = pairs
         if contact_event:
             self.last_contact_t = d.time
         free = d.time - self.last_contact_t > CONTACT_EVENT_S
         leaf = self.executor.leaf
         self._worst("v", np.abs(v) / self.vlim, leaf)
-        self._worst("a", a / self.alim, leaf)
+        ratio = a / self.alim
+        self._worst("a", ratio, leaf)
+        over = bool(ratio.max() > 1.0)
+        self.accel_steps += over
         if free:
-            self._worst("a_free", a / self.alim, leaf)
+            self._worst("a_free", ratio, leaf)
+            self.accel_free_steps += over
+        for dof in self.finger_dof:
+            speed = abs(float(qvel[dof]))
+            if speed > self.finger_speed:
+                self.finger_speed, self.where["finger"] = speed, leaf
         tau = np.abs(d.actuator_force[self.act]) / self.tlim
         self._worst("tau", tau, leaf)
         if tau.max() >= SATURATED:
@@ -128,6 +199,12 @@ class StepProbe:
             "max_torque_ratio": round(float(self.tau.max()), 4),
             "saturated_steps": self.sat_steps,
             "saturated_steps_outside_contact": self.sat_free_steps,
+            "accel_steps": self.accel_steps,
+            "accel_steps_outside_contact": self.accel_free_steps,
+            "finger_speed_mps": round(self.finger_speed, 5),
+            "penetration_rest_mm": round(self.obj_pen_rest * 1000, 4),
+            "penetration_mm": round(self.obj_pen * 1000, 4),
+            "penetration_after_contact_mm": round(self.obj_pen_after * 1000, 4),
             "finger_penetration_mm": round(self.pen_m * 1000, 4),
             "max_wrist_force_n": round(math.sqrt(self.force_sq), 4),
             "steps": self.steps,
@@ -149,8 +226,11 @@ def run(name: str, seeds: range, overrides: list[str]) -> list[dict[str, Any]]:
         print(
             f"{name:22s} {seed:4d} {result.outcome:9s} v {row['max_speed_ratio']:.2f}"
             f" a {row['max_accel_ratio']:.2f} (free {row['max_accel_ratio_outside_contact']:.2f})"
-            f" tau {row['max_torque_ratio']:.2f} sat {row['saturated_steps']}"
-            f"/{row['saturated_steps_outside_contact']} pen {row['finger_penetration_mm']:.3f}mm"
+            f" [{row['accel_steps']} steps over] tau {row['max_torque_ratio']:.2f}"
+            f" sat {row['saturated_steps']}/{row['saturated_steps_outside_contact']}"
+            f" finger {row['finger_speed_mps']:.4f}m/s pen {row['finger_penetration_mm']:.3f}"
+            f" rest {row['penetration_rest_mm']:.3f} any {row['penetration_mm']:.3f}"
+            f" ({row['penetration_after_contact_mm']:.3f})mm"
             f" F {row['max_wrist_force_n']:.2f}N [{time.perf_counter() - t0:.1f}s]",
             file=sys.stderr,
             flush=True,
@@ -163,15 +243,21 @@ def summarize(rows: list[dict[str, Any]]) -> None:
     ok = sum(r["outcome"] == "succeeded" for r in rows)
     aborted = sum(r["outcome"] == "aborted" for r in rows)
     print(f"\n## {name}: {len(rows)} seeds, {ok} succeeded, {aborted} aborted")
-    print("| figure | worst | p99 | p50 |\n|---|---|---|---|")
+    print("| figure | worst | p99 | p50 | limit |\n|---|---|---|---|---|")
     keys = [
         "max_speed_ratio",
         "max_accel_ratio",
         "max_accel_ratio_outside_contact",
+        "accel_steps",
+        "accel_steps_outside_contact",
         "max_torque_ratio",
         "saturated_steps",
         "saturated_steps_outside_contact",
+        "finger_speed_mps",
         "finger_penetration_mm",
+        "penetration_rest_mm",
+        "penetration_mm",
+        "penetration_after_contact_mm",
         "max_wrist_force_n",
     ]
     metric_keys = sorted(
@@ -180,7 +266,13 @@ def summarize(rows: list[dict[str, Any]]) -> None:
     )
     for k in keys:
         vals = np.array([r[k] for r in rows], float)
-        print(f"| {k} | {vals.max():.4g} | {np.percentile(vals, 99):.4g} | {np.median(vals):.4g} |")
+        limit = LIMITS.get(k)
+        over = limit is not None and vals.max() > limit * (1.0 + 1e-9)
+        mark = "" if limit is None else f"{limit:g}" + (" **over**" if over else "")
+        print(
+            f"| {k} | {vals.max():.4g} | {np.percentile(vals, 99):.4g} | {np.median(vals):.4g}"
+            f" | {mark} |"
+        )
     for k in metric_keys:
         vals = np.array([r["metrics"][k] for r in rows if r["metrics"].get(k) is not None], float)
         if len(vals):
@@ -195,20 +287,23 @@ def summarize(rows: list[dict[str, Any]]) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--pick", type=int, default=100, help="pick_place seeds (0..N-1)")
-    ap.add_argument("--surgical", type=int, default=20, help="surgical seeds (0..N-1)")
-    ap.add_argument("--complication", type=int, default=20, help="surgical_complication seeds")
+    ap.add_argument(
+        "--only",
+        default="",
+        help="NAME=N,... : these scenarios, N seeds each (0..N-1); default: "
+        + ", ".join(f"{k}={v}" for k, v in RUNS.items()),
+    )
+    ap.add_argument("--first-seed", type=int, default=0, help="seeds start here")
     ap.add_argument("--set", action="append", default=[], help="override KEY=VALUE (all)")
     ap.add_argument("--json", help="write every figure to this file")
     args = ap.parse_args()
+    runs = RUNS
+    if args.only:
+        runs = {k: int(v) for k, v in (item.split("=") for item in args.only.split(","))}
     out: list[dict[str, Any]] = []
-    for name, n in (
-        ("pick_place", args.pick),
-        ("surgical", args.surgical),
-        ("surgical_complication", args.complication),
-    ):
+    for name, n in runs.items():
         if n > 0:
-            rows = run(name, range(n), args.set)
+            rows = run(name, range(args.first_seed, args.first_seed + n), args.set)
             summarize(rows)
             out += rows
     if args.json:

@@ -12,7 +12,23 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["CARTESIAN_MASS", "Gains", "Robot"]
+__all__ = ["CARTESIAN_MASS", "CONTACT_SOLIMP", "CONTACT_TIMECONST_S", "Gains", "Robot"]
+
+CONTACT_TIMECONST_S = 0.004
+"""Contact time constant (MuJoCo solref, damping ratio 1) of every rigid surface of a world:
+links, fingers, tool, table, bins, floor, belt, obstacles, free objects (the tissue phantom has
+a force law of its own). One value for all, so that no pair mixes a soft and a stiff side (the
+table kept MuJoCo's 0.02 s: parcels dropped into a bin sank 8 mm into it). 4 ms is twice the
+2 ms physics step, the stiffest MuJoCo integrates stably (it raises a smaller one to that
+itself; at 2.5 ms, written directly, a dropped cube kept bouncing at 2-3 m/s)."""
+CONTACT_SOLIMP = (0.5, 0.99, 0.001, 0.5, 2.0)
+"""MuJoCo solimp of the same surfaces: the constraint's impedance rises from 0.5 at first touch
+to 0.99 at 1 mm. Firm deep down, where an impact goes (a 20 cm drop, 2 m/s: 1.6 mm flat, 2.5
+mm on a corner, after the step in which the contact is found; in that step a corner can cross
+up to 4 mm, the 2 m/s times the 2 ms step, before anything pushes back) and where the 20 N grip
+sits (0.7 mm; 1.1 mm with the rise over 2 mm), and giving at the surface: at MuJoCo's
+0.9-0.95, a cube squeezed by the fingers against the table, both stiff, jammed with up to 49 N
+at the wrist (pick_place, 6 seeds; 4-8 N with this). A cube at rest on the table: 0.07 mm."""
 
 
 @dataclass(frozen=True)

@@ -1,12 +1,17 @@
 """`contact`: approach a surface in Cartesian impedance, then hold a normal force (and trace).
 
-The tool tip moves along `axis` at `approach_speed` under a compliant impedance until the
-filtered wrist force along the axis reaches `target_force_n` (`contacted`). Then an explicit
-force loop regulates that force: it integrates the force error into how far the impedance
-setpoint sits below the surface, with a gain scheduled on the expected stiffness of the
-contact (the arm's impedance in series with the surface). Meanwhile the setpoint can follow a
-path laterally (`done` at its end). The arm is never position-stiff along the axis, so running
-into a surface costs the force of the impedance spring, not a collision.
+The tool tip moves along `axis` (any direction; by default into the surface of `frame`, along
+its registered normal) at `approach_speed` under an impedance compliant along the axis and
+stiff across it, in the surface's own frame, until the filtered wrist force along the axis
+reaches `target_force_n` (`contacted`); meanwhile the tool turns to point along the axis and
+the tip moves onto the approach line. Then an explicit force loop regulates that force: it
+integrates the force error into how far the impedance setpoint sits below the surface, with a
+gain scheduled on the expected stiffness of the contact (the arm's impedance in series with
+the surface). Meanwhile the setpoint can follow a path laterally (`done` at its end), and an
+integral term removes the tip's steady cross-track error (joint and tissue friction against
+the lateral impedance), measured by the controller's own model at the encoder readings. The
+arm is never position-stiff along the axis, so running into a surface costs the force of the
+impedance spring, not a collision.
 
 Force sensing: the wrist reading is the sensor's zeroed output (optionally re-zeroed here in
 free space, `tare_s`) low-pass filtered at `filter_hz`.
@@ -39,9 +44,10 @@ Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 
 
 class ContactParams(SkillParams):
-    axis: Vec3 = Field(
-        default_factory=lambda: [0.0, 0.0, -1.0],
-        description="Approach direction in the world, along a world axis (e.g. [0, 0, -1]).",
+    axis: Vec3 | None = Field(
+        default=None,
+        description="Approach direction in the world (any); default: into the surface of "
+        "`frame` (its -z), else straight down [0, 0, -1].",
     )
     target_force_n: PositiveFloat = Field(
         default=2.0, le=50.0, description="Normal force to reach and hold [N]."
@@ -102,16 +108,26 @@ class ContactParams(SkillParams):
     rotational_stiffness: PositiveFloat = Field(
         default=60.0, le=500.0, description="Rotational impedance [Nm/rad]."
     )
+    align: bool = Field(
+        default=True,
+        description="Turn the tool to point along the axis while approaching (its tip then "
+        "touches with the point its TCP names).",
+    )
+    lateral_gain: NonNegativeFloat = Field(
+        default=10.0,
+        le=50.0,
+        description="Integral gain on the tip's cross-track error while in contact [1/s] "
+        "(0: none).",
+    )
+    max_correction_m: PositiveFloat = Field(
+        default=0.0005, le=0.005, description="Largest cross-track correction [m]."
+    )
 
     @field_validator("axis")
     @classmethod
-    def _world_axis(cls, v: list[float]) -> list[float]:
-        a = np.abs(np.asarray(v, dtype=float))
-        if np.count_nonzero(a > 1e-9) != 1:
-            raise ValueError(
-                f"axis {v} must point along a world axis (the controller's stiffness is "
-                "diagonal in the base frame), e.g. [0, 0, -1]"
-            )
+    def _nonzero(cls, v: list[float] | None) -> list[float] | None:
+        if v is not None and float(np.linalg.norm(np.asarray(v, dtype=float))) < 1e-9:
+            raise ValueError(f"axis {v} has no direction (e.g. [0, 0, -1])")
         return v
 
     @model_validator(mode="after")
@@ -135,7 +151,9 @@ class Contact(Skill):
 
     Metrics of a trace (from the start of the lateral motion): `force_rms_error_n` and
     `peak_force_n` of the unfiltered force, `path_deviation_rms_mm` and `path_deviation_max_mm`
-    of the tip's lateral distance to the planned path.
+    of the tip's lateral distance to the planned path (the path as registered, per control
+    tick: the run's `true_cross_track_*` measure it against the true one, every physics step),
+    `cross_track_correction_mm` (the integral term's largest correction).
     """
 
     name: ClassVar[str] = "contact"
@@ -146,21 +164,45 @@ class Contact(Skill):
 
     def start(self, ctx: Context) -> None:
         p = self.params
-        self.n = np.asarray(p.axis, dtype=float) / np.linalg.norm(p.axis)
-        k_n = p.stiffness_n_per_m
-        stiffness = np.full(3, p.lateral_stiffness_n_per_m)
-        stiffness[int(np.argmax(np.abs(self.n)))] = k_n
-        self.gains = impedance.gains(stiffness, p.rotational_stiffness)
-        pos, self.rot = impedance.setpoint(ctx, stiffness)
         frame, self.frame_pose = _frame(p.frame)
+        if p.axis is not None:
+            axis = np.asarray(p.axis, dtype=float)
+        elif self.frame_pose is not None:
+            axis = -self.frame_pose[1][:, 2]  # into the surface
+        else:
+            axis = np.array([0.0, 0.0, -1.0])
+        self.n = axis / np.linalg.norm(axis)
+        """Unit approach direction in the world (into the surface). Shape (3,)."""
+        k_n = p.stiffness_n_per_m
+        k_lat = p.lateral_stiffness_n_per_m
+        self.gains = impedance.gains(
+            [k_lat, k_lat, k_n], p.rotational_stiffness, frame=impedance.frame_with_z(self.n)
+        )
+        pos, rot0 = impedance.setpoint(ctx, self.gains)
+        self.rot0 = rot0
+        self.turn = _rotation_vector(impedance.aligned(rot0, self.n) @ rot0.T) if p.align else None
+        """World-frame rotation vector [rad] from the start orientation to the aligned one."""
+        self.turn_profile = Profile(
+            float(np.linalg.norm(self.turn)) if self.turn is not None else 0.0, 0.3, 1.0
+        )
+        self.rot = rot0.copy()
         self.planned = PlannedPath(np.array([frame(w) for w in p.path]), self.n) if p.path else None
         """The path in the world, projected on the plane perpendicular to the axis."""
         if p.at is not None:
             anchor = frame(p.at)
         else:
             anchor = self.planned.points[0] if self.planned is not None else pos
-        self.lateral = self._lateral(anchor)
+        self.lead_from = self._lateral(pos)
+        self.lead_to = self._lateral(anchor)
+        self.lead = Profile(
+            float(np.linalg.norm(self.lead_to - self.lead_from)), p.approach_speed, 0.05
+        )
+        """The setpoint's way from where it is onto the approach line, across the axis."""
+        self.lateral = self.lead_from.copy()
         """The setpoint across the axis [m]: where the approach line passes. Shape (3,)."""
+        self.correction = np.zeros(3)
+        """The integral term's cross-track correction of the setpoint [m]. Shape (3,)."""
+        self.max_correction = 0.0
         self.depth0 = float(pos @ self.n)
         """Normal coordinate of the setpoint at start [m]; `s` is measured from it."""
         self.s = 0.0
@@ -199,7 +241,8 @@ class Contact(Skill):
                 f"contact: {self.f_total_filt:.2f} N ({self.f_filt:.2f} N normal) exceeds"
                 f" {p.max_force_n} N",
             )
-            self.s = float(ctx.tcp_pos @ self.n) - self.depth0  # release the spring preload
+            tip, _ = impedance.measured_tcp(ctx)
+            self.s = float(tip @ self.n) - self.depth0  # release the spring preload
             self._command(ctx)
             return "overforce"
         if self.phase == "approach":
@@ -230,6 +273,9 @@ class Contact(Skill):
         p = self.params
         if self.f_filt >= p.target_force_n:
             ctx.log("skill", f"contact: {self.f_filt:.2f} N after {self.s * 1000:.1f} mm")
+            self.lateral = self.lead_to.copy()
+            if self.turn is not None:
+                self.rot = _exp(self.turn) @ self.rot0
             if self.planned is None and p.hold_s <= 0.0:
                 return "contacted"
             self.phase = "force"
@@ -240,6 +286,12 @@ class Contact(Skill):
             ctx.log("skill", f"contact: no contact within {p.max_travel_m * 1000:.0f} mm")
             return "no_contact"
         self.s = min(self.s + p.approach_speed * ctx.dt_control * ctx.clock_rate, p.max_travel_m)
+        elapsed = ctx.clock - self.t0 - (p.tare_s if p.tare_s > 0.0 else 0.0)
+        frac, _ = self.lead.progress(elapsed)
+        self.lateral = self.lead_from + frac * (self.lead_to - self.lead_from)
+        if self.turn is not None:
+            frac, _ = self.turn_profile.progress(elapsed)
+            self.rot = _exp(frac * self.turn) @ self.rot0
         self._command(ctx)
         return None
 
@@ -252,6 +304,8 @@ class Contact(Skill):
             return "no_contact"
         held = ctx.clock - self.t_force
         if held < p.hold_s - 1e-9:
+            if self.planned is not None:
+                self._correct(ctx, 0.0)
             self._command(ctx)
             return None
         if self.planned is None:
@@ -271,13 +325,15 @@ class Contact(Skill):
         self.lateral = self.planned.point_at(fraction * self.planned.length)
         if ctx.trace is not None:
             ctx.trace.reference[:] = self.lateral
+        self._correct(ctx, fraction * self.planned.length)
         self._command(ctx)
         dev = self.planned.deviation(ctx.tcp_pos)
         self.trace.append((p.target_force_n - f_n, math.sqrt(float(force @ force)), dev))
         if elapsed < self.profile.duration:
             return None
         end = self._lateral(self.planned.points[-1])
-        if float(np.linalg.norm(self._lateral(ctx.tcp_pos) - end)) <= p.tolerance_m:
+        tip, _ = impedance.measured_tcp(ctx)
+        if float(np.linalg.norm(self._lateral(tip) - end)) <= p.tolerance_m:
             self._report(ctx)
             return "done"
         return None
@@ -291,8 +347,24 @@ class Contact(Skill):
         """`point` (shape (3,)) projected on the plane perpendicular to the axis."""
         return point - float(point @ self.n) * self.n
 
+    def _correct(self, ctx: Context, distance: float) -> None:
+        """Integrate the tip's cross-track error at `distance` [m] along the path into the
+        setpoint's correction. The tip is where the controller's model puts it (encoders)."""
+        p = self.params
+        if p.lateral_gain <= 0.0:
+            return
+        assert self.planned is not None
+        side = np.cross(self.n, self.planned.direction_at(distance))
+        tip, _ = impedance.measured_tcp(ctx)
+        error = float((self.lateral - tip) @ side)
+        self.correction += p.lateral_gain * error * ctx.dt_control * ctx.clock_rate * side
+        norm = float(np.linalg.norm(self.correction))
+        if norm > p.max_correction_m:
+            self.correction *= p.max_correction_m / norm
+        self.max_correction = max(self.max_correction, min(norm, p.max_correction_m))
+
     def _command(self, ctx: Context) -> None:
-        pos = self.lateral + (self.depth0 + self.s) * self.n
+        pos = self.lateral + self.correction + (self.depth0 + self.s) * self.n
         impedance.command(ctx, pos, self.rot, self.gains, self.q_null)
 
     def _report(self, ctx: Context) -> None:
@@ -306,8 +378,29 @@ class Contact(Skill):
                 "peak_force_n": round(float(norm.max()), 4),
                 "path_deviation_rms_mm": round(float(np.sqrt(np.mean(dev**2))) * 1000, 4),
                 "path_deviation_max_mm": round(float(dev.max()) * 1000, 4),
+                "cross_track_correction_mm": round(self.max_correction * 1000, 4),
             }
         )
+
+
+def _rotation_vector(rot: np.ndarray) -> np.ndarray:
+    """Rotation vector [rad] of a rotation matrix (shape (3, 3)). Shape (3,)."""
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rot).reshape(9))
+    vec = np.zeros(3)
+    mujoco.mju_quat2Vel(vec, quat, 1.0)
+    return vec
+
+
+def _exp(vec: np.ndarray) -> np.ndarray:
+    """Rotation matrix of a rotation vector [rad] (shape (3,)). Shape (3, 3)."""
+    angle = float(np.linalg.norm(vec))
+    quat = np.array([1.0, 0.0, 0.0, 0.0])
+    if angle > 0.0:
+        mujoco.mju_axisAngle2Quat(quat, vec / angle, angle)
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, quat)
+    return rot.reshape(3, 3)
 
 
 def _frame(

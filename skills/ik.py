@@ -97,6 +97,8 @@ class IKSolver:
         """The IK's own joint velocity on the last `step` (before the limiter) [rad/s]."""
         self._error: np.ndarray | None = np.zeros(6)
         self._since_reset = 0.0
+        self._restart: tuple[np.ndarray, np.ndarray | None] | None = None
+        """A restart `restart_from` asked for, done again at the next `step`."""
         margin = COMMAND_MARGIN
         self.limiter = JointLimiter(
             dt,
@@ -129,6 +131,7 @@ class IKSolver:
         self.velocity[:] = 0.0 if qd_arm is None else qd_arm
         self.acceleration[:] = 0.0 if qdd_arm is None else qdd_arm
         self.limiter.reset(q_arm, self.velocity, self.acceleration)
+        self._restart = None
         self._error = None
         self._since_reset = 0.0
         if self.posture_follows_reset:
@@ -149,10 +152,18 @@ class IKSolver:
         is (not from the measured joints, which sag away from it under a load the
         controller's model lacks): the setpoint, and with it the torque, stay continuous
         where one motion hands over to the next. A pause restarts it here at rest, so a
-        resumed motion continues on the path it was on."""
+        resumed motion continues on the path it was on.
+
+        Given views of the controller's setpoint (`Controller.q_d`, `qd_d`), the next `step`
+        restarts again from where they are then: between a move's `start` and its first
+        `step` the controller runs a control tick on what the previous skill left it (a
+        setpoint coming to rest), and a command restarted from the setpoint as it was at
+        `start` stepped its velocity back by that tick's change (up to 1.2x joint 3's
+        acceleration limit for a step, pick_place_vision LOWER)."""
         self.limiter.reset(q_arm, qd_arm)
         self.velocity[:] = self.limiter.velocity
         self.acceleration[:] = 0.0
+        self._restart = (q_arm, qd_arm)
 
     def tcp_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """World TCP position [m] and rotation at the IK's joint angles."""
@@ -177,6 +188,10 @@ class IKSolver:
             tick (within the robot's limits, jerk-limited): what the controller integrates
             until the next tick, where it arrives at `command`.
         """
+        if self._restart is not None:  # from the setpoint as it is now (see restart_from)
+            q_arm, qd_arm = self._restart
+            self._restart = None
+            self.limiter.reset(q_arm, qd_arm)
         q_ref = self.config.q[: self.n].copy()
         v = self.reference_step(pos, rot, self.dt)
         lim = self.limiter

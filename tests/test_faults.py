@@ -151,13 +151,19 @@ def test_the_pick_place_fault_matrix_is_caught_and_stopped_in_time(cli):
     rows = json.loads(res.stdout)
     kinds = {row["fault"].split("@")[0].split(":")[0] for row in rows}
     assert kinds == set(FAULT_KINDS)  # every fault type has its row
+    # how far the TCP moves from the violation to rest; 10 mm where the fault moves the arm
+    # itself (a 150 N push on the held cube) or where its detection waits for the fingers,
+    # which close at most at the hand's 0.05 m/s (an object slipping out: 0.15 s to close the
+    # 5 mm grasp_lost watches for, the arm carrying on meanwhile; 7.4 mm)
+    far = {"push": 10.0, "slip": 10.0}
     for row in rows:
         assert row["ok"], row
         if row["guard"] is not None:
             assert row["exit_code"] == 3 and row["outcome"] == "aborted"
             assert row["detect_s"] <= row["within_s"], row
             assert row["stop_time_s"] <= 0.15, row
-            assert row["stop_distance_mm"] <= 5.0, row
+            kind = row["fault"].split("@")[0].split(":")[0]
+            assert row["stop_distance_mm"] <= far.get(kind, 5.0), row
 
 
 def test_the_surgical_fault_matrix_is_caught(cli):

@@ -1,5 +1,6 @@
 """The suite sees a broken controller: each mutant of tests/mutants.py (the five breakages the
-physical-honesty audit found the suite blind to) must make the tests fail.
+physical-honesty audit found the suite blind to, and the surgical offset fix removed) must
+make the tests fail.
 
 Slow (a child pytest per mutant): `pytest -m slow tests/test_mutations.py`.
 """

@@ -8,6 +8,7 @@ crushes the cube or a safe hold that keeps pushing fails here.
 from __future__ import annotations
 
 import math
+from importlib.resources import files
 
 import mujoco
 import numpy as np
@@ -54,6 +55,12 @@ class StepProbe:
         self.forces: list[tuple[float, float]] = []
         self.grip_n = 0.0
         self._wrench = np.zeros(6)
+        m = ctx.model
+        self.finger_dof = [int(m.jnt_dofadr[m.joint(j).id]) for j in ctx.robot.finger_joints]
+        self.finger_speed = 0.0
+        self.object_vel = {h.geom_id: h.qvel_adr for h in w.objects.values()}
+        self.moving_t = dict.fromkeys(self.object_vel, 0.0)
+        self.rest_pen_m = 0.0
 
     def on_tick(self, ctx, executor) -> None:
         pass
@@ -69,9 +76,18 @@ class StepProbe:
             self.accel = float(accel.max())
             self.accel_at = f"{self.executor.leaf} joint {int(accel.argmax()) + 1} t={d.time:.3f}"
         grip = 0.0
+        for g, a in self.object_vel.items():  # at rest: slower than 1 cm/s for 0.1 s
+            if np.linalg.norm(d.qvel[a : a + 3]) >= 0.01:
+                self.moving_t[g] = d.time
         for i in range(d.ncon):
             c = d.contact[i]
             g1, g2 = int(c.geom1), int(c.geom2)
+            if g1 in self.objects or g2 in self.objects:
+                at_rest = all(
+                    d.time - self.moving_t[g] >= 0.1 for g in (g1, g2) if g in self.objects
+                )
+                if at_rest:
+                    self.rest_pen_m = max(self.rest_pen_m, -float(c.dist))
             if (g1 in self.fingers and g2 in self.objects) or (
                 g2 in self.fingers and g1 in self.objects
             ):
@@ -81,6 +97,9 @@ class StepProbe:
             elif g1 in self.robot or g2 in self.robot:
                 self.last_contact_t = d.time
         self.grip_n = max(self.grip_n, 0.5 * grip)  # each finger squeezes with half the sum
+        self.finger_speed = max(
+            self.finger_speed, *(abs(float(d.qvel[i])) for i in self.finger_dof)
+        )
         tau = float(np.max(np.abs(d.actuator_force[self.act]) / self.tlim))
         self.torque = max(self.torque, tau)
         if tau >= SATURATED and d.time - self.last_contact_t > 0.01:
@@ -117,6 +136,10 @@ def test_pick_place_stays_within_the_pandas_limits_at_every_physics_step(pick_ru
         assert probe.pen_m <= 0.001, f"fingers {probe.pen_m * 1000:.2f} mm into the cube"
         assert 0.5 * HAND_GRIP_N < probe.grip_n <= 1.2 * HAND_GRIP_N, f"grip {probe.grip_n:.0f} N"
         assert probe.force <= 15.0, f"peak wrist force {probe.force:.1f} N"
+        # the Franka Hand: at most 0.05 m/s per finger, whatever the hand is told
+        assert probe.finger_speed <= 0.05 + 1e-9, f"finger at {probe.finger_speed:.4f} m/s"
+        # nothing at rest sits deeper than 1 mm in anything (the cube on the table, the grip)
+        assert probe.rest_pen_m <= 0.001, f"{probe.rest_pen_m * 1000:.2f} mm deep at rest"
         # the reported peak is the per-step ground truth, not a per-tick sample
         assert result.metrics["max_wrist_force_n"] == pytest.approx(probe.force, abs=1e-3)
 
@@ -174,11 +197,11 @@ def test_surgical_figures_are_measured_against_the_true_incision(surgical_run):
     result, _ = surgical_run
     m = result.metrics
     assert result.outcome == "succeeded" and result.success["incision_traced"]
-    # the registered line is traced to micrometres; the true incision is off by the
-    # registration error and the tip lags its setpoint along the path
-    assert m["true_cross_track_rms_mm"] > 5 * m["path_deviation_rms_mm"]
+    # every physics step against the incision through the phantom's true pose: within the
+    # write-up's 0.1 mm; the tip trails its setpoint along the path (not a path error)
+    assert m["true_cross_track_max_mm"] <= 0.1
+    assert m["true_cross_track_rms_mm"] <= 0.05
     assert 0.3 < m["along_track_lag_mean_mm"] < 3.0
-    assert m["true_cross_track_max_mm"] <= 1.0
 
 
 def test_surgical_arm_stays_within_the_pandas_acceleration_limits(surgical_run):
@@ -186,15 +209,111 @@ def test_surgical_arm_stays_within_the_pandas_acceleration_limits(surgical_run):
     assert probe.accel <= 1.0, f"joint acceleration {probe.accel:.2f}x limit at {probe.accel_at}"
 
 
-def test_a_misregistered_phantom_fails_the_surgical_success_check():
-    # perception reports everything 1.5 mm off in y: the registered line is traced well, the
-    # real incision is missed — only the ground truth sees it
-    result, _ = _run("surgical", 0, faults=["perception_offset:offset_m=[0,0.0015,0]@0"])
+def test_a_misregistered_phantom_fails_the_surgical_success_check(tmp_path):
+    # registered by the camera alone, which reports everything 1.5 mm off in y: the
+    # registered line is traced well, the real incision is missed — only the ground truth
+    # sees it
+    machine = files("orchestrator.machines").joinpath("surgical.yaml").read_text()
+    assert "method: touch" in machine
+    (tmp_path / "surgical.yaml").write_text(machine.replace("method: touch", "method: fiducials"))
+    scenario = files("orchestrator.scenarios").joinpath("surgical.yaml").read_text()
+    (tmp_path / "scenario.yaml").write_text(
+        scenario.replace("machine: surgical", "machine: surgical.yaml")
+    )
+    fault = "perception_offset:offset_m=[0,0.0015,0]@0"
+    probe = StepProbe()
+    result = run_episode(load_scenario(str(tmp_path / "scenario.yaml"), None, [fault]), 0, [probe])
     m = result.metrics
     assert m["path_deviation_max_mm"] < 0.1
     assert m["true_cross_track_max_mm"] > 1.0
     assert result.success["incision_traced"] is False
     assert result.outcome == "failed"
+
+
+def test_touching_the_phantom_corrects_a_misregistered_camera():
+    # the same 1.5 mm perception error, the bundled flow: the touches find the phantom
+    result, _ = _run("surgical", 0, faults=["perception_offset:offset_m=[0,0.0015,0]@0"])
+    m = result.metrics
+    assert m["true_cross_track_max_mm"] <= 0.1
+    assert result.outcome == "succeeded"
+
+
+def test_a_move_starts_its_command_where_the_setpoint_is_when_it_first_steps():
+    # pick_place_vision, seed 3: TRANSPORT ends by bringing its setpoint to rest and LOWER
+    # starts from the setpoint; restarted from where it was when LOWER started instead of
+    # where the stop had taken it a control tick later, joint 3 kicked at 1.14x its limit
+    result, probe = _run("pick_place_vision", 3)
+    assert result.outcome == "succeeded"
+    assert probe.accel <= 1.0, f"joint acceleration {probe.accel:.2f}x limit at {probe.accel_at}"
+
+
+def _drop(world: World, body: str, height_m: float, tilt: tuple[float, float]) -> tuple:
+    """Drop a free object `height_m` onto the table; the deepest contact [m] in the step its
+    contact is found, after that step, and at rest 1 s later."""
+    m, d = world.model, world.data
+    m.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+    h = world.objects[body]
+    mujoco.mj_resetData(m, d)
+    d.qpos[world.arm_qpos] = world.home
+    d.qpos[h.qpos_adr : h.qpos_adr + 3] = [
+        0.6,
+        -0.25,
+        world.table_height + h.half_size[2] + height_m,
+    ]
+    quat = np.zeros(4)
+    mujoco.mju_euler2Quat(quat, np.array([*tilt, 0.3]), "xyz")
+    d.qpos[h.qpos_adr + 3 : h.qpos_adr + 7] = quat
+    mujoco.mj_forward(m, d)
+    first = after = rest = 0.0
+    found = False
+    for _ in range(int(1.5 / m.opt.timestep)):
+        d.ctrl[world.arm_act] = d.qfrc_bias[world.arm_dof]
+        mujoco.mj_step(m, d)
+        depth = max(
+            (
+                -d.contact[k].dist
+                for k in range(d.ncon)
+                if h.geom_id in (d.contact[k].geom1, d.contact[k].geom2)
+            ),
+            default=0.0,
+        )
+        if depth > 0.0 and not found:
+            found, first = True, depth
+        elif found:
+            after = max(after, depth)
+        rest = depth
+    return first, after, rest
+
+
+@pytest.mark.parametrize("tilt", [(0.0, 0.0), (0.3, 0.2)])
+def test_a_20_cm_drop_sinks_at_most_3_mm_and_rests_on_the_surface(tilt):
+    """Every rigid surface shares one contact softness (robots/base.py): a cube dropped 20 cm
+    (2 m/s) onto the table, flat or corner first, sinks at most 3 mm once its contact is found
+    and rests 0.1 mm deep. In the step its contact is found, a corner may have crossed the
+    surface by up to its speed x the step (4 mm): the step, not the softness."""
+    world = World.build(load_scenario("pick_place").scenario, 0)
+    first, after, rest = _drop(world, "cube", 0.2, tilt)
+    assert after <= 0.003, f"{after * 1000:.2f} mm"
+    assert first <= 2.0 * 0.2**0.5 * 9.81**0.5 * world.model.opt.timestep
+    assert rest <= 0.1e-3, f"{rest * 1000:.3f} mm at rest"
+
+
+def test_a_reshaped_conveyor_parcel_falls_at_g():
+    # the conveyor gives its pooled bodies a new size and mass per parcel; MuJoCo 4 keeps the
+    # mass matrix's diagonal at qpos0 for free bodies, which must follow (it did not: a
+    # 0.4 kg parcel compiled at 0.05 kg fell at 8 g and hit the table at 4.8 m/s)
+    world = World.build(load_scenario("sorting_conveyor").scenario, 0)
+    m, d = world.model, world.data
+    h = world.objects["pool_parcel_0"]
+    slot = next(s for s in world.conveyor.slots if s.name == "pool_parcel_0")
+    world.conveyor._reshape(slot, np.array([0.06, 0.042, 0.049]), 0.4, [1.0, 0.0, 0.0, 1.0])
+    d.qpos[h.qpos_adr : h.qpos_adr + 3] = [0.45, 0.21, 0.40]
+    d.qvel[h.qvel_adr : h.qvel_adr + 6] = 0.0
+    mujoco.mj_forward(m, d)
+    for _ in range(20):
+        d.ctrl[world.arm_act] = d.qfrc_bias[world.arm_dof]
+        mujoco.mj_step(m, d)
+    assert d.qvel[h.qvel_adr + 2] == pytest.approx(-9.81 * 20 * m.opt.timestep, rel=1e-6)
 
 
 def test_safe_hold_releases_the_nodule(tmp_path):

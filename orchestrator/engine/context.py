@@ -31,7 +31,33 @@ if TYPE_CHECKING:
 __all__ = ["Context", "Event"]
 
 _GRIP_CONTACT_M = 0.002
-"""A closing finger this far behind its setpoint is blocked by an object [m]."""
+"""A closing finger still this far short of its target is blocked by an object [m]."""
+_GRIP_HELD = 0.5
+"""A finger that moved less than this fraction of what its voltage would move it free is held
+back by something (the drive's current limit applies; closing, it is blocked)."""
+_GRIP_STILL_TICKS = 2
+"""Control ticks a closing finger must stay held back, short of its target, to be blocked."""
+_GRIP_LEAD_M = 0.001
+"""Farthest a finger's reference runs ahead of the finger while moving [m]."""
+GRIP_SERVO_GAIN = 0.5
+"""Fraction of a finger's position error the hand's drive takes out per control tick (the
+motor answers within a physics step: at 1 the servo is deadbeat)."""
+GRIP_MOVE_FORCE_FRACTION = 0.1
+"""The hand's drive limits its motor's force to this fraction of the grip force while the
+fingers move (5 N of the Panda's 20 N; the full force is for squeezing), as a current limit:
+the voltage is capped at what pushes with that force at the fingers' measured speed. A DC
+motor that meets an object at full speed stalls at once and, without the limit, strikes it
+with its whole stall force (16 N at the wrist as a finger knocked a pick_place cube against
+the table, seed 2). The drive acts once per control tick, so the first 10 ms of an impact
+can still see the stall force."""
+GRIP_SPEED_MARGIN = 0.95
+"""Fraction of the motor's speed the drive runs the fingers at, moving: the rest is for what
+pushes them (a squeezed object springing back as they open pushed them 2 % past the motor's
+0.05 m/s at full voltage), as the arm's commands keep 15 % of its limits (`COMMAND_MARGIN`)."""
+GRIP_SQUEEZE_RAMP_S = 0.1
+"""Time the drive takes to raise the force from the moving limit to the full grip force once
+the fingers are blocked by what they grasp [s] (at once: 12 N at the wrist on pick_place's
+cube, seed 1, against 5 N before this hand model)."""
 
 
 @dataclass(frozen=True)
@@ -105,7 +131,23 @@ class Context:
         finger_index = as_index(world.finger_qpos)
         self._fingers = d.qpos[finger_index] if isinstance(finger_index, slice) else None
         self._two_fingers = self._fingers is not None and len(self._fingers) == 2
-        self._grip_step = world.robot.gripper_speed_mps * dt_control
+        self._grip_step = GRIP_SPEED_MARGIN * world.robot.gripper_speed_mps * dt_control
+        self._grip_ref = world.robot.gripper_open_m
+        """Where the hand's drive is taking each finger [m]: the reference it servoes to."""
+        self._grip_volt_step = world.robot.gripper_speed_mps * dt_control
+        """How far a free finger goes in a control tick at full voltage [m]."""
+        self._grip_gain = GRIP_SERVO_GAIN / self._grip_volt_step
+        """Motor voltage per metre of finger error [1/m]."""
+        self._grip_limit = 1.0
+        """The drive's limit on the motor voltage this tick (its current limit)."""
+        self._grip_still = 0
+        """Control ticks the closing fingers have been held back short of their target."""
+        self._grip_squeeze: float | None = None
+        """Where the fingers were blocked, while they squeeze [m]; None otherwise."""
+        self._grip_prev = world.robot.gripper_open_m
+        """The finger's position at the last control tick [m]."""
+        self._grip_ramp = dt_control / GRIP_SQUEEZE_RAMP_S * (1.0 - GRIP_MOVE_FORCE_FRACTION)
+        """Rise of that limit per control tick while squeezing."""
         self._norm_sq_t = -1.0
         self._norm_sq = 0.0
         self._sensed_t = math.nan
@@ -372,25 +414,61 @@ class Context:
 
     @property
     def gripper_commanded(self) -> bool:
-        """The gripper's setpoint has reached `gripper_target` (closing: it squeezes)."""
-        return float(self.data.ctrl[self.world.gripper_act]) == self.gripper_target
+        """The gripper's reference has reached `gripper_target` (closing on an object: it
+        squeezes with the whole grip force)."""
+        return self._grip_ref == self.gripper_target and (
+            self._grip_squeeze is None or self._grip_limit >= 1.0
+        )
 
     def advance_gripper(self, rate: float = 1.0) -> None:
-        """Move the gripper's setpoint one control tick towards `gripper_target`, at `rate`
-        times the gripper's speed (a pause slows it to 0)."""
-        ctrl = self._ctrl
-        act = self.world.gripper_act
-        now = float(ctrl[act])
-        step = self._grip_step * rate
+        """The hand's drive, one control tick: move each finger's reference towards
+        `gripper_target` at `rate` times the gripper's speed (a pause slows it to 0), never more
+        than `_GRIP_LEAD_M` ahead of the finger, and set the motor's voltage to follow it
+        (feed-forward of the reference's speed plus the position error; the plant's motor caps
+        the speed, robots/panda/model.py), its force limited to `GRIP_MOVE_FORCE_FRACTION` of
+        the grip force while the fingers move. Closing fingers that stay still short of the
+        target are blocked by what they grasp: they squeeze, the force rising to the motor's
+        whole stall force over `GRIP_SQUEEZE_RAMP_S`, until the target opens or they reach it
+        (an object that slips out of the grasp: they close on after it, as a real hand's grasp
+        command does)."""
         goal = self.gripper_target
         finger = 0.5 * self.gripper_width
-        if goal > now:  # opening: from where the fingers are, not from a squeezing setpoint
-            now = max(now, finger)
-        elif finger - now > _GRIP_CONTACT_M:  # closing, blocked by what it grasps: squeeze
-            ctrl[act] = goal  # with the hand's full (capped) force, as a grasp command does
-            return
-        if now != goal:
-            ctrl[act] = goal if abs(goal - now) <= step else now + math.copysign(step, goal - now)
+        moved, self._grip_prev = finger - self._grip_prev, finger
+        ref = self._grip_ref
+        if goal > ref:  # opening: from where the fingers are, not from a squeezing reference
+            ref = max(ref, finger)
+        short = goal < finger - _GRIP_CONTACT_M
+        # what the last tick's voltage would have moved a free finger [m]; only a finger the
+        # drive pushed can be held back (not one a pause holds still)
+        free = abs(self._ctrl[self.world.gripper_act]) * self._grip_volt_step
+        if self._grip_squeeze is not None:  # until the target opens or the fingers reach it
+            if not short:  # (an object that slips out: they close on, at the motor's speed)
+                self._grip_squeeze, self._grip_still = None, 0
+        else:
+            pushed = rate > 0.0 and free > GRIP_MOVE_FORCE_FRACTION * self._grip_volt_step
+            held = short and pushed and -moved < _GRIP_HELD * free
+            self._grip_still = self._grip_still + 1 if held else 0
+            if self._grip_still >= _GRIP_STILL_TICKS:
+                self._grip_squeeze = finger
+        squeeze = self._grip_squeeze is not None
+        if squeeze:
+            ref = goal
+        step = self._grip_step * rate
+        new = goal if abs(goal - ref) <= step else ref + math.copysign(step, goal - ref)
+        if not squeeze:  # a reference that runs away from the finger would wind up
+            new = min(max(new, finger - _GRIP_LEAD_M), finger + _GRIP_LEAD_M)
+        self._grip_ref = new
+        voltage = (new - ref) / self._grip_volt_step + self._grip_gain * (new - finger)
+        if squeeze:  # the force rises to the full grip force
+            limit = min(self._grip_limit + self._grip_ramp * rate, 1.0)
+        elif abs(moved) >= _GRIP_HELD * free:  # the fingers went where the voltage sent them
+            limit = GRIP_SPEED_MARGIN
+        else:  # held back: the current limit, stall force x (voltage - speed / v_max) <= move
+            limit = min(
+                GRIP_MOVE_FORCE_FRACTION + abs(moved) / self._grip_volt_step, GRIP_SPEED_MARGIN
+            )
+        self._grip_limit = limit
+        self._ctrl[self.world.gripper_act] = min(max(voltage, -limit), limit)
 
     # -- world knowledge (ground truth; perception skills add noise) ---------------------
     def object_handle(self, name: str) -> ObjectHandle:

@@ -52,7 +52,7 @@ class TraceTruth:
         if spec is None:
             return
         if spec is not self._spec:
-            self._spec, self._true = spec, PlannedPath(self._true_points(spec), spec.normal)
+            self._spec, self._true = spec, PlannedPath(*self._true_path(spec))
         true = self._true
         assert true is not None
         tip = self._tip
@@ -71,17 +71,19 @@ class TraceTruth:
         self._force_peak = max(self._force_peak, math.sqrt(fx * fx + fy * fy + fz * fz))
         self._end_gap = true.length - true.progress(tip)
 
-    def _true_points(self, spec: TraceSpec) -> np.ndarray:
+    def _true_path(self, spec: TraceSpec) -> tuple[np.ndarray, np.ndarray]:
+        """The waypoints in the world through the true pose (shape (k, 3)) and the true
+        normal along which distance does not count (shape (3,)): the phantom's surface
+        normal for a path given in a frame on a phantom, else the skill's own axis."""
         local = spec.local_points
         if spec.frame is None:
-            return local.copy()
+            return local.copy(), spec.normal
         phantom = self.ctx.world.phantom
         if phantom is None:  # no truth known beyond the frame given: the frame is the truth
             pos, rot = spec.frame
-            return local @ rot.T + pos
-        c, s = math.cos(phantom.yaw), math.sin(phantom.yaw)
-        rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        return local @ rot.T + phantom.surface_pos
+            return local @ rot.T + pos, spec.normal
+        rot = phantom.rotation
+        return local @ rot.T + phantom.surface_pos, rot[:, 2]
 
     def figures(self) -> dict[str, Any]:
         """The run's ground-truth trace metrics (empty when nothing was traced)."""

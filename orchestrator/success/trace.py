@@ -16,7 +16,10 @@ __all__ = ["Trace"]
 
 class TraceParams(CheckParams):
     cross_track_max_mm: PositiveFloat = Field(
-        default=1.0, le=1000.0, description="Largest lateral error from the true path [mm]."
+        default=0.1,
+        le=1000.0,
+        description="Largest lateral error from the true path [mm] (a surgical bar: a deviation "
+        "of 0.1 mm already matters).",
     )
     end_tol_mm: PositiveFloat = Field(
         default=2.0, le=1000.0, description="Tip within this of the true path's end [mm]."

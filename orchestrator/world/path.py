@@ -68,6 +68,18 @@ class PlannedPath:
             distance -= length
         return self.points[-1].copy()
 
+    def direction_at(self, distance: float) -> np.ndarray:
+        """Unit direction of the path `distance` [m] from its start (of the segment there,
+        clamped to the first and last). Shape (3,)."""
+        lengths = np.sqrt(self._len_sq)
+        index = len(lengths) - 1
+        for i, length in enumerate(lengths):
+            if distance < length:
+                index = i
+                break
+            distance -= length
+        return self._seg[index] / lengths[index]
+
     def progress(self, point: np.ndarray) -> float:
         """Distance [m] along the path from its start to the path point nearest `point`
         (shape (3,); laterally, if the path has a normal): how far along the path it is."""

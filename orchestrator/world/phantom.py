@@ -11,7 +11,7 @@ import numpy as np
 from ..robots import Robot
 from ..robots.panda.model import WORLD_CONAFFINITY, WORLD_CONTYPE
 from ..robots.tool import TISSUE_CONAFFINITY, TISSUE_CONTYPE, Tool
-from .pose import quat_from_yaw
+from .pose import rotation_of, yaw_of
 from .randomization import phantom_state
 from .tissue import TissueLaw
 
@@ -37,15 +37,26 @@ class PhantomHandle:
         name: Its name in the scenario.
         size: Full edge lengths [m]. Shape (3,).
         surface_pos: Centre of its top surface in the world [m]. Shape (3,).
-        yaw: Its heading about world z [rad].
+        quat: Orientation of its surface frame (z out of the tissue), quaternion (w, x, y, z).
+            Shape (4,).
         stiffness_n_per_m: The true stiffness of this episode [N/m].
     """
 
     name: str
     size: np.ndarray
     surface_pos: np.ndarray
-    yaw: float
+    quat: np.ndarray
     stiffness_n_per_m: float
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """Orientation of its surface frame in the world. Shape (3, 3)."""
+        return rotation_of(self.quat)
+
+    @property
+    def yaw(self) -> float:
+        """Heading of its x axis about world z [rad]."""
+        return yaw_of(self.quat)
 
 
 ZONE_CONTYPE = 16
@@ -71,12 +82,12 @@ def phantom_handle(scenario: Scenario, seed: int) -> PhantomHandle | None:
     ph = scenario.scene.phantom
     if ph is None:
         return None
-    pos, yaw, stiffness = phantom_state(scenario, seed)
+    pos, quat, stiffness = phantom_state(scenario, seed)
     return PhantomHandle(
         name=ph.name,
         size=np.asarray(ph.size, float),
         surface_pos=pos,
-        yaw=yaw,
+        quat=quat,
         stiffness_n_per_m=stiffness,
     )
 
@@ -87,11 +98,9 @@ def add_phantom_scene(spec: mujoco.MjSpec, scenario: Scenario, seed: int) -> Non
     ph = scene.phantom
     body = spec.worldbody
     if ph is not None:
-        surface, yaw, _ = phantom_state(scenario, seed)
-        centre = surface - [0.0, 0.0, ph.size[2] / 2.0]
-        body = spec.worldbody.add_body(
-            name=ph.name, pos=centre.tolist(), quat=quat_from_yaw(yaw).tolist()
-        )
+        surface, quat, _ = phantom_state(scenario, seed)
+        centre = surface - rotation_of(quat) @ [0.0, 0.0, ph.size[2] / 2.0]
+        body = spec.worldbody.add_body(name=ph.name, pos=centre.tolist(), quat=quat.tolist())
         g = body.add_geom(
             name=ph.name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[v / 2 for v in ph.size]
         )

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .pose import quat_from_yaw
+from .pose import quat_from_yaw, quat_from_ypr
 
 if TYPE_CHECKING:
     from ..language.scenario import Scenario
@@ -36,9 +36,12 @@ def object_poses(scenario: Scenario, seed: int) -> list[tuple[str, np.ndarray, n
     return out
 
 
-def phantom_state(scenario: Scenario, seed: int) -> tuple[np.ndarray, float, float]:
-    """Per-seed surface centre [m] (shape (3,)), yaw [rad] and true stiffness [N/m] of the
-    phantom: nominal + uniform offsets from the seed (its own random stream)."""
+def phantom_state(scenario: Scenario, seed: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """Per-seed surface centre [m] (shape (3,)), orientation (quaternion w, x, y, z, shape
+    (4,)) and true stiffness [N/m] of the phantom: nominal + uniform offsets from the seed (its
+    own random stream; the turns are drawn after the rest, so adding them moves nothing else).
+
+    The orientation is Rz(yaw) Ry(pitch) Rx(roll) (`Phantom`'s docstring)."""
     ph = scenario.scene.phantom
     assert ph is not None
     rng = np.random.default_rng([seed, 0xFA27])
@@ -46,6 +49,15 @@ def phantom_state(scenario: Scenario, seed: int) -> tuple[np.ndarray, float, flo
     dx = rng.uniform(r.x[0], r.x[1])
     dy = rng.uniform(r.y[0], r.y[1])
     scale = rng.uniform(r.stiffness_scale[0], r.stiffness_scale[1])
+    turns = [
+        ph.yaw_deg + rng.uniform(r.yaw_deg[0], r.yaw_deg[1]),
+        ph.pitch_deg + rng.uniform(r.pitch_deg[0], r.pitch_deg[1]),
+        ph.roll_deg + rng.uniform(r.roll_deg[0], r.roll_deg[1]),
+    ]
     top = scenario.scene.table.height + ph.size[2]
     pos = np.array([ph.xy[0] + dx, ph.xy[1] + dy, top])
-    return pos, math.radians(ph.yaw_deg), float(ph.stiffness_n_per_m * scale)
+    return (
+        pos,
+        quat_from_ypr(*(math.radians(a) for a in turns)),
+        float(ph.stiffness_n_per_m * scale),
+    )

@@ -6,19 +6,14 @@ from typing import TYPE_CHECKING
 
 import mujoco
 
+from ..robots.base import CONTACT_SOLIMP, CONTACT_TIMECONST_S
 from ..robots.panda.model import WORLD_CONAFFINITY, WORLD_CONTYPE
 from .randomization import object_poses
 
 if TYPE_CHECKING:
     from ..language.scenario import Scenario
 
-__all__ = ["OBJECT_CONTACT_TIMECONST_S", "add_scene"]
-
-OBJECT_CONTACT_TIMECONST_S = 0.005
-"""Contact time constant of the free objects [s] (MuJoCo's solref; the fingers' is the same).
-At MuJoCo's default 0.02 s the mixed finger-cube contact (0.0125 s) let the 20 N grip sink
-1.06 mm (median of 97 pick_place seeds, 1.41 mm worst) into a wooden cube; at 0.005 s it
-stays under 1 mm (bench/physical_honesty.py)."""
+__all__ = ["add_scene", "harden_contacts"]
 
 
 def add_scene(spec: mujoco.MjSpec, scenario: Scenario, seed: int) -> None:
@@ -68,5 +63,14 @@ def add_scene(spec: mujoco.MjSpec, scenario: Scenario, seed: int) -> None:
         g.rgba = obj.rgba
         g.friction = [obj.friction, 0.005, 0.0001]
         g.condim = 4
-        g.solref = [OBJECT_CONTACT_TIMECONST_S, 1.0]
         g.contype, g.conaffinity = WORLD_CONTYPE, WORLD_CONAFFINITY
+
+
+def harden_contacts(model: mujoco.MjModel, soft: set[int]) -> None:
+    """Give every geom of `model` but those in `soft` (the tissue) the one contact softness of
+    every rigid surface, `CONTACT_TIMECONST_S` and `CONTACT_SOLIMP` (robots/base.py): the
+    robot's, the scene's, the conveyor's, the fault obstacles', whoever added them."""
+    for g in range(model.ngeom):
+        if g not in soft:
+            model.geom_solref[g] = [CONTACT_TIMECONST_S, 1.0]
+            model.geom_solimp[g] = CONTACT_SOLIMP

@@ -64,6 +64,26 @@ class TissueLaw:
         damper = self.damping * v * (d / (1.0 - d)) / (TISSUE_IMPEDANCE / (1.0 - TISSUE_IMPEDANCE))
         return max(0.0, spring + damper)
 
+    def indentation(self, force: float) -> float:
+        """The indentation [m] at which the tissue at rest pushes back with `force` [N]
+        (bisection: the law increases with depth)."""
+        lo, hi = 0.0, 1.0
+        for _ in range(80):
+            mid = 0.5 * (lo + hi)
+            if self.force(mid) < force:
+                lo = mid
+            else:
+                hi = mid
+        return 0.5 * (lo + hi)
+
+    def tangent_stiffness(self, force: float) -> float:
+        """df/dx at rest where the tissue pushes back with `force` [N], in [N/m]: the
+        stiffness a force loop works against at that working point (the secant f/x is less:
+        the tissue stiffens with depth)."""
+        x = self.indentation(force)
+        h = 1e-7
+        return (self.force(x + h) - self.force(max(x - h, 0.0))) / (x + h - max(x - h, 0.0))
+
     def solref(self, inv_weight: float) -> tuple[float, float]:
         """Direct (-S, -B) for a tip body of inverse weight `inv_weight` (A0) [1/kg]."""
         d0, dm = TISSUE_IMPEDANCE, self.d_max

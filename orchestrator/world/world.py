@@ -25,7 +25,7 @@ from .phantom import (
 )
 from .randomization import object_poses
 from .realism import apply_joint_friction
-from .scene import add_scene
+from .scene import add_scene, harden_contacts
 
 if TYPE_CHECKING:
     from ..language.scenario import Scenario
@@ -227,6 +227,8 @@ class World:
             _chassis(spec, robot.base_body),
         )
         model = spec.compile()
+        tissue = {model.geom(scenario.scene.phantom.name).id} if scenario.scene.phantom else set()
+        harden_contacts(model, tissue)
         set_tissue_stiffness(model, scenario, seed, robot)
         object_geoms = [model.body(o.name).geomadr[0] for o in scenario.scene.objects]
         randomize_appearance(model, scenario, seed, [int(g) for g in object_geoms])
@@ -289,7 +291,7 @@ class World:
         mujoco.mj_resetData(m, d)
         d.qpos[self.arm_qpos] = self.home
         d.qpos[self.finger_qpos] = self.robot.gripper_open_m
-        d.ctrl[self.gripper_act] = self.robot.gripper_open_m
+        d.ctrl[self.gripper_act] = 0.0  # the hand's motor off (engine/context.py drives it)
         for name, pos, quat in object_poses(self.scenario, self.seed):
             h = self.objects[name]
             d.qpos[h.qpos_adr : h.qpos_adr + 3] = pos

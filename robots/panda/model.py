@@ -12,7 +12,7 @@ from typing import ClassVar
 import mujoco
 import numpy as np
 
-from ..base import Gains, Robot
+from ..base import CONTACT_SOLIMP, CONTACT_TIMECONST_S, Gains, Robot
 from ..exceptions import RobotError
 from ..self_collision import add_self_collision_proxies
 
@@ -50,9 +50,6 @@ def panda_urdf_path() -> Path:
 # (the controller never folds the arm onto itself in these flows, and self-collision
 # of the mesh links would dominate the step time).
 ROBOT_CONTYPE, ROBOT_CONAFFINITY = 1, 2
-LINK_CONTACT_TIMECONST_S = 0.005
-"""Contact time constant of the links' shells [s]: aluminium and plastic against a rigid
-obstacle penetrate a millimetre or two on impact, not the ~5 mm of MuJoCo's default 0.02 s."""
 WORLD_CONTYPE, WORLD_CONAFFINITY = 2, 3
 
 
@@ -129,7 +126,8 @@ class Panda(Robot):
             mesh.file = str(mesh_dir / Path(mesh.file).name)
         for geom in spec.geoms:
             geom.contype, geom.conaffinity = ROBOT_CONTYPE, ROBOT_CONAFFINITY
-            geom.solref = [LINK_CONTACT_TIMECONST_S, 1.0]
+            geom.solref = [CONTACT_TIMECONST_S, 1.0]
+            geom.solimp = list(CONTACT_SOLIMP)
         for joint in spec.joints:
             joint.damping = [0.0, 0.0, 0.0]
             joint.frictionloss = 0.0
@@ -160,34 +158,44 @@ class Panda(Robot):
             del joint
 
     def _add_gripper(self, spec: mujoco.MjSpec) -> None:
+        # The hand's motor, not a position servo: a DC motor through its gearbox pushes each
+        # finger with F (u - v / v_max), u in [-1, 1] its voltage (ctrl), v the finger's
+        # speed. Stalled (squeezing an object) it pushes with F, the hand's grip force; free,
+        # it runs at v_max at most, whatever it is told: the hand's speed limit lives in the
+        # plant, not in the software that drives it (engine/context.py, `advance_gripper`).
+        # The back-EMF term is the fingers' viscous damping F / v_max: MuJoCo's implicit
+        # integrators take joint damping implicitly, an actuator's velocity bias they did not
+        # (the fingers rang between 0.048 and 0.052 m/s at full voltage).
         j1, j2 = self.finger_joints
         for jname in self.finger_joints:
             joint = spec.joint(jname)
             joint.armature = 0.01
-            joint.damping = [5.0, 0.0, 0.0]
+            joint.damping = [self.gripper_force_n / self.gripper_speed_mps, 0.0, 0.0]
         for bname in self.finger_bodies:
             for geom in spec.body(bname).geoms:
                 geom.friction = [1.5, 0.01, 0.001]
                 geom.condim = 4
-                geom.solref = [0.005, 1.0]
+                geom.solref = [CONTACT_TIMECONST_S, 1.0]
+                geom.solimp = list(CONTACT_SOLIMP)
+        # one motor drives both fingers through a rack and pinion: as stiff a coupling as
+        # the step allows
         eq = spec.add_equality(name="finger_mimic", type=mujoco.mjtEq.mjEQ_JOINT)
         eq.name1, eq.name2 = j1, j2
         eq.data[0:5] = [0, 1, 0, 0, 0]
+        eq.solref = [CONTACT_TIMECONST_S, 1.0]
         tendon = spec.add_tendon(name="finger_split")
         tendon.wrap_joint(j1, 0.5)
         tendon.wrap_joint(j2, 0.5)
-        kp, kv = 4000.0, 40.0
+        stall = 2.0 * self.gripper_force_n  # the tendon's force: each finger gets half
         act = spec.add_actuator(name=self.gripper_actuator, target="finger_split")
         act.trntype = mujoco.mjtTrn.mjTRN_TENDON
         act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
-        act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
-        act.gainprm[0] = kp
-        act.biasprm[0:3] = [0.0, -kp, -kv]
+        act.biastype = mujoco.mjtBias.mjBIAS_NONE
+        act.gainprm[0] = stall
         act.ctrllimited = True
-        act.ctrlrange = [0.0, self.gripper_open_m]
+        act.ctrlrange = [-1.0, 1.0]
         act.forcelimited = True
-        # each finger gets half of the tendon force
-        act.forcerange = [-2 * self.gripper_force_n, 2 * self.gripper_force_n]
+        act.forcerange = [-stall, stall]
 
     def _add_sites_and_sensors(self, spec: mujoco.MjSpec) -> None:
         hand_tcp = spec.body(self.hand_tcp_frame)
@@ -199,7 +207,7 @@ class Panda(Robot):
         torque.objtype, torque.objname = mujoco.mjtObj.mjOBJ_SITE, self.wrist_site
         key = spec.add_key(name="home")
         key.qpos = [*self.home, self.gripper_open_m, self.gripper_open_m]
-        key.ctrl = [0.0] * self.n_arm + [self.gripper_open_m]
+        key.ctrl = [0.0] * (self.n_arm + 1)
 
 
 @functools.cache
