@@ -170,7 +170,8 @@ class Marker(_Strict):
 
 
 class PhantomRandomize(_Strict):
-    """Uniform per-seed variation of the phantom: position offsets and a stiffness scale."""
+    """Uniform per-seed variation of the phantom: position offsets, a stiffness scale and
+    turns about its own axes (added to the nominal `roll_deg`, `pitch_deg`, `yaw_deg`)."""
 
     x: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
     y: Range = Field(default_factory=lambda: [0.0, 0.0], description="[m]")
@@ -178,10 +179,13 @@ class PhantomRandomize(_Strict):
         default_factory=lambda: [1.0, 1.0],
         description="True stiffness = nominal stiffness x a factor drawn from this range.",
     )
+    yaw_deg: AngleRange = Field(default_factory=lambda: [0.0, 0.0], description="[deg]")
+    roll_deg: AngleRange = Field(default_factory=lambda: [0.0, 0.0], description="[deg]")
+    pitch_deg: AngleRange = Field(default_factory=lambda: [0.0, 0.0], description="[deg]")
 
     @model_validator(mode="after")
     def _ordered(self) -> PhantomRandomize:
-        for name in ("x", "y", "stiffness_scale"):
+        for name in ("x", "y", "stiffness_scale", "yaw_deg", "roll_deg", "pitch_deg"):
             lo, hi = getattr(self, name)
             if lo > hi:
                 raise ValueError(f"{name}: lower bound {lo} is above upper bound {hi}")
@@ -213,13 +217,17 @@ class Phantom(_Strict):
     The stiffness is set through MuJoCo's solref/solimp so that the tool tip pressed into it
     x metres deep pushes back with f(x) = stiffness(x) x newtons at rest: stiffness(x) is
     `stiffness_n_per_m` near the surface and grows with `stiffening`. Its frame (the `phantom`
-    frame of zones and obstacles) is the centre of its top surface, z up, turned by `yaw_deg`.
+    frame of zones and obstacles) is the centre of its top surface, z out of the tissue, turned
+    by `yaw_deg` about the world z, then tilted by `pitch_deg` about its y and `roll_deg` about
+    its x (R = Rz(yaw) Ry(pitch) Rx(roll)) about that centre: a tilted phantom lies on a wedge.
     """
 
     name: str = "phantom"
     size: Size3 = Field(description="Full edge lengths [m].")
     xy: XY = Field(description="Nominal position of its centre on the table [m].")
     yaw_deg: Angle = 0.0
+    roll_deg: float = Field(default=0.0, ge=-30.0, le=30.0, description="Tilt about x [deg].")
+    pitch_deg: float = Field(default=0.0, ge=-30.0, le=30.0, description="Tilt about y [deg].")
     stiffness_n_per_m: float = Field(
         default=500.0,
         ge=1.0,
@@ -344,10 +352,12 @@ class SafeStop(_Strict):
 
     The arm decelerates from its measured velocity to standstill along a synchronized
     constant-deceleration profile (all joints stop together, the slowest at
-    `max_decel_rad_s2`), then holds the reached pose under gravity-compensated, damped joint
-    impedance. A joint that cannot follow the profile (a lost or weak motor) gets its holding
-    brake. At the defaults the Panda stops from 2 rad/s in 40 ms (torque-limited joints get
-    their holding brake's help).
+    `max_decel_rad_s2`). A joint that cannot follow the profile (a lost or weak motor) gets
+    its holding brake at once; after an abort, once every joint is slower than
+    `rest_speed_rad_s`, every joint's holding brake holds the stopped pose (a category-1
+    stop), so a lost or saturated motor cannot let the arm sag. A normal end of a run holds
+    the pose with the motors (gravity-compensated, damped joint impedance). At the defaults
+    the Panda stops from 2 rad/s in 40 ms.
     """
 
     max_decel_rad_s2: PositiveFloat = Field(
@@ -360,9 +370,10 @@ class SafeStop(_Strict):
         description="Time the built-in safe stop holds the stopped pose before the run ends [s].",
     )
     rest_speed_rad_s: PositiveFloat = Field(
-        default=0.05,
+        default=0.01,
         le=1.0,
-        description="Joint speed below which the arm counts as at rest [rad/s].",
+        description="Joint speed below which the arm counts as at rest, and an aborted arm's"
+        " brakes engage [rad/s].",
     )
     max_stop_s: PositiveFloat = Field(
         default=2.0,
