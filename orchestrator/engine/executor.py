@@ -538,11 +538,30 @@ class Executor:
         self.fault: SkillFault | None = None
         """The first skill that raised, if any: the run ends `error` (engine/skill_fault.py)."""
         self._fault_handled = False
-        self._addresses: Addresses = {}
+        self._addresses = Addresses()
         """Where the guards' watched views start in memory, for every bank of the episode."""
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
+        """The guards of each machine level and state, by (`id(level)`, state or None)."""
+        self._levels: list[MachineNode] = []
+        """The machine levels `_guards` holds guards of."""
         for node in root.nodes():
             self._build_guards(node)
+
+    def __getstate__(self) -> dict:
+        # ids do not survive a process: a snapshot (engine/snapshot) keys the guards by level
+        state = dict(vars(self))
+        state["_guards"] = [
+            (node, name, self._guards[(id(node), name)])
+            for node in self._levels
+            for name in (None, *node.states)
+            if (id(node), name) in self._guards
+        ]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        guards = state["_guards"]
+        vars(self).update(state)
+        self._guards = {(id(node), name): listed for node, name, listed in guards}
 
     # -- guards -------------------------------------------------------------------------
     def _build_guards(self, node: MachineNode) -> None:
@@ -555,6 +574,7 @@ class Executor:
                 out.append(guard)
             return out
 
+        self._levels.append(node)
         self._guards[(id(node), None)] = make(node.guards)
         for name, st in node.states.items():
             if st.guards:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -86,14 +87,13 @@ class FaultInjector:
             for i, fault in self._on_enter.pop(".".join(path[:depth]), []):
                 self._schedule(event.t + fault.delay_s, self._starter(i, fault))
 
+    # scheduled actions are partials of methods, not closures: a snapshot (engine/snapshot)
+    # pickles the queue with the rest of the run
     def _sender(self, name: str, source: str) -> Callable[[], None]:
-        def send() -> None:
-            self.executor.event(name, source)
-
-        return send
+        return partial(self.executor.event, name, source)
 
     def _starter(self, index: int, fault: Fault) -> Callable[[], None]:
-        return lambda: self._start(index, fault)
+        return partial(self._start, index, fault)
 
     def _start(self, index: int, fault: Fault) -> None:
         ctx, t = self.ctx, self.ctx.t
@@ -127,7 +127,7 @@ class FaultInjector:
         elif isinstance(fault, F.Push):
             force, obj = np.asarray(fault.force_n, float), fault.object
             effects.push(obj, force)
-            self._schedule(t + fault.duration_ms / 1000.0, lambda: effects.end_push(obj, force))
+            self._schedule(t + fault.duration_ms / 1000.0, partial(effects.end_push, obj, force))
         elif isinstance(fault, F.PerceptionMiss):
             ctx.perception.miss(fault.count)
         elif isinstance(fault, F.PerceptionOffset):
