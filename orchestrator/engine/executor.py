@@ -263,6 +263,8 @@ class _ParallelActivity:
             if isinstance(activity, _Region):
                 activity.start(src, "parallel")
             else:
+                for listener in self.ex.entry_listeners:  # a single-skill branch is entered
+                    listener(activity.path, None)
                 activity.start()
 
     def tick(self) -> Finished | None:
@@ -440,6 +442,8 @@ class _Region:
         ex, name, st = self.ex, self.state, self.spec
         path = self.prefix + name
         self.entered_t = ex.ctx.clock
+        for listener in ex.entry_listeners:
+            listener(path, retry)
         at = (*self.node.at, "states", name)
         if st.states is None and st.machine is None and src is not None:
             ex.record(src, path, trigger or "", retry)
@@ -538,6 +542,9 @@ class Executor:
         self.fault: SkillFault | None = None
         """The first skill that raised, if any: the run ends `error` (engine/skill_fault.py)."""
         self._fault_handled = False
+        self.entry_listeners: list[Callable[[str, int | None], None]] = []
+        """Called with (dotted path, retry number or None) as every state is entered, nested
+        machines and parallel states included, and SAFE_STOP (a snapshot's break points)."""
         self._addresses = Addresses()
         """Where the guards' watched views start in memory, for every bank of the episode."""
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
@@ -785,6 +792,8 @@ class Executor:
         assert self.region is not None
         leaf = self.leaf
         self.region.stop()
+        for listener in self.entry_listeners:
+            listener(SAFE_STOP, None)
         self.record(leaf, SAFE_STOP, trigger)
         self.final_state = SAFE_STOP
         self.safe_stop_until = None

@@ -48,7 +48,7 @@ class FaultInjector:
         events: list[ScheduledEvent] | None = None,
     ) -> None:
         self.ctx, self.executor = ctx, executor
-        self._queue: list[tuple[float, int, Callable[[], None]]] = []
+        self._queue: list[tuple[float, int, Callable[[], object]]] = []
         self._seq = 0
         self._on_enter: dict[str, list[tuple[int, Fault]]] = {}
         self.injected: list[dict[str, Any]] = []
@@ -75,7 +75,7 @@ class FaultInjector:
             _, _, action = heapq.heappop(self._queue)
             action()
 
-    def _schedule(self, t: float, action: Callable[[], None]) -> None:
+    def _schedule(self, t: float, action: Callable[[], object]) -> None:
         heapq.heappush(self._queue, (t, self._seq, action))
         self._seq += 1
 
@@ -89,7 +89,7 @@ class FaultInjector:
 
     # scheduled actions are partials of methods, not closures: a snapshot (engine/snapshot)
     # pickles the queue with the rest of the run
-    def _sender(self, name: str, source: str) -> Callable[[], None]:
+    def _sender(self, name: str, source: str) -> Callable[[], object]:
         return partial(self.executor.event, name, source)
 
     def _starter(self, index: int, fault: Fault) -> Callable[[], None]:

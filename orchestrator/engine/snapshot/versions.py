@@ -70,7 +70,7 @@ def local_code() -> str:
     """SHA-256 of the user's own skill and check modules imported now (a scenario's `skills:`,
     `--skills`), empty if none."""
     files = sorted(
-        m.__file__
+        str(m.__file__)
         for name, m in list(sys.modules.items())
         if name.startswith(LOCAL_PREFIX) and getattr(m, "__file__", None)
     )
