@@ -14,9 +14,16 @@ Two measurements, both printed:
 Each pair runs both variants back to back in alternating order (ABBA), so drift on a shared,
 noisy machine cancels; the figure is the median of the per-pair ratios (with / without).
 
+A third mode, `viewer`, measures what a reader waits for: each `.rrd` given with `--rrd`
+opened in Rerun's web viewer in headless Chromium at 1600x900 (docs/make_images.py's
+pieces; its requirements), the time until the page stops changing for 6 s (minus those 6 s),
+and the file's size. Record before/after files of the same episodes and compare them in the
+same run: software rendering on a shared machine makes the absolute times move with the load.
+
 Usage:
     python bench/recording_overhead.py                 # both, 5 seeds x 3 pairs
     python bench/recording_overhead.py --mode episode --seeds 0 1 2 --pairs 5
+    python bench/recording_overhead.py --mode viewer --rrd old/sorting.rrd new/sorting.rrd
 """
 
 from __future__ import annotations
@@ -55,26 +62,32 @@ def _paired(
     return t_plain, t_rec, ratios
 
 
-def bench_episode(scenario: str, seeds: list[int], pairs: int, out: Path) -> float:
-    """In-process episodes; returns the median ratio."""
+def bench_episode(
+    scenario: str, seeds: list[int], pairs: int, out: Path, cpu: bool = False
+) -> float:
+    """In-process episodes; returns the median ratio. `cpu`: CPU time of the process (all its
+    threads, Rerun's writers included) instead of wall time: on a machine loaded by others,
+    wall time mostly measures the others."""
     from orchestrator.engine.runner import run_episode
     from orchestrator.language.load import load_scenario
     from orchestrator.recording import RerunRecorder
 
     loaded = load_scenario(scenario)
 
+    clock = time.process_time if cpu else time.perf_counter
+
     def plain(seed: int) -> float:
-        t0 = time.perf_counter()
+        t0 = clock()
         run_episode(loaded, seed)
-        return time.perf_counter() - t0
+        return clock() - t0
 
     def recorded(seed: int) -> float:
-        t0 = time.perf_counter()
+        t0 = clock()
         run_episode(loaded, seed, [RerunRecorder(path=out / f"episode_{seed}.rrd")])
-        return time.perf_counter() - t0
+        return clock() - t0
 
     plain(seeds[0]), recorded(seeds[0])  # warm-up: imports, caches, Rerun's first sink
-    return _report("episode", *_paired(seeds, pairs, plain, recorded))
+    return _report("episode-cpu" if cpu else "episode", *_paired(seeds, pairs, plain, recorded))
 
 
 def bench_cli(scenario: str, seeds: list[int], pairs: int, out: Path) -> float:
@@ -95,6 +108,29 @@ def bench_cli(scenario: str, seeds: list[int], pairs: int, out: Path) -> float:
     return _report("cli", *_paired(seeds, pairs, run, recorded))
 
 
+def bench_viewer(paths: list[Path], out: Path) -> None:
+    """Open each recording in the web viewer; print its size and the time until it settles."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "docs"))
+    import make_images as mi
+
+    lacking = mi.missing([mi.ViewerShot("x", "pick_place")])
+    if lacking:
+        raise SystemExit(f"the viewer mode needs: {lacking}")
+    for path in paths:
+        work = out / f"viewer_{path.stem}"
+        work.mkdir(exist_ok=True)
+        try:
+            with mi._web_viewer(work, path) as (page, _), mi._browser() as browser:
+                t0 = time.monotonic()
+                browser.get(page)
+                mi._loaded(browser, timeout_s=400.0, quiet_s=6.0)
+                shown = time.monotonic() - t0 - 6.0 - 2.0  # the quiet time and the draw wait
+            print(f"viewer  {path}  {path.stat().st_size / 1e6:6.2f} MB  shown in {shown:5.0f} s",
+                  flush=True)  # fmt: skip
+        except Exception as exc:  # noqa: BLE001 - report it, measure the others
+            print(f"viewer  {path}  failed: {type(exc).__name__}: {exc}", flush=True)
+
+
 def _report(name: str, t_plain: list[float], t_rec: list[float], ratios: list[float]) -> float:
     median = statistics.median(ratios)
     q = statistics.quantiles(ratios, n=4) if len(ratios) > 1 else [median] * 3
@@ -113,13 +149,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scenario", default="pick_place")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     parser.add_argument("--pairs", type=int, default=3, help="Pairs per seed.")
-    parser.add_argument("--mode", choices=("episode", "cli", "both"), default="both")
+    parser.add_argument("--mode", choices=("episode", "cli", "both", "viewer"), default="both")
+    parser.add_argument("--rrd", type=Path, nargs="+", default=[], help="For --mode viewer.")
+    parser.add_argument(
+        "--cpu", action="store_true", help="episode: CPU time of the process, not wall time"
+    )
     args = parser.parse_args(argv)
     episode = None
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
+        if args.mode == "viewer":
+            bench_viewer(args.rrd, out)
+            return 0
         if args.mode in ("episode", "both"):
-            episode = bench_episode(args.scenario, args.seeds, args.pairs, out)
+            episode = bench_episode(args.scenario, args.seeds, args.pairs, out, args.cpu)
         if args.mode in ("cli", "both"):
             bench_cli(args.scenario, args.seeds, args.pairs, out)
     if episode is None:

@@ -1,5 +1,5 @@
-"""Regenerate the pictures in docs/images/: Rerun's view of recorded and live runs, and the
-bundled machines drawn by Graphviz. Everything renders headless.
+"""Regenerate the pictures in docs/images/: Rerun's view of every bundled scenario's recording,
+of live runs, and the bundled machines drawn by Graphviz. Everything renders headless.
 
     python docs/make_images.py                 # every picture in SCENES
     python docs/make_images.py rerun_surgical  # some of them, by name
@@ -7,6 +7,12 @@ bundled machines drawn by Graphviz. Everything renders headless.
 
 A new picture is one more entry in `SCENES` (a `ViewerShot` for a recorded episode, a
 `LiveShot` or `SpawnShot` for live streaming, a `MachineDrawing` for a machine).
+
+Regeneration is deterministic: a `ViewerShot` records the episode up to `at_s` simulated
+seconds only, so the viewer's time cursor (which follows a recording to its end) stands at
+exactly `at_s`; a `SpawnShot` sets the native viewer's cursor through `rerun viewer-mcp`.
+A picture that cannot be made (a tool missing, a viewer that does not come up in time) is
+reported and the others are made; the exit code is 1 if any failed.
 
 What it needs is not a dependency of the package, and CI does not run it:
 
@@ -27,6 +33,7 @@ import io
 import json
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -59,22 +66,28 @@ class ViewerShot:
         name: File name in docs/images/ (without `.png`).
         scenario: Bundled scenario name or path.
         seed: Episode seed.
-        at: Where to click the time bar to put the time cursor, as a fraction of its length
-            (None: the end of the episode).
+        at_s: The moment shown [s of simulated time]: the episode is recorded up to it (the
+            run itself goes on to its end), so the time cursor stands exactly there. None:
+            the end of the episode.
     """
 
     name: str
     scenario: str
     seed: int = 0
-    at: float | None = None
+    at_s: float | None = None
     needs = ("chromium", "chromedriver", "selenium", "pillow", "rerun")
 
     def render(self, work: Path) -> Path:
         rrd = work / f"{self.name}.rrd"
-        _record(self.scenario, self.seed, path=rrd)
+        _record(self.scenario, self.seed, until_s=self.at_s, path=rrd)
         with _web_viewer(work, rrd) as (page, _), _browser() as browser:
+            started = time.monotonic()
             browser.get(page)
-            return _capture(browser, self.name, self.at)
+            out = _capture(browser, self.name)
+            print(
+                f"  {rrd.stat().st_size / 1e6:.2f} MB, shown in {time.monotonic() - started:.0f} s"
+            )
+            return out
 
 
 @dataclass(frozen=True)
@@ -86,13 +99,13 @@ class LiveShot:
         name: File name in docs/images/ (without `.png`).
         scenario: Bundled scenario name or path.
         seed: Episode seed.
-        at: Where to click the time bar afterwards, as a fraction of its length.
+
+    The viewer follows the run live: the picture shows its end.
     """
 
     name: str
     scenario: str
     seed: int = 0
-    at: float | None = None
     needs = ("chromium", "chromedriver", "selenium", "pillow", "rerun")
 
     def render(self, work: Path) -> Path:
@@ -100,7 +113,7 @@ class LiveShot:
             browser.get(page)
             time.sleep(3.0)  # the page is open and connected before the run starts
             _record(self.scenario, self.seed, connect=grpc)
-            return _capture(browser, self.name, self.at)
+            return _capture(browser, self.name, timeout_s=480.0)
 
 
 @dataclass(frozen=True)
@@ -128,7 +141,7 @@ class SpawnShot:
             time.sleep(3.0)
             calls = []
             if self.at is not None:
-                t_ns = int(self.at * result.sim_time * 1e9)
+                t_ns = round(self.at * result.sim_time * 1e9)
                 cursor = {"time": {"time": t_ns}, "play_state": "PLAY_STATE_PAUSED"}
                 calls.append(("rerun_set_time_cursor", cursor))
             calls.append(("rerun_save_screenshot", {"file_path": str(out), "max_size": 0}))
@@ -165,14 +178,20 @@ class MachineDrawing:
 Scene = ViewerShot | LiveShot | SpawnShot | MachineDrawing
 
 SCENES: list[Scene] = [
-    ViewerShot("rerun_pick_place", "pick_place", at=0.24),
-    ViewerShot("rerun_surgical", "surgical", at=0.6),
+    ViewerShot("rerun_pick_place", "pick_place", at_s=1.2),
+    ViewerShot("rerun_pick_place_vision", "pick_place_vision", at_s=1.3),
+    ViewerShot("rerun_mobile_search", "mobile_search", at_s=5.0),
+    ViewerShot("rerun_sorting", "sorting", at_s=12.0),
+    ViewerShot("rerun_sorting_conveyor", "sorting_conveyor", at_s=15.0),
+    ViewerShot("rerun_surgical", "surgical", at_s=9.4),
+    ViewerShot("rerun_surgical_complication", "surgical_complication", at_s=8.6),
     MachineDrawing("machine_pick_place", "pick_place"),
     MachineDrawing("machine_surgical", "surgical"),
-    LiveShot("live_connect_pick_place", "pick_place", at=0.24),
+    LiveShot("live_connect_pick_place", "pick_place"),
     SpawnShot("live_spawn_pick_place", "pick_place", at=0.36),
 ]
-"""Every picture, in the order they are made. Add perception, sorting, ... here."""
+"""Every picture, in the order they are made: every bundled scenario in the web viewer at a
+moment that shows its flow (`orchestrator list`), the machines, the live paths."""
 
 
 # -- the tools ------------------------------------------------------------------------------
@@ -294,13 +313,23 @@ def _browser() -> Iterator:
             driver.quit()
 
 
-def _png(browser):
+def _png(browser, tries: int = 5):
+    """A screenshot of the page. On a busy machine the software-rendered page may not answer
+    in chromedriver's 10 s: asked again, up to `tries` times."""
     from PIL import Image
+    from selenium.common.exceptions import TimeoutException
 
-    return Image.open(io.BytesIO(browser.get_screenshot_as_png())).convert("RGB")
+    for attempt in range(tries):
+        try:
+            return Image.open(io.BytesIO(browser.get_screenshot_as_png())).convert("RGB")
+        except TimeoutException:
+            if attempt == tries - 1:
+                raise
+            time.sleep(2.0)
+    raise AssertionError("unreachable")
 
 
-def _loaded(browser, timeout_s: float = 120.0, quiet_s: float = 6.0):
+def _loaded(browser, timeout_s: float = 240.0, quiet_s: float = 6.0):
     """Wait until the viewer shows the whole recording: its time bar is drawn and the time
     panel (the bar and the latest time) has not changed for `quiet_s` (while data streams in,
     it grows, and the viewer follows it). Returns the time bar, or None."""
@@ -315,8 +344,7 @@ def _loaded(browser, timeout_s: float = 120.0, quiet_s: float = 6.0):
         elif time.monotonic() - since >= quiet_s and _time_bar(image) is not None:
             time.sleep(2.0)  # the views draw
             return _time_bar(image)
-    print(f"  (no complete recording showed up within {timeout_s} s; taking the page as it is)")
-    return _time_bar(_png(browser))
+    raise TimeoutError(f"the viewer did not settle within {timeout_s:.0f} s")
 
 
 def _time_bar(image) -> tuple[int, int, int] | None:
@@ -338,40 +366,9 @@ def _time_bar(image) -> tuple[int, int, int] | None:
     return y, x0, x0 + length - 1
 
 
-def _click(browser, x: float, y: float) -> None:
-    mouse = "Input.dispatchMouseEvent"
-    browser.execute_cdp_cmd(mouse, {"type": "mouseMoved", "x": x, "y": y})
-    time.sleep(0.5)
-    for kind in ("mousePressed", "mouseReleased"):
-        browser.execute_cdp_cmd(
-            mouse, {"type": kind, "x": x, "y": y, "button": "left", "clickCount": 1}
-        )
-        time.sleep(0.2)
-    # park the pointer on the top bar so no hover tooltip is in the picture
-    browser.execute_cdp_cmd(mouse, {"type": "mouseMoved", "x": 4, "y": 4})
-
-
-def _cursor_at_end(image, bar: tuple[int, int, int]) -> bool:
-    """Whether the time cursor's marker (a dark triangle over the bar) is at the bar's end."""
-    y, _, x1 = bar
-    rgb = np.asarray(image).astype(int)
-    rows = rgb[y - 16 : y - 6, x1 - 8 : x1 + 9].sum(axis=2)
-    return bool((rows < 200).any())
-
-
-def _capture(browser, name: str, at: float | None) -> Path:
-    """Wait for the viewer, click the time bar at `at` of its length, save the PNG."""
-    bar = _loaded(browser)
-    if at is not None and bar is not None:
-        y, x0, x1 = bar
-        # a viewer that still receives data follows it to the end: click until it stays
-        for _ in range(6):
-            _click(browser, x0 + at * (x1 - x0), y)
-            time.sleep(8.0)
-            if not _cursor_at_end(_png(browser), bar):
-                break
-        else:
-            print("  (the time cursor did not move: the picture shows the end of the run)")
+def _capture(browser, name: str, timeout_s: float = 240.0) -> Path:
+    """Wait until the viewer shows the whole recording, save the PNG."""
+    _loaded(browser, timeout_s=timeout_s)
     out = IMAGES / f"{name}.png"
     _png(browser).save(out)
     return out
@@ -424,6 +421,15 @@ def _mcp(port: int, calls: list[tuple[str, dict]]) -> None:
         call(0, "initialize", {"protocolVersion": "2024-11-05", "capabilities": {},
                                "clientInfo": info})  # fmt: skip
         send({"method": "notifications/initialized"})
+        # the viewer may still be busy with the run it was sent: connect, retrying for 60 s
+        endpoint = {"endpoint": f"http://127.0.0.1:{port}"}
+        for attempt in range(30):
+            send({"id": 100 + attempt, "method": "tools/call",
+                  "params": {"name": "rerun_connect", "arguments": endpoint}})  # fmt: skip
+            reply = json.loads(proc.stdout.readline())
+            if not reply.get("result", {}).get("isError"):
+                break
+            time.sleep(2.0)
         for i, (tool, arguments) in enumerate(calls, start=1):
             call(i, "tools/call", {"name": tool, "arguments": arguments})
             time.sleep(1.0)
@@ -431,13 +437,40 @@ def _mcp(port: int, calls: list[tuple[str, dict]]) -> None:
         proc.terminate()
 
 
-def _record(scenario: str, seed: int, **recorder):
-    """Run one episode with a Rerun recorder (`path=`, `connect=` or `spawn=`)."""
+def _record(scenario: str, seed: int, until_s: float | None = None, **recorder):
+    """Run one episode with a Rerun recorder (`path=`, `connect=` or `spawn=`) that records
+    the first `until_s` simulated seconds (None: all of it)."""
     from orchestrator.engine.runner import run_episode
     from orchestrator.language.load import load_scenario
     from orchestrator.recording import RerunRecorder
 
-    return run_episode(load_scenario(scenario), seed, [RerunRecorder(**recorder)])
+    class Until(RerunRecorder):
+        """Records up to `until_s`, then only closes the recording at the end."""
+
+        def on_step(self, ctx):
+            if ctx.t <= until_s:
+                super().on_step(ctx)
+
+        def on_tick(self, ctx, executor):
+            if ctx.t <= until_s + 1e-9:
+                super().on_tick(ctx, executor)
+
+        def _on_event(self, event):
+            if event.t <= until_s + 1e-9:
+                super()._on_event(event)
+
+        def on_end(self, ctx, executor, result):
+            if self._on_event in ctx.listeners:
+                ctx.listeners.remove(self._on_event)
+            self._flush()
+            self.close()
+
+    cls = RerunRecorder if until_s is None else Until
+    return run_episode(load_scenario(scenario), seed, [cls(**recorder)])
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt(f"signal {signum}")
 
 
 # -- main -----------------------------------------------------------------------------------
@@ -463,16 +496,35 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  {tool:13s} {how}")
         return 2
     IMAGES.mkdir(parents=True, exist_ok=True)
+    failed: dict[str, str] = {}
     with tempfile.TemporaryDirectory(prefix="make_images-") as tmp:
         for scene in scenes:
             started = time.monotonic()
             print(f"{scene.name} ...", flush=True)
             work = Path(tmp) / scene.name
             work.mkdir()
-            out = scene.render(work)
+            # an interrupt or a kill unwinds the blocks that stop the browser and the viewers
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            signal.signal(signal.SIGTERM, _terminate)
+            try:
+                out = scene.render(work)
+            except Exception as exc:  # noqa: BLE001 - one picture's failure must not stop the rest
+                first = (str(exc).strip().splitlines() or [""])[0]
+                failed[scene.name] = f"{type(exc).__name__}: {first}"
+                print(f"  FAILED: {failed[scene.name]}", flush=True)
+                continue
             print(f"  {out.relative_to(IMAGES.parent.parent)} ({time.monotonic() - started:.0f} s)")
+    if failed:
+        print(f"{len(failed)} of {len(scenes)} pictures could not be made (the others were):")
+        for name, why in failed.items():
+            print(f"  {name}: {why}")
+        return 1
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        sys.exit(main())
+    except KeyboardInterrupt as stop:
+        print(f"interrupted ({stop or 'Ctrl-C'}): browser and viewers stopped")
+        sys.exit(130)

@@ -528,13 +528,14 @@ def _guard_resumed_goals(run, sets: list[str]) -> None:
 
 
 def _guard_goals(loaded, sets: list[str], seed: int) -> None:
-    """Positions set with `--set` go through the live sessions' guardrail before anything
-    runs (workspace, no-go zones, reachability from the home configuration)."""
+    """Values set with `--set` that become positions (targets, via points, offsets, position
+    hints) go through the live sessions' guardrail before anything runs (workspace, no-go
+    zones, reachability from the home configuration, a hint near an object)."""
     from .language.overrides import parse_override
-    from .live.guardrail import GoalRejected, check_goals, goals_of
+    from .live.guardrail import GoalRejected, check_goals, posed_keys
 
     keys = [ov.path[0] for ov in map(parse_override, sets) if hasattr(ov, "path")]
-    if not goals_of(loaded, keys):
+    if not posed_keys(loaded, keys):
         return
     from .world.world import World
 
@@ -1222,7 +1223,7 @@ def send(
     session: Annotated[str, typer.Argument(help="The session's name.")],
     command: Annotated[
         str,
-        typer.Argument(help="run, stop, estop, reset, pause, resume, status or shutdown."),
+        typer.Argument(help="run, stop, estop, reset, pause, resume, status, shutdown or recover."),
     ],
     machine: Annotated[
         str | None, typer.Argument(help="For run: machine file or bundled name.")
@@ -1249,15 +1250,18 @@ def send(
 
     if command not in COMMANDS:
         _live_error(ValueError(f"unknown command {command!r} (valid: {', '.join(COMMANDS)})"))
-    if command != "run" and (machine or set_ or wait or preempt):
+    if command == "recover" and (machine or set_):
+        _live_error(ValueError("recover: takes no MACHINE and no --set (it runs `recover`)"))
+    elif command not in ("run", "recover") and (machine or set_ or wait or preempt):
         only = "takes no MACHINE, --set, --wait or --preempt (only run does)"
         _live_error(ValueError(f"{command}: {only}"))
     creds = _credentials(user, password, credentials, tls_ca)
     watchdog_s = None
     try:
         with Client(session, connect, name="orchestrator send", credentials=creds) as client:
-            if command == "run":
-                reply, result = client.run(machine, set_ or [], wait=wait, preempt=preempt)
+            if command in ("run", "recover"):  # recover: the bundled recovery machine
+                target, values = (machine, set_ or []) if command == "run" else ("recover", [])
+                reply, result = client.run(target, values, wait=wait, preempt=preempt)
                 if reply.accepted and not wait:
                     watchdog_s = client.status().get("watchdog_s")
             elif command == "estop":

@@ -14,6 +14,7 @@ from orchestrator.perception.truth import match_detections, true_objects
 from orchestrator.world.pose import Pose
 
 from .base import Skill, SkillParams
+from .hint import Hint, HintRadius, hint_distance
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -46,6 +47,8 @@ class DetectParams(SkillParams):
         "`min_confidence`) is written to, ready for `grasp`/`move`.",
     )
     duration_s: NonNegativeFloat = Field(default=0.05, description="Time perception takes [s].")
+    near: Hint = None
+    near_radius_m: HintRadius = 0.05
 
     @model_validator(mode="after")
     def _roi(self) -> DetectParams:
@@ -64,7 +67,8 @@ class Detect(Skill):
     `{id, class, pose: {pos, quat}, confidence, pixels, bbox: [x, y, w, h], size_m, camera}`.
     Blobs cut by the image border, occluded or of an ambiguous colour come with a confidence
     below 0.5. Outcome `found` when one detection (of `class`, if given) reaches
-    `min_confidence` (its pose goes to `pose_into`), else `none`. Injected perception faults
+    `min_confidence` (its pose goes to `pose_into`; given a position hint `near`, the one
+    nearest the hint, within `near_radius_m` of it), else `none`. Injected perception faults
     (`perception_miss`, `perception_offset`) apply to the best detection.
 
     Metrics (over the run, against the simulator's truth): `detection_error_mm` (largest
@@ -109,9 +113,16 @@ class Detect(Skill):
         if ctx.keep_camera_shots:
             ctx.camera_shots.append((ctx.tick, ctx.t, frame, found))
         ctx.blackboard[p.into] = [d.to_blackboard() for d in found]
-        best = next((d for d in found if d.confidence >= p.min_confidence), None)
+        sure = [d for d in found if d.confidence >= p.min_confidence]
+        if p.near is not None:
+            hint, radius = p.near, p.near_radius_m
+            near = [(hint_distance(hint, d.pos), i) for i, d in enumerate(sure)]
+            sure = [sure[i] for dist, i in sorted(near) if dist <= radius]
+        best = sure[0] if sure else None
         seen = None if best is None else ctx.perceived(Pose.coerce(best.to_blackboard()["pose"]))
         what = p.class_ or "any class"
+        if p.near is not None:
+            what += f" within {p.near_radius_m} m of {p.near}"
         if best is None or seen is None:
             ctx.log("skill", f"detect: {len(found)} blob(s), none of {what} confident enough")
             return "none"

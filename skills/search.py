@@ -11,6 +11,7 @@ from pydantic import Field, NonNegativeFloat
 from orchestrator.world.pose import Pose, quat_from_yaw
 
 from .base import SCENE_OBJECT, Skill, SkillParams
+from .hint import Hint, HintRadius, hint_distance
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -24,13 +25,16 @@ class SearchParams(SkillParams):
     )
     into: str = Field(default="object_pose", description="Blackboard key the pose is written to.")
     duration_s: NonNegativeFloat = Field(default=0.1, description="Time the perception takes [s].")
+    near: Hint = None
+    near_radius_m: HintRadius = 0.05
 
 
 class Search(Skill):
     """The perception oracle: after `duration_s`, `found` with the object's true pose from the
     simulator (plus the scenario's perception noise) written to `into`, or `not_found` if the
-    object is not in view (unknown, or no longer on the table). Injected perception faults
-    (`perception_miss`, `perception_offset`) apply to what it reports."""
+    object is not in view (unknown, or no longer on the table) or, given a position hint
+    `near`, not within `near_radius_m` of it. Injected perception faults (`perception_miss`,
+    `perception_offset`) apply to what it reports."""
 
     name: ClassVar[str] = "search"
     Params: ClassVar[type[SkillParams]] = SearchParams
@@ -59,6 +63,10 @@ class Search(Skill):
         seen = ctx.perceived(Pose(pos=pos.tolist(), quat=quat_from_yaw(yaw).tolist()))
         if seen is None:
             ctx.log("skill", f"search: perception found no {name!r}")
+            return "not_found"
+        hint = self.params.near
+        if hint is not None and hint_distance(hint, seen.pos) > self.params.near_radius_m:
+            ctx.log("skill", f"search: no {name!r} within {self.params.near_radius_m} m of {hint}")
             return "not_found"
         ctx.blackboard[self.params.into] = seen
         ctx.log("skill", f"search: found {name!r} at {np.round(seen.pos, 4).tolist()}")

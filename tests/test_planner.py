@@ -3,11 +3,10 @@ good proposal moves the robot; every bad one is refused before anything moves.""
 
 from __future__ import annotations
 
-import json
 import socket
 import threading
+import time
 from collections.abc import Iterator
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import numpy as np
 import pytest
@@ -17,24 +16,8 @@ from orchestrator.live.planner import PlannerError, ask_planner, parse_reply
 from orchestrator.live.server import serve
 from orchestrator.live.session import Session
 
-
-class _Planner(BaseHTTPRequestHandler):
-    reply = ""
-    requests: list[dict] = []
-
-    def do_POST(self) -> None:
-        body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
-        _Planner.requests.append(body)
-        message = {"role": "assistant", "content": _Planner.reply}
-        out = json.dumps({"choices": [{"message": message}]}).encode()
-        self.send_response(200)
-        self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(out)))
-        self.end_headers()
-        self.wfile.write(out)
-
-    def log_message(self, *args) -> None:
-        pass
+from . import canned_planner
+from .canned_planner import CannedPlanner
 
 
 def _port() -> int:
@@ -45,25 +28,42 @@ def _port() -> int:
 
 @pytest.fixture(scope="module")
 def planner() -> Iterator[str]:
-    server = ThreadingHTTPServer(("127.0.0.1", 0), _Planner)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    yield f"http://127.0.0.1:{server.server_address[1]}/v1"
+    url, server = canned_planner.start()
+    yield url
     server.shutdown()
 
 
+class _JointMotion:
+    """The largest change of any arm joint angle since `start`, over every physics step of
+    the session (ground truth, not its log)."""
+
+    def __init__(self, session: Session) -> None:
+        self.idx = session.world.arm_qpos
+        self.q0 = session.world.data.qpos[self.idx].copy()
+        self.max_rad = 0.0
+        session.loop.set_observers([self])
+
+    def on_step(self, ctx) -> None:
+        self.max_rad = max(self.max_rad, float(np.abs(ctx.data.qpos[self.idx] - self.q0).max()))
+
+
 @pytest.fixture(scope="module")
-def client() -> Iterator[Client]:
+def served() -> Iterator[tuple[Session, Client]]:
     endpoint = f"tcp/127.0.0.1:{_port()}"
     session = Session("pick_place", "p", seed=3, speed=0.0)
     stop = threading.Event()
     thread = threading.Thread(target=serve, args=(session, [endpoint], None, None, stop))
     thread.start()
     c = Client("p", [endpoint], name="planner test", find_s=60.0)
-    yield c
+    yield session, c
     c.close()
     stop.set()
     thread.join(30)
+
+
+@pytest.fixture
+def client(served) -> Client:
+    return served[1]
 
 
 @pytest.mark.parametrize(
@@ -76,32 +76,49 @@ def client() -> Iterator[Client]:
          "speed: Extra inputs are not permitted"),
         ("Sure! I will move the arm to the red cube now.", "did not answer with JSON"),
         ('{"machine": "self_destruct"}', "valid: pick_place, reach, home"),
+        ('{"machine": "reach", "set": {"target": [0.5, 0.1, 0.4], "guards": {}}}',
+         "`guards` is a scenario value, not an input"),
+        ('{"machine": "reach", "set": {"guards.workspace.max": [0.95, 0.7, 1.2]}}',
+         "`guards.workspace.max` is a scenario value"),
+        ('{"machine": "reach", "set": {"physics.safe_stop.max_decel_rad_s2": 1}}',
+         "`physics.safe_stop.max_decel_rad_s2` is a scenario value"),
+        ('{"machine": "reach", "set": {"scene.table.height": 0.1}}',
+         "`scene.table.height` is a scenario value"),
+        ('{"machine": "reach", "set": {"robot.base_pos": [0, 0, 0.1]}}',
+         "`robot.base_pos` is a scenario value"),
+        ('{"machine": "pick_place", "set": {"hover": [0, 0, 5]}}',
+         "`hover` is not an input of machine 'pick_place'"),
+        ('{"machine": "reach", "set": {"target": [NaN, 0, 0.4]}}', "NaN: not finite"),
+        ('{"machine": "reach", "set": {"target": [1e400, 0, 0.4]}}', "1e400: not finite"),
     ],
 )  # fmt: skip
-def test_a_bad_proposal_never_moves_the_robot(planner, client, monkeypatch, reply, words):
+def test_a_bad_proposal_never_moves_the_robot(planner, served, monkeypatch, reply, words):
+    session, client = served
     monkeypatch.setenv("ORCHESTRATOR_PLANNER_URL", planner)
-    _Planner.reply = reply
+    CannedPlanner.reply = reply
     before = client.status()
+    motion = _JointMotion(session)
     try:
         _, answer, _ = ask_planner(client, "put the red cube on the pad")
         assert not answer.accepted and words in answer.reason, answer.reason
     except PlannerError as exc:
         assert words in str(exc)
+    time.sleep(0.2)  # 20 control ticks at least: whatever was applied has moved the arm
     after = client.status()
     assert after["state"] == "IDLE" and after["last_result"] == before["last_result"]
-    assert np.linalg.norm(np.subtract(after["tcp"], before["tcp"])) < 2e-4
+    assert motion.max_rad < 1e-5  # the hold's own settling: micro-radians
 
 
 def test_a_good_proposal_runs_through_the_guardrails(planner, client, monkeypatch):
     monkeypatch.setenv("ORCHESTRATOR_PLANNER_URL", planner)
-    _Planner.reply = (
+    CannedPlanner.reply = (
         '```json\n{"machine": "pick_place", "set": {"object": "cube", "place_at": "pad"}}\n```'
     )
-    _Planner.requests.clear()
+    CannedPlanner.requests.clear()
     proposal, answer, result = ask_planner(client, "put the red cube on the pad", wait=True)
     assert answer.accepted and proposal["machine"] == "pick_place"
     assert result is not None and result["outcome"] == "succeeded"
-    prompt = _Planner.requests[0]["messages"][0]["content"]
+    prompt = CannedPlanner.requests[0]["messages"][0]["content"]
     assert "Scene objects: cube." in prompt and "Markers: pad." in prompt
     assert '"additionalProperties": false' in prompt  # the schema it must answer with
 

@@ -30,10 +30,10 @@ from orchestrator.recording import (
     model_geometry,
     visible_geoms,
 )
-from orchestrator.recording.blueprint import default_blueprint
 from orchestrator.recording.geometry_chunks import geometry_chunks
-from orchestrator.recording.graph_drawing import ACCENT, IDLE
+from orchestrator.recording.graph_drawing import ACCENT, EDGE_LABEL, IDLE
 from orchestrator.recording.graph_layout import label_size
+from orchestrator.recording.graph_views import COLLAPSED, label_id
 from orchestrator.recording.machine_graph import GUARD, KIND_COLORS, LIT_MARK
 from orchestrator.recording.state_log import StateLog
 from orchestrator.recording.static_scene import static_scene
@@ -125,7 +125,11 @@ def test_one_geometry_entity_per_visible_geom(recorded, pick_place):
 def test_body_transforms_vary_over_time(recorded):
     hand = recorded.temporal["/world/bodies/panda_hand"]
     ticks = [r["tick"] for r in hand]
-    assert ticks == list(range(recorded.result.metrics["control_ticks"] + 1))
+    n = recorded.result.metrics["control_ticks"] + 1
+    # a body is sent at the ticks it moved (by 0.1 mm or 1e-4 in a quaternion component)
+    assert ticks[0] == 0 and ticks == sorted(set(ticks)) and 0.5 * n < len(ticks) <= n
+    cube_ticks = [r["tick"] for r in recorded.temporal["/world/bodies/cube"]]
+    assert len(cube_ticks) < 0.6 * n  # it rests until grasped, and on the pad
     xyz = np.array([r["Transform3D:translation"][0] for r in hand])
     assert np.ptp(xyz, axis=0).max() > 0.1  # the hand travels tens of centimetres
     cube = np.array(recorded.column("/world/bodies/cube", "Transform3D:translation"))[:, 0]
@@ -137,6 +141,10 @@ def test_a_guard_violation_is_an_error_with_the_guards_name(aborted):
     assert aborted.result.reason["guard"] == "workspace"
     rows = aborted.temporal["/events/violation"]
     assert [r["TextLog:level"] for r in rows] == [["ERROR"]]
+    # the guard's margin is marked at the instant it fired, at 1.0 or above
+    marks = aborted.temporal["/guards/workspace/tripped"]
+    assert len(marks) == 1 and marks[0]["Scalars:scalars"][0] >= 1.0
+    assert marks[0]["sim_time"].total_seconds() == pytest.approx(aborted.result.metrics["abort_t"])
     text = rows[0]["TextLog:text"][0]
     assert "workspace" in text
     assert "value" in text and "limit" in text
@@ -165,13 +173,15 @@ def test_signals_are_sampled_every_control_tick(recorded):
     force = recorded.column("/signals/wrist_force_n", "Scalars:scalars")
     torque = recorded.column("/signals/joint_torque_nm", "Scalars:scalars")
     assert len(force) == len(torque) == n
-    assert {len(f) for f in force} == {4} and {len(t) for t in torque} == {7}
+    xyz = np.array(recorded.column("/signals/wrist_force_xyz_n", "Scalars:scalars"))
+    assert {len(f) for f in force} == {2} and {len(t) for t in torque} == {7}
     f = np.array(force)
-    assert np.allclose(f[:, 3], np.linalg.norm(f[:, :3], axis=1))
-    # the plot samples the sensor per control tick; the metric is the true per-step peak,
-    # which a per-tick sample can only underestimate (up to the sensor's noise)
+    assert len(xyz) == n and np.allclose(f[:, 0], np.linalg.norm(xyz, axis=1))
+    # |F| samples the sensor per control tick; the second series is the peak of the true
+    # force over every physics step, the very figure the run reports
     peak = recorded.result.metrics["max_wrist_force_n"]
-    assert 0.5 * peak < max(f[:, 3]) <= peak + 0.05
+    assert 0.5 * peak < max(f[:, 0]) <= peak + 0.05
+    assert max(f[:, 1]) == pytest.approx(peak, abs=1e-4)
     width = np.array(recorded.column("/signals/gripper_width_m", "Scalars:scalars"))[:, 0]
     assert width.max() > 0.07 and width.min() < 0.06  # open, then closed on the 5 cm cube
     error = np.array(recorded.column("/signals/tcp_error_m", "Scalars:scalars"))[:, 0]
@@ -180,12 +190,18 @@ def test_signals_are_sampled_every_control_tick(recorded):
     assert names == [f"panda_joint{i}" for i in range(1, 8)]
 
 
-def test_each_guard_is_plotted_next_to_its_limit(recorded):
-    force = recorded.column("/guards/contact_force", "Scalars:scalars")
-    assert force and {row[1] for row in force} == {60.0}  # the scenario's max_n
-    for guard in ("workspace", "joint_limits"):
-        margins = np.array(recorded.column(f"/guards/{guard}", "Scalars:scalars"))
-        assert (margins[:, 0] > margins[:, 1]).all(), guard  # safe run: inside the limits
+def test_each_guard_is_a_margin_against_the_trip_line_with_its_raw_value_beside(recorded):
+    raw = np.array(recorded.column("/guard_values/contact_force", "Scalars:scalars"))
+    assert len(raw) and set(raw[:, 1]) == {60.0}  # value and the scenario's max_n
+    margin = np.array(recorded.column("/guards/contact_force", "Scalars:scalars"))[:, 0]
+    # the margin is value / limit, or the peak of it over the tick's physics steps
+    assert (margin >= raw[:, 0] / 60.0 - 1e-12).all() and margin.max() < 1.0
+    for guard in ("workspace", "joint_limits", "joint_torque", "collision"):
+        u = np.array(recorded.column(f"/guards/{guard}", "Scalars:scalars"))[:, 0]
+        assert len(u) and (0.0 <= u).all() and (u < 1.0).all(), guard  # a safe run
+    trip = np.array(recorded.column("/guards/trip", "Scalars:scalars"))[:, 0]
+    times = [r["sim_time"].total_seconds() for r in recorded.temporal["/guards/trip"]]
+    assert set(trip) == {1.0} and times[0] == 0.0 and times[-1] == recorded.result.sim_time
 
 
 def test_events_are_text_logs_per_kind(recorded):
@@ -205,122 +221,128 @@ def test_ik_target_is_a_frame_that_vanishes_between_motions(recorded):
     assert "Transform3D:translation" in recorded.static["/world/bodies/panda_hand/tcp"]
 
 
-def test_graph_lights_the_active_state_at_every_transition(recorded, pick_place):
-    graph = recorded.static["/state_machine/graph"]
-    nodes = graph["GraphNodes:node_ids"]
-    assert set(nodes) == {p for p, _, _ in pick_place.machine.walk()} | {SAFE_STOP, GUARD}
-    rows = recorded.temporal["/state_machine/graph"]
-    assert len(rows) == len(recorded.result.transitions) + 1
-    leaves = [recorded.result.transitions[0]["from"]] + [
-        t["to"] for t in recorded.result.transitions
-    ]
-    for row, leaf in zip(rows, leaves, strict=True):
-        lit = [n for n, label in zip(nodes, row["GraphNodes:labels"], strict=True)
-               if label.startswith(LIT_MARK)]  # fmt: skip
-        ancestors = [".".join(leaf.split(".")[: i + 1]) for i in range(leaf.count(".") + 1)]
-        assert sorted(lit) == sorted(ancestors), leaf
-        colors = dict(zip(nodes, row["GraphNodes:colors"], strict=True))
-        assert all(colors[n] in (ACCENT, KIND_COLORS["success"]) for n in lit)
-        assert {colors[n] for n in nodes if n not in lit and "." not in n} <= {
-            IDLE,
-            *KIND_COLORS.values(),
-        }
-    assert leaves[-1] == "DONE"
-
-
-def test_graph_labels_and_colours_are_not_static(recorded):
-    # static values would shadow the lit ones for the whole recording
-    graph = recorded.static["/state_machine/graph"]
-    assert "GraphNodes:labels" not in graph and "GraphNodes:colors" not in graph
-
-
-def _graph_of(rec: Recording) -> tuple[dict, dict, list]:
-    """Node positions, nested frames (owner path -> x0, y0, x1, y1) and edges, as recorded."""
-    graph = rec.static["/state_machine/graph"]
-    positions = dict(
-        zip(graph["GraphNodes:node_ids"], map(tuple, graph["GraphNodes:positions"]), strict=True)
-    )
-    edges = [(e["first"], e["second"]) for e in graph["GraphEdges:edges"]]
-    frames = {}
-    for entity, comps in rec.static.items():
-        if entity.startswith("/state_machine/graph/"):
-            (ax, ay), (bx, by) = comps["GraphNodes:positions"]
-            owner = entity.removeprefix("/state_machine/graph/").replace("/", ".")
-            pad = 10.5  # Rerun outlines an entity 10 px outside its nodes (radius 0.5)
-            frames[owner] = (ax - pad, ay - pad, bx + pad, by + pad)
-    return positions, frames, edges
-
-
-@pytest.fixture(scope="module")
-def surgical_recorded(tmp_path_factory) -> Recording:
-    return record(load_scenario("surgical"), 0, tmp_path_factory.mktemp("rrd") / "s.rrd")
-
-
-@pytest.mark.parametrize("which", ["recorded", "surgical_recorded"])
-def test_graph_reads_top_to_bottom_in_flow_order(which, request):
-    rec = request.getfixturevalue(which)
-    positions, frames, edges = _graph_of(rec)
-    initial = rec.result.transitions[0]["from"].split(".")[0]
-    top_level = [n for n in positions if "." not in n and n != GUARD]
-    # the initial state heads the flow; every arrow of these acyclic machines points down
-    assert positions[initial][1] == min(positions[n][1] for n in top_level)
-    for src, dst in edges:
-        assert positions[dst][1] > positions[src][1], (src, dst)
-    assert frames, "the nested machines are framed"
-
-
-@pytest.mark.parametrize("which", ["recorded", "surgical_recorded"])
-def test_nested_states_lie_inside_their_parents_frame(which, request):
-    rec = request.getfixturevalue(which)
-    positions, frames, _ = _graph_of(rec)
+def _graph_rows(rec: Recording) -> list[tuple[str, list[str], list[str], list[int]]]:
+    """Per state entry: the leaf, and the node ids, labels and colours the graph shows then
+    (node ids are sent only at entries that open other machines: the last ones hold)."""
+    rows = rec.temporal["/state_machine/graph"]
+    layouts = iter([r["GraphNodes:node_ids"] for r in rows if "GraphNodes:node_ids" in r])
+    entries = [r for r in rows if "GraphNodes:labels" in r]
+    leaves = [rec.result.transitions[0]["from"]] + [t["to"] for t in rec.result.transitions]
     graph = build_graph(load_scenario(rec.result.scenario).machine)
-    for owner, (x0, y0, x1, y1) in frames.items():
-        inside = [n for n in positions if n == owner or n.startswith(owner + ".")]
-        assert len(inside) > 2, owner
-        for n in inside:
-            (x, y), (w, h) = positions[n], graph.layout.sizes[n]
-            assert x0 <= x - w / 2 and x + w / 2 <= x1 and y0 <= y - h / 2 and y + h / 2 <= y1, n
-        others = [n for n in positions if n not in inside]
-        for n in others:
-            x, y = positions[n]
-            assert not (x0 < x < x1 and y0 < y < y1), (n, owner)
+    assert len(entries) == len(leaves)
+    out, ids, shown = [], None, None
+    for leaf, row in zip(leaves, entries, strict=True):
+        if graph.expansion(leaf) != shown:
+            ids, shown = next(layouts), graph.expansion(leaf)
+        out.append((leaf, ids, row["GraphNodes:labels"], row["GraphNodes:colors"]))
+    assert next(layouts, None) is None  # one layout per change of expansion, no more
+    return out
 
 
-@pytest.mark.parametrize("name", ["pick_place", "surgical", "grasp"])
-def test_graph_labels_do_not_overlap_even_when_lit(name):
+def test_graph_lights_the_active_state_at_every_transition(recorded):
+    for leaf, nodes, labels, colors in _graph_rows(recorded):
+        lit = [n for n, label in zip(nodes, labels, strict=True) if label.startswith(LIT_MARK)]
+        ancestors = [".".join(leaf.split(".")[: i + 1]) for i in range(leaf.count(".") + 1)]
+        assert sorted(lit) == sorted(ancestors), leaf  # every ancestor shown, and lit
+        shade = dict(zip(nodes, colors, strict=True))
+        assert all(shade[n] in (ACCENT, KIND_COLORS["success"]) for n in lit)
+        assert {shade[n] for n in nodes if n not in lit and "." not in n} <= {
+            IDLE, EDGE_LABEL, *KIND_COLORS.values(),
+        }  # fmt: skip
+
+
+def test_only_the_machines_holding_the_active_leaf_are_open(recorded, pick_place):
+    graph = build_graph(pick_place.machine)
+    for leaf, nodes, labels, _ in _graph_rows(recorded):
+        states = [n for n in nodes if n in graph.states]
+        owners = {".".join(leaf.split(".")[:i]) for i in range(1, leaf.count(".") + 1)}
+        for n in states:  # a state is shown only inside machines that are open
+            assert all(
+                p in owners
+                for p in (".".join(n.split(".")[:i]) for i in range(1, n.count(".") + 1))
+            ), (leaf, n)
+        shut = [lab for n, lab in zip(nodes, labels, strict=True)
+                if n in set(graph.regions.values()) - owners - {""}]  # fmt: skip
+        assert all(lab.endswith(COLLAPSED) for lab in shut), shut
+
+
+def test_edges_carry_their_outcomes_and_retries_loop(pick_place):
+    graph = build_graph(pick_place.machine)
+    view = graph.view("PICK.GRASP.CLOSE")
+    texts = {view.labels[n] for n in view.edge_labels}
+    assert "found" in texts  # PICK.SEARCH -> PICK.GRASP
+    surgical = build_graph(load_scenario("surgical").machine).view("EXECUTE.TRACE")
+    assert "EXECUTE" in surgical.labels and "guards: contact_force" in surgical.labels["EXECUTE"]
+    mobile = build_graph(load_scenario("mobile_search").machine).view("SEARCHING.GO_2")
+    loops = [(s, d) for s, d in mobile.edges if s == d]
+    assert ("SEARCHING.SCAN_HERE", "SEARCHING.SCAN_HERE") in loops  # retry: 7
+    assert mobile.labels[label_id(*loops[0])] == "retry 7"
+
+
+def test_graph_reads_top_to_bottom_in_flow_order():
+    for name in ("pick_place", "surgical"):
+        graph = build_graph(load_scenario(name).machine)
+        for view in graph.views.values():
+            pos = view.layout.positions
+            for src, dst in view.edges:
+                if src not in (dst, GUARD) and graph.states[dst].kind != "abort":
+                    assert pos[dst][1] > pos[src][1], (name, src, dst)
+
+
+def test_nested_states_lie_inside_their_parents_frame():
+    for name in ("pick_place", "surgical", "mobile_search"):
+        graph = build_graph(load_scenario(name).machine)
+        for view in graph.views.values():
+            lay = view.layout
+            for owner, (x0, y0, x1, y1) in lay.groups.items():
+                inside = [n for n in view.states if n == owner or n.startswith(owner + ".")]
+                assert len(inside) > 2, owner
+                for n in inside:
+                    (x, y), (w, h) = lay.positions[n], lay.sizes[n]
+                    assert x0 <= x - w / 2 and x + w / 2 <= x1 and y0 <= y - h / 2, n
+                    assert y + h / 2 <= y1, n
+
+
+@pytest.mark.parametrize("name", ["pick_place", "surgical", "grasp", "mobile_search", "sorting"])
+def test_state_labels_do_not_overlap_even_when_lit(name):
     from orchestrator.language.load import load_machine
 
     graph = build_graph(load_machine(name))
     lit_growth = label_size(LIT_MARK + "X")[0] - label_size("X")[0]
-    boxes = []
-    for n, (x, y) in graph.positions.items():
-        w, h = graph.layout.sizes[n]
-        w += lit_growth
-        boxes.append((n, x - w / 2, y - h / 2, x + w / 2, y + h / 2))
-    for i, a in enumerate(boxes):
-        for b in boxes[i + 1 :]:
-            overlap = a[1] < b[3] and b[1] < a[3] and a[2] < b[4] and b[2] < a[4]
-            assert not overlap, (a[0], b[0])
+    for view in graph.views.values():
+        boxes = []
+        for n in view.states:
+            (x, y), (w, h) = view.layout.positions[n], view.layout.sizes[n]
+            w += lit_growth
+            boxes.append((n, x - w / 2, y - h / 2, x + w / 2, y + h / 2))
+        for i, a in enumerate(boxes):
+            for b in boxes[i + 1 :]:
+                overlap = a[1] < b[3] and b[1] < a[3] and a[2] < b[4] and b[2] < a[4]
+                assert not overlap, (view.expanded, a[0], b[0])
 
 
-def test_the_layout_is_computed_once_per_recording_not_per_tick(recorded, monkeypatch, tmp_path):
-    from orchestrator.recording import machine_graph
+def test_the_layouts_are_computed_once_per_machine_not_per_tick(monkeypatch, tmp_path):
+    from orchestrator.recording import graph_views
 
     calls = []
-    real = machine_graph.layered_layout
+    real = graph_views.layered_layout
     monkeypatch.setattr(
-        machine_graph, "layered_layout", lambda *a, **k: calls.append(1) or real(*a, **k)
+        graph_views, "layered_layout", lambda *a, **k: calls.append(1) or real(*a, **k)
     )
     loaded = load_scenario("pick_place")  # a new machine object: its scene is built anew
-    record(loaded, 0, tmp_path / "a.rrd")
-    assert len(calls) == 1
+    rec = record(loaded, 0, tmp_path / "a.rrd")
+    n_views = len(build_graph(loaded.machine).views)
+    assert len(calls) == 2 * n_views  # once for the recording, once for the check above
     record(loaded, 1, tmp_path / "b.rrd")  # the next episode reuses the static scene
-    assert len(calls) == 1
-    # positions and edges are static; a transition sends only labels and colours
-    assert all(
-        set(row) - {"sim_time", "tick"} == {"GraphNodes:labels", "GraphNodes:colors"}
-        for row in recorded.temporal["/state_machine/graph"]
-    )
+    assert len(calls) == 2 * n_views
+    # nodes, positions and arrows are sent only when another machine opens
+    layouts = [r for r in rec.temporal["/state_machine/graph"] if "GraphNodes:positions" in r]
+    expansions = [
+        build_graph(loaded.machine).expansion(leaf)
+        for leaf in [rec.result.transitions[0]["from"]] + [t["to"] for t in rec.result.transitions]
+    ]
+    changes = 1 + sum(a != b for a, b in zip(expansions, expansions[1:], strict=False))
+    assert len(layouts) == changes < len(expansions)
 
 
 def test_the_layout_is_the_same_in_every_process():
@@ -340,11 +362,13 @@ def test_the_layout_is_the_same_in_every_process():
     assert len(outs) == 1
 
 
-def test_nested_levels_have_their_own_lanes(recorded):
-    root = [s[0] for s in recorded.column("/state_machine/levels/root", "StateChange:state")]
-    pick = [s[0] for s in recorded.column("/state_machine/levels/PICK", "StateChange:state")]
-    assert root[0] == "PICK" and root[-1] == "DONE"
-    assert pick[0] == "SEARCH" and pick[-1] == ""  # reset when PICK is left
+def test_each_nesting_depth_has_its_own_lane(recorded):
+    top = [s[0] for s in recorded.column("/state_machine/levels/depth_0", "StateChange:state")]
+    one = [s[0] for s in recorded.column("/state_machine/levels/depth_1", "StateChange:state")]
+    two = [s[0] for s in recorded.column("/state_machine/levels/depth_2", "StateChange:state")]
+    assert top[0] == "PICK" and top[-1] == "DONE"
+    assert one[0] == "SEARCH" and "GRASP" in one and one[-1] == ""  # empty once PICK is left
+    assert "CLOSE" in two and two[-1] == ""
 
 
 def test_the_recording_opens_with_the_default_blueprint(recorded):
@@ -468,7 +492,11 @@ def test_machine_graph_kinds_lanes_and_edges(pick_place):
     assert ("PICK.PICKED", "TRANSPORT") in graph.edges
     assert ("PICK.GRASP.MISSED", "PICK.MISSED") in graph.edges
     assert not [e for e in graph.edges if e[0] in ("PICK", "PICK.GRASP") and "." not in e[1]]
-    assert set(graph.positions) == set(graph.states) | {GUARD}
+    # every state is shown in the expansion of its own machine
+    for path in graph.states:
+        assert path in graph.view(path).states
+    shut = graph.view("DONE")
+    assert ("PICK", "TRANSPORT") in shut.edges  # the exits of a shut machine leave its node
 
 
 def test_on_abort_state_is_the_abort_colour(write_yaml):
@@ -487,12 +515,12 @@ def test_on_abort_state_is_the_abort_colour(write_yaml):
     assert (GUARD, "HALT") in graph.edges
 
 
-def test_lanes_reset_when_their_owner_is_left(pick_place):
+def test_lanes_empty_when_the_leaf_is_shallower(pick_place):
     log = StateLog(build_graph(pick_place.machine))
     log.enter(0, 0.0, "PICK.SEARCH")
     log.enter(1, 0.01, "TRANSPORT")
-    assert log._lanes["PICK"] == [(0, 0.0, "SEARCH"), (1, 0.01, "")]
-    assert log._lanes[""] == [(0, 0.0, "PICK"), (1, 0.01, "TRANSPORT")]
+    assert log._lanes[1] == [(0, 0.0, "SEARCH"), (1, 0.01, "")]
+    assert log._lanes[0] == [(0, 0.0, "PICK"), (1, 0.01, "TRANSPORT")]
 
 
 def test_rows_grow_and_times_round_to_nanoseconds():
@@ -519,7 +547,12 @@ def test_flushing_in_batches_records_the_same_rows(pick_place, recorded, tmp_pat
     def canonical(temporal: dict[str, list[dict]]) -> dict[str, list[dict]]:
         # batches interleave an entity's separately sent components differently; the rows
         # of one component keep their order (stable sort)
-        return {e: sorted(rs, key=lambda r: (r["tick"], sorted(r))) for e, rs in temporal.items()}
+        # the trip line at 1.0 gets a point at every flush
+        return {
+            e: sorted(rs, key=lambda r: (r["tick"], sorted(r)))
+            for e, rs in temporal.items()
+            if e != "/guards/trip"
+        }
 
     assert canonical(batched.temporal) == canonical(recorded.temporal)
 
@@ -589,14 +622,66 @@ def test_every_sink_gets_the_blueprint_made_active(monkeypatch, pick_place, tmp_
     assert [kw for _, kw in sent] == [{"make_active": True, "make_default": True}]
 
 
-def test_the_machine_column_fits_the_graph(pick_place):
-    from orchestrator.recording.blueprint import machine_share
+def test_the_tallest_bundled_machine_is_legible_in_both_windows():
+    from orchestrator.language.load import load_machine
+    from orchestrator.recording.blueprint import (
+        LEGIBLE_ZOOM,
+        WINDOWS,
+        graph_zoom,
+        machine_share,
+    )  # fmt: skip
 
-    graph = build_graph(pick_place.machine)
-    x0, y0, x1, y1 = graph.layout.bounds
-    assert (x0, y0) == (0.0, 0.0) and 400 < x1 < 700 and 600 < y1 < 900
-    share = machine_share(graph.layout.bounds)
-    assert share * 1600 >= x1 - x0  # at 1600 px wide the graph fits at zoom ~1
-    assert machine_share(None) == 0.28 and machine_share((0, 0, 5000, 500)) == 0.5
-    blueprint = default_blueprint(None, graph.layout.bounds)
-    assert blueprint is not None
+    graphs = {n: build_graph(load_machine(n)) for n in bundled_names("machines")}
+    tallest = max(graphs, key=lambda n: graphs[n].bounds[3] - graphs[n].bounds[1])
+    # the tallest as drawn, and mobile_search: drawn whole it was ~1550 px (labels ~5 px)
+    for name in {tallest, "mobile_search"}:
+        bounds = graphs[name].bounds
+        share = machine_share(bounds)
+        for window in WINDOWS:
+            zoom = graph_zoom(bounds, share, window)
+            assert zoom >= LEGIBLE_ZOOM, (name, window, zoom)
+    # the rule itself: a graph too tall for the panel is shown below zoom 1, never below the
+    # floor for these bounds, and the column never takes more than its share
+    assert graph_zoom((0, 0, 400, 3000), 0.3, (1600, 900)) < LEGIBLE_ZOOM
+    assert machine_share(None) == 0.24 and machine_share((0, 0, 5000, 500)) == 0.46
+
+
+# -- peaks between control ticks --------------------------------------------------------------
+PUSH = "push:object=cube,force_n=[0,0,-60],duration_ms=4@PICK.GRASP.VERIFY+0.043"
+"""A 4 ms push on the held cube, starting between two control ticks (at 1.624 s, seed 0): the
+hand feels ~50 N for two physics steps and is back under ~3 N by the next tick, under the
+60 N contact-force limit."""
+
+
+def test_a_force_spike_between_two_ticks_is_in_the_recording(tmp_path):
+    rec = record(load_scenario("pick_place", faults=[PUSH]), 0, tmp_path / "spike.rrd")
+    assert rec.result.outcome == "succeeded"  # under the 60 N guard: nothing fires
+    t_push = rec.result.metrics["faults"][0]["t"]
+    rows = rec.temporal["/signals/wrist_force_n"]
+    sampled = np.array([r["Scalars:scalars"][0] for r in rows])  # |F| at each tick
+    peak = np.array([r["Scalars:scalars"][1] for r in rows])  # max over the tick's steps
+    i = int(np.argmax(peak))
+    assert t_push < rows[i]["sim_time"].total_seconds() <= t_push + 0.01  # the next tick
+    # the spike fell between the ticks: the samples around it never saw it
+    assert peak[i] > 40.0 and max(sampled[i - 2 : i + 3]) < 10.0
+    assert peak[i] == pytest.approx(rec.result.metrics["max_wrist_force_n"], abs=1e-4)
+    # the force guards read every physics step: their margin keeps the sensed spike
+    guard = rec.temporal["/guards/contact_force"]
+    margin = np.array([r["Scalars:scalars"][0] for r in guard])
+    at = [r["tick"] for r in guard].index(rows[i]["tick"])
+    assert margin[at] > 0.6 and max(*margin[at - 3 : at], *margin[at + 1 : at + 4]) < 0.2
+    raw = np.array(rec.column("/guard_values/contact_force", "Scalars:scalars"))
+    assert raw[at, 0] == pytest.approx(60.0 * margin[at])
+
+
+@pytest.mark.slow
+def test_recording_does_not_change_the_run(tmp_path):
+    # the force sensor's noise is drawn at each instant the force is read: a recorder that
+    # read it at a tick no guard read it at moved surgical_complication's abort (5.24 -> 5.22 N)
+    loaded = load_scenario("surgical_complication")
+    plain = run_episode(loaded, 0).to_json_dict()
+    recorded = record(loaded, 0, tmp_path / "sc.rrd").result.to_json_dict()
+    for result in (plain, recorded):
+        result.pop("wall_time")
+    assert recorded == plain
+    assert recorded["reason"]["guard"] == "contact_force"

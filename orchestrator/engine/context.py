@@ -133,6 +133,9 @@ class Context:
         self.trace: TraceSpec | None = None
         """The path a contact skill is tracing now, for the ground-truth probe
         (engine/trace_truth.py); None when no trace runs."""
+        self.workspace_box: tuple[np.ndarray, np.ndarray] | None = None
+        """The box of the scenario's `workspace` guard, (min, max) [m]; None without one (set
+        by `make_context`)."""
         self.sensor_faults = np.zeros(2)
         """Flags of the sensor faults in effect, shape (2,): [0] the wrist force sensor's
         (`ft_fault` set), [1] a joint encoder's (until the safety channel takes over). 1.0 or

@@ -25,6 +25,7 @@ from ..exceptions import ConfigError, SkillError
 from ..guards import get_guard
 from ..guards.bank import Addresses, GuardBank
 from ..guards.base import Guard, Violation
+from ..guards.easing import Eased
 from ..language.diagnostics import Diagnostic
 from ..language.loading import MachineNode
 from ..language.machine import (
@@ -506,7 +507,10 @@ class Executor:
         self._escalated = False
         """A response guard fired during the safety response: nothing runs but stop and hold."""
         self.ctx = ctx
-        self.scenario_guards = scenario_guards
+        self.scenario_guards = (
+            [Eased(g) for g in scenario_guards] if root.recovery else scenario_guards
+        )
+        """A recovery machine's guards are eased: one already violated may only shrink."""
         self.new_stop = new_stop
         self.hold_s = hold_s
         self.region: _Region | None = None
@@ -578,7 +582,7 @@ class Executor:
                 cls = get_guard(name)
                 guard = cls(cls.Params.model_validate(params))
                 guard.bind(self.ctx)
-                out.append(guard)
+                out.append(Eased(guard) if self.root.recovery else guard)
             return out
 
         self._levels.append(node)

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..exceptions import OrchestratorError
 from ..language.load import LoadedScenario
+from ..language.scenario_checks import workspace_box
 from ..robots import Controller
 from ..skills.ik import IKSolver
 from ..world.world import World, robot_only_model
@@ -79,6 +80,7 @@ def make_context(
 ) -> Context:
     """The context of an episode (or of a live session): sensors, IK, the blackboard."""
     ctx = Context(world, controller, blackboard, np.random.default_rng([seed, 1]), dt_control)
+    ctx.workspace_box = workspace_box(world.scenario)
     ctx.ik = IKSolver(
         world.robot, robot_only_model(world.robot), dt_control, world.scenario.robot.base_pos
     )

@@ -74,6 +74,11 @@ class Guard(abc.ABC):
     Params: ClassVar[type[GuardParams]]
     priority: ClassVar[int] = 0
     """Guards are checked in decreasing priority; the first violation wins."""
+    ease_tolerance: ClassVar[float] = 0.0
+    """While recovering (guards/easing.py): how much a violation may grow beyond the least it
+    has reached before the guard fires, in the unit of `excess` (the readings' noise)."""
+    ease_unit: ClassVar[str] = ""
+    """The unit of `excess` (for messages)."""
 
     def __init__(self, params: GuardParams) -> None:
         self.params = params
@@ -103,4 +108,12 @@ class Guard(abc.ABC):
 
     def monitored(self, ctx: Context) -> tuple[float, float] | None:
         """The scalar this guard watches and its limit, for plots (None if not scalar)."""
+        return None
+
+    def excess(self, ctx: Context) -> np.ndarray | None:
+        """How far past each of its limits the readings are now, one value per limit, in
+        `ease_unit` (> 0: past it by that much; <= 0: within it). Moving the arm can reduce
+        it: while recovering, a violated guard checks that its excess does not grow
+        (guards/easing.py). None (the default): the guard cannot say — a violation of it
+        (a sensor fault, a count over time) is not one motion can undo."""
         return None

@@ -43,6 +43,8 @@ class Collision(Guard):
     priority: ClassVar[int] = 4
     """Before `sensor_health`: a real impact can drive the wrist force out of the sensor's
     range, and it is then a collision, not a sensor fault."""
+    ease_tolerance: ClassVar[float] = 0.001
+    ease_unit: ClassVar[str] = "m"
 
     params: CollisionParams
 
@@ -123,3 +125,28 @@ class Collision(Guard):
     def monitored(self, ctx: Context) -> tuple[float, float]:
         hits = 0.0 if self._block is None else float(self._block.dot(self._mask))
         return hits, 0.0
+
+    def excess(self, ctx: Context) -> np.ndarray:
+        """Per sensor of a forbidden contact: 0 while it counts none, else 1 + the deepest
+        penetration of its contacts [m] (the 1 marks the contact itself: a contact that was
+        not there is a new violation, a deeper one a growing one). Shape (forbidden sensors,).
+        """
+        if self._block is None:
+            return np.zeros(0)
+        forbidden = [s for s in self._sensors if self._mask[s.adr - self._lo]]
+        depth = [0.0] * len(forbidden)
+        m, d = ctx.model, ctx.data
+        for i in range(d.ncon):
+            g = (int(d.contact.geom[i][0]), int(d.contact.geom[i][1]))
+            for mine, other in (g, g[::-1]):
+                names = (m.geom(mine).name, m.body(int(m.geom_bodyid[mine])).name)
+                partner = m.body(int(m.geom_bodyid[other])).name
+                for k, s in enumerate(forbidden):
+                    if s.robot in names and s.partner in (None, partner):
+                        depth[k] = max(depth[k], -float(d.contact.dist[i]))
+        return np.array(
+            [
+                1.0 + depth[k] if self._block[s.adr - self._lo] else 0.0
+                for k, s in enumerate(forbidden)
+            ]
+        )

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, ClassVar
 
+import numpy as np
 from pydantic import Field, PositiveFloat
 
 from .base import Envelope, Guard, GuardParams, Violation
@@ -28,6 +29,8 @@ class ContactForce(Guard):
 
     name: ClassVar[str] = "contact_force"
     Params: ClassVar[type[GuardParams]] = ContactForceParams
+    ease_tolerance: ClassVar[float] = 2.0
+    ease_unit: ClassVar[str] = "N"
 
     params: ContactForceParams
 
@@ -51,3 +54,7 @@ class ContactForce(Guard):
 
     def monitored(self, ctx: Context) -> tuple[float, float]:
         return math.sqrt(ctx.wrist_force_norm_sq()), self.params.max_n
+
+    def excess(self, ctx: Context) -> np.ndarray:
+        """The wrist force norm above `max_n` [N]. Shape (1,)."""
+        return np.array([math.sqrt(ctx.wrist_force_norm_sq()) - self.params.max_n])

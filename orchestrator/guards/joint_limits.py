@@ -26,6 +26,8 @@ class JointLimits(Guard):
 
     name: ClassVar[str] = "joint_limits"
     Params: ClassVar[type[GuardParams]] = JointLimitsParams
+    ease_tolerance: ClassVar[float] = 0.002
+    ease_unit: ClassVar[str] = "rad"
 
     params: JointLimitsParams
 
@@ -65,3 +67,9 @@ class JointLimits(Guard):
     def monitored(self, ctx: Context) -> tuple[float, float]:
         q = ctx.data.qpos[self.idx]
         return float(np.min(np.minimum(q - self.lower, self.upper - q))), 0.0
+
+    def excess(self, ctx: Context) -> np.ndarray:
+        """How far each joint is below its lower and above its upper bound [rad]. Shape
+        (2 n_arm,)."""
+        q = ctx.data.qpos[self.idx]
+        return np.concatenate([self.lower - q, q - self.upper])

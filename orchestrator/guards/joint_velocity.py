@@ -32,6 +32,8 @@ class JointVelocity(Guard):
     name: ClassVar[str] = "joint_velocity"
     Params: ClassVar[type[GuardParams]] = JointVelocityParams
     priority: ClassVar[int] = 1
+    ease_tolerance: ClassVar[float] = 0.05
+    ease_unit: ClassVar[str] = "rad/s"
 
     params: JointVelocityParams
 
@@ -75,3 +77,7 @@ class JointVelocity(Guard):
     def monitored(self, ctx: Context) -> tuple[float, float]:
         qd = np.abs(ctx.data.qvel[self._dofs]) / np.asarray(self._lim)
         return float(np.max(qd)), 1.0
+
+    def excess(self, ctx: Context) -> np.ndarray:
+        """Each joint's speed above its limit [rad/s]. Shape (n_arm,)."""
+        return np.abs(ctx.data.qvel[self._dofs]) - np.asarray(self._lim)

@@ -45,6 +45,8 @@ class NoGoZone(Guard):
     name: ClassVar[str] = "no_go_zone"
     Params: ClassVar[type[GuardParams]] = NoGoZoneParams
     priority: ClassVar[int] = 1
+    ease_tolerance: ClassVar[float] = 0.001
+    ease_unit: ClassVar[str] = "m"
 
     params: NoGoZoneParams
 
@@ -118,3 +120,9 @@ class NoGoZone(Guard):
     def monitored(self, ctx: Context) -> tuple[float, float] | None:
         hit = self._nearest(ctx)
         return (hit[0], self.params.margin_m) if hit is not None else None
+
+    def excess(self, ctx: Context) -> np.ndarray:
+        """How far the nearest robot geom is inside the margin of a zone [m] (-1 when none is
+        near). Shape (1,)."""
+        hit = self._nearest(ctx)
+        return np.array([-1.0 if hit is None else self.params.margin_m - hit[0]])

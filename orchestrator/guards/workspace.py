@@ -34,6 +34,8 @@ class Workspace(Guard):
 
     name: ClassVar[str] = "workspace"
     Params: ClassVar[type[GuardParams]] = WorkspaceParams
+    ease_tolerance: ClassVar[float] = 0.001
+    ease_unit: ClassVar[str] = "m"
 
     params: WorkspaceParams
 
@@ -76,3 +78,8 @@ class Workspace(Guard):
     def monitored(self, ctx: Context) -> tuple[float, float]:
         p = ctx.data.site_xpos[self.site]
         return float(np.min(np.minimum(p - self.lo, self.hi - p))), 0.0
+
+    def excess(self, ctx: Context) -> np.ndarray:
+        """How far the TCP is below `min` and above `max`, per axis [m]. Shape (6,)."""
+        p = ctx.data.site_xpos[self.site]
+        return np.concatenate([self.lo - p, p - self.hi])

@@ -21,6 +21,7 @@ from .entries import entry_file, unknown_entry
 from .events import check_events, parse_event_spec
 from .faults import parse_fault_spec
 from .includes import resolve_include
+from .inputs import check_inputs
 from .limits import current_limits
 from .loading import MachineNode, load_machine_file
 from .overrides import Override, apply_override, parcels_alias, parse_override
@@ -185,7 +186,7 @@ def load_scenario(
                 scenario.randomize, types, scenario.guards, r.name, r.base_pos, doc.source
             )
     if node is not None:
-        problems += validate_machine(node)
+        problems += validate_machine(node) + check_inputs(node)
     if scenario is not None and not problems:
         problems += _compiles(scenario, doc.source)
     if problems:
@@ -224,7 +225,7 @@ def load_machine(
         )
     node, problems = load_machine_file(path, tuple(Path(a) for a in allow_paths))
     if node is not None:
-        problems += validate_machine(node)
+        problems += validate_machine(node) + check_inputs(node)
     if problems:
         raise ConfigError(problems)
     assert node is not None

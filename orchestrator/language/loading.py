@@ -33,6 +33,8 @@ class MachineNode:
         guards: Machine-level guards.
         on_abort: State entered after a guard fires (None: the built-in safe stop).
         events: Event name -> state it preempts into (`events:`; top-level machines only).
+        inputs: Key -> its `input:` flag, for the keys this level declares with one.
+        recovery: A recovery machine (`recovery: true`; top-level machines only).
         children: State name -> nested machine for `machine:` and inline `states:`.
         branches: Parallel state name -> branch name -> a nested machine, or the branch spec
             itself for a single-skill branch.
@@ -53,6 +55,8 @@ class MachineNode:
     types: dict[str, str] = field(default_factory=dict)
     top: bool = True
     events: dict[str, str] = field(default_factory=dict)
+    inputs: dict[str, bool] = field(default_factory=dict)
+    recovery: bool = False
 
     def outcomes(self) -> list[str]:
         """The outcomes this machine can end with (its `final:` values, in order)."""
@@ -202,6 +206,11 @@ class _Loader:
             self.cache[real] = None
             return None, problems
         defaults, types = _declarations(spec.blackboard)
+        flags = {
+            k: v.input
+            for k, v in spec.blackboard.items()
+            if isinstance(v, BlackboardKey) and v.input is not None
+        }
         node = MachineNode(
             name=spec.name,
             initial=spec.initial,
@@ -212,6 +221,8 @@ class _Loader:
             on_abort=spec.on_abort,
             source=doc.source,
             events=dict(spec.events),
+            inputs=flags,
+            recovery=spec.recovery,
         )
         problems += self.children(node, path, (*stack, real), depth)
         self.cache[real] = node

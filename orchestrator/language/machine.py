@@ -75,6 +75,13 @@ class BlackboardKey(_Strict):
     type: BlackboardType = Field(description="Value type; checked for defaults and overrides.")
     default: Any = Field(default=None, description="Initial value (null: none yet).")
     description: str | None = None
+    input: bool | None = Field(
+        default=None,
+        description="A live command or a planner may set this key (`send run --set`, `ask`). "
+        "Default: true for a goal-like key (one a motion's `target`, a `via` point's target or "
+        "a position hint `near` reads) that no skill writes, false for any other. Scenario "
+        "values (guards, physics, scene, robot) are never inputs.",
+    )
 
 
 class BranchSpec(_Strict):
@@ -208,6 +215,13 @@ class MachineSpec(_Strict):
         default_factory=dict,
         description="Event name -> state entered when the event arrives, preempting whatever "
         "state is active (top-level machine only). Built in: estop, pause, resume.",
+    )
+    recovery: bool = Field(
+        default=False,
+        description="A recovery machine (top-level only): it may start where the world "
+        "violates a guard; every guard stays active, and one already violated when it becomes "
+        "active checks that its violation does not grow until it is within its limit again "
+        "(the bundled `recover`).",
     )
     states: dict[str, StateSpec] = Field(min_length=1)
 

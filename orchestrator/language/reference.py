@@ -377,6 +377,7 @@ def scenario_summary(loaded: Any) -> str:
     Args:
         loaded: A `LoadedScenario`.
     """
+    from .inputs import machine_inputs
     from .loading import initial_values
     from .validation import blackboard_types
 
@@ -407,19 +408,21 @@ def scenario_summary(loaded: Any) -> str:
     lines += [
         "The values this scenario starts with: its own `blackboard:`, else the default of the "
         "outermost machine that declares the key (a nested machine's defaults give way to "
-        "its parent's).",
+        "its parent's). Inputs may also be set by a live command or a planner (docs/live.md).",
         "",
-        "| key | type | value | set by |",
-        "|---|---|---|---|",
+        "| key | type | value | set by | input |",
+        "|---|---|---|---|---|",
     ]
     types = blackboard_types(machine)
+    inputs = machine_inputs(machine)
     values = initial_values(machine, scn.blackboard)
     origin = _default_origins(machine)
     origin.update(dict.fromkeys(scn.blackboard, "this scenario"))
     for key in sorted(types):
         value = _value(values[key]) if key in values else ""
         by = origin.get(key, "a skill writes it")
-        lines.append(f"| `{key}` | {types[key]} | {value} | {by} |")
+        live = "yes" if key in inputs else ""
+        lines.append(f"| `{key}` | {types[key]} | {value} | {by} | {live} |")
     lines += ["", "## Success checks", ""]
     for name, check in scn.success.items():
         entry = check.model_dump() if isinstance(check, BaseModel) else dict(check)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import typing
 from typing import Any
 
+import numpy as np
 from pydantic import BaseModel
 
 from ..guards import GUARDS
@@ -21,7 +22,14 @@ from .success import check_success_names
 from .validation import written_keys
 from .yamlio import SourceMap
 
-__all__ = ["goal_keys", "check_faults", "check_scenario_refs", "check_scene_names", "scene_bodies"]
+__all__ = [
+    "goal_keys",
+    "check_faults",
+    "check_scenario_refs",
+    "check_scene_names",
+    "scene_bodies",
+    "workspace_box",
+]
 
 
 def object_names(scenario: Scenario) -> list[str]:
@@ -131,6 +139,16 @@ def _missing_scene(source: SourceMap, at: tuple, cls: Any, scenario: Scenario) -
         for key in getattr(cls, "needs_scene", ())
         if getattr(scenario.scene, key, None) is None
     ]
+
+
+def workspace_box(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
+    """The box of the scenario's `workspace` guard, (min, max), world frame [m] (its defaults
+    filled in); None without one."""
+    for _, name, params in guard_entries(scenario.guards):
+        if name == "workspace":
+            box = GUARDS[name].Params.model_validate(params)
+            return np.asarray(box.min, float), np.asarray(box.max, float)  # type: ignore[attr-defined]
+    return None
 
 
 def goal_keys(machine: MachineNode) -> set[str]:

@@ -1,13 +1,15 @@
 """The planner adapter: an instruction in words -> one guarded `run` command.
 
 `orchestrator ask NAME "put the cube on the pad"` sends the instruction, the scene's object
-and marker names, the machines a task may run (with their blackboard keys) and the JSON
-schema of `PlannerCommand` to an OpenAI-compatible chat-completions endpoint. The reply must
-be that JSON object and nothing else; it is parsed into `PlannerCommand` (unknown fields are
-refused) and submitted like any other command, so the session's checks apply in full: the
-machine and its keys must exist, object names must be in the scene, and every position goes
-through the guardrail (finite, in the workspace, clear of no-go zones, reachable). Nothing
-the planner says can move the robot without passing them.
+and marker names, the machines a task may run (with their inputs: the only keys a planner may
+set) and the JSON schema of `PlannerCommand` to an OpenAI-compatible chat-completions
+endpoint. The reply must be that JSON object and nothing else, with finite numbers (`NaN` and
+`Infinity` are refused); it is parsed into `PlannerCommand` (unknown fields are refused) and
+submitted like any other command, so the session's checks apply in full: only the machine's
+inputs may be set (never a guard, physics, scene or robot value), object names must be in the
+scene, and every value that becomes a position goes through the guardrail (finite, in the
+workspace, clear of no-go zones, reachable; a position hint near an object). Nothing the
+planner says can move the robot without passing them, nor change a limit.
 
 Configuration (environment variables): `ORCHESTRATOR_PLANNER_URL` (the API base, e.g.
 `http://127.0.0.1:8080/v1`; `/chat/completions` is appended), `ORCHESTRATOR_PLANNER_MODEL`
@@ -17,6 +19,7 @@ Configuration (environment variables): `ORCHESTRATOR_PLANNER_URL` (the API base,
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 from typing import Any
@@ -65,13 +68,13 @@ class PlannerCommand(BaseModel):
 
 def system_prompt(scene: dict[str, Any]) -> str:
     """The instructions: the scene's names, the machines and keys, the reply's schema."""
+    from ..language.inputs import machine_inputs
     from ..language.load import load_machine
-    from ..language.validation import blackboard_types
 
     lines = []
     for name in TASK_MACHINES:
         node = load_machine(name)
-        keys = ", ".join(f"{k} ({t})" for k, t in blackboard_types(node).items()) or "none"
+        keys = ", ".join(f"{k} ({t})" for k, t in machine_inputs(node).items()) or "none"
         lines.append(f"- {name}: keys {keys}.")
     schema = json.dumps(PlannerCommand.model_json_schema())
     return (
@@ -87,16 +90,19 @@ def parse_reply(text: str) -> PlannerCommand:
     """The planner's text -> a `PlannerCommand` (a ```json fence around it is tolerated).
 
     Raises:
-        PlannerError: Not JSON, not an object, or not the schema (extra fields included).
+        PlannerError: Not JSON, a number that is not finite, not an object, or not the schema
+            (extra fields included).
     """
     body = text.strip()
     fenced = re.fullmatch(r"```(?:json)?\s*(.*?)\s*```", body, flags=re.S)
     if fenced:
         body = fenced.group(1)
     try:
-        data = json.loads(body)
+        data = json.loads(body, parse_constant=_not_finite, parse_float=_finite)
     except json.JSONDecodeError:
         raise PlannerError(f"the planner did not answer with JSON: {text[:120]!r}") from None
+    except ValueError as exc:
+        raise PlannerError(f"the planner's command is invalid: {exc}") from None
     try:
         return PlannerCommand.model_validate(data)
     except ValidationError as exc:
@@ -104,6 +110,20 @@ def parse_reply(text: str) -> PlannerCommand:
             f"{'.'.join(str(p) for p in e['loc']) or 'reply'}: {e['msg']}" for e in exc.errors()
         )
         raise PlannerError(f"the planner's command is invalid: {problems}") from None
+
+
+def _not_finite(name: str) -> Any:
+    """`json.loads` calls this for `NaN`, `Infinity` and `-Infinity` (not JSON, but Python's
+    parser takes them): refused."""
+    raise ValueError(f"{name}: not finite (numbers must be finite)")
+
+
+def _finite(text: str) -> float:
+    """A JSON number as a float, refused if it overflows to infinity (`1e400`)."""
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{text[:40]}: not finite (numbers must be finite)")
+    return value
 
 
 def planner_url() -> str:

@@ -25,11 +25,12 @@ __all__ = [
     "key",
 ]
 
-COMMANDS = ("run", "stop", "estop", "reset", "pause", "resume", "status", "shutdown")
+COMMANDS = ("run", "stop", "estop", "reset", "pause", "resume", "status", "shutdown", "recover")
 """Every command a session takes."""
-PRIORITY = {"estop": 0, "shutdown": 1, "stop": 1, "pause": 2, "resume": 2, "reset": 2, "run": 3}
+PRIORITY = {"estop": 0, "shutdown": 1, "stop": 1, "pause": 2, "resume": 2, "reset": 2, "run": 3,
+            "recover": 3}  # fmt: skip
 """Lower first: what arrives in the same control tick is applied in this order."""
-STATES = ("IDLE", "MOVING", "GRASPING", "PAUSED", "ESTOPPED", "ERROR")
+STATES = ("IDLE", "MOVING", "GRASPING", "PAUSED", "BLOCKED", "ESTOPPED", "ERROR")
 """The robot's state as the session publishes it."""
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 """Where `serve` listens and clients connect unless told otherwise (loopback only)."""
@@ -39,7 +40,7 @@ class Command(BaseModel):
     """One command to a session.
 
     Attributes:
-        op: What to do (`COMMANDS`).
+        op: What to do (`COMMANDS`; `recover` runs the bundled `recover` machine).
         machine: For `run`: a machine file or a bundled name (`pick_place`, `home`, `reach`).
         set: For `run`: blackboard values `KEY=VALUE` (YAML values), checked by the guardrail.
         client: Who sends it (for the log).
@@ -51,7 +52,7 @@ class Command(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    op: Literal["run", "stop", "estop", "reset", "pause", "resume", "status", "shutdown"]
+    op: Literal["run", "stop", "estop", "reset", "pause", "resume", "status", "shutdown", "recover"]
     machine: str | None = Field(default=None, description="For `run`: machine path or name.")
     set: list[str] = Field(default_factory=list, description="For `run`: KEY=VALUE texts.")
     client: str = Field(default="", max_length=128, description="Who sends the command.")

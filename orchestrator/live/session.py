@@ -5,8 +5,8 @@ answers at once, accepted or rejected with the reason, after checking what it ca
 touching the world (a task's machine and `--set` values are loaded and validated, its goals
 go through the guardrail). Accepted commands wait in an inbox that the session's loop drains
 at the start of every control tick, highest priority first (`estop` > `stop`, `shutdown` >
-`pause`, `resume`, `reset` > `run`); tasks run one after another, first in first out.
-`estop` (any thread, `Session.estop`) takes no lock and wakes the loop: it is applied at the
+`pause`, `resume`, `reset` > `run`, `recover`); tasks run one after another, first in first
+out. `estop` (any thread, `Session.estop`) takes no lock and wakes the loop: it is applied at the
 start of the next control tick whatever the command handlers are doing.
 
 The queue policy: a `run` while a task runs or waits is refused, naming the running task
@@ -14,6 +14,11 @@ The queue policy: a `run` while a task runs or waits is refused, naming the runn
 a `run` with `preempt` stops the running task under control, drops the queue, and runs next.
 Task ids are `<epoch>-<n>`: the epoch is random per session, so no id is reused when a
 session restarts and a client waiting on a task never takes another task's result.
+
+Only the task machine's inputs may be set (live/inputs.py): limits are the scenario's. While no
+task runs, the guards every task starts with are checked on the idle world (live/blocked.py):
+a violated one makes the state BLOCKED, and then only a recovery machine (`recover`) may start.
+Every change of the published state is an `events` message (`{"event": "state", ...}`).
 
 Simulated time is paced to the wall clock: `speed` 1 is real time, 2 twice as fast, 0 as
 fast as the machine can (while a task runs; an idle or paused robot is kept at real time:
@@ -48,17 +53,19 @@ from ..engine.runner import Observer, make_context
 from ..engine.safety_stop import SafetyStop
 from ..engine.step import StepLoop
 from ..exceptions import ConfigError
-from ..language.diagnostics import Diagnostic
 from ..language.load import load_scenario
 from ..language.machine import ESTOP, PAUSE, RESUME
-from ..language.overrides import parse_override
 from ..world.world import World
+from .blocked import Blocked
 from .guardrail import GoalRejected, check_goals
+from .inputs import parse_sets, refuse_non_inputs
 from .protocol import PRIORITY, Command, Reply
 from .task import Task
 
-__all__ = ["GRIPPER_SKILLS", "Session"]
+__all__ = ["GRIPPER_SKILLS", "RECOVER", "Session"]
 
+RECOVER = "recover"
+"""The bundled recovery machine the `recover` command runs."""
 GRIPPER_SKILLS = ("grasp", "release")
 """Skills during which the published state is GRASPING (else MOVING)."""
 STATUS_PERIOD_S = 0.1
@@ -157,6 +164,11 @@ class Session:
         """The scene's names (in the status: a planner proposes goals with them)."""
         self.rt_window: deque[tuple[float, float]] = deque(maxlen=200)
         """(wall, simulated time) of the last ticks, for the real-time factor."""
+        self.blocked = Blocked(self.loaded, self.ctx)
+        """The guards every task starts with, checked on the idle world after every control
+        tick (BLOCKED; not before the first: the controller has not commanded anything yet)."""
+        self._published_state = self.state
+        """The state last published (its changes are events)."""
 
     # -- commands (any thread) ----------------------------------------------------------
     def heartbeat(self, owner: str = "") -> None:
@@ -215,7 +227,11 @@ class Session:
         if self.shutting_down:
             return Reply(accepted=False, reason="the session is shutting down")
         payload: Any = None
-        if op == "run":
+        if op == "recover":  # the bundled recovery machine, with its own values only
+            if cmd.set or cmd.machine:
+                return Reply(accepted=False, reason="recover: takes no machine and no values")
+            cmd = cmd.model_copy(update={"machine": RECOVER})
+        if op in ("run", "recover"):
             why = self.busy(cmd)
             if why is not None:  # before loading anything: a flood of runs costs nothing
                 return Reply(accepted=False, reason=why)
@@ -261,13 +277,22 @@ class Session:
         if (self.estopped or self.error) and not self._reset_pending:
             return f"the robot is {self.state}: send `reset` first", None
         machine = cmd.machine or self.loaded.scenario.machine
+        overrides, refused = parse_sets(cmd.set)  # inputs only: never a scenario value
+        if refused is not None:
+            return refused, None
         try:
             loaded = load_scenario(
                 self.scenario_ref, cmd.set, allow_paths=self.allow_paths, machine=machine
             )
         except ConfigError as exc:
             return str(exc), None
-        keys = [o.path[0] for o in map(parse_override, cmd.set) if not isinstance(o, Diagnostic)]
+        keys = [o.path[0] for o in overrides]
+        refused = refuse_non_inputs(loaded.machine, keys)
+        if refused is not None:
+            return refused, None
+        refused = self._refuse_blocked(loaded.machine.recovery)
+        if refused is not None:
+            return refused, None
         q_arm = self.world.data.qpos[self.world.arm_qpos].copy()
         try:
             with self._lock:
@@ -276,17 +301,33 @@ class Session:
             return f"goal rejected: {exc}", None
         return None, Task(next(self._ids), loaded, self.ctx, machine, self.loop)
 
+    def _refuse_blocked(self, recovery: bool) -> str | None:
+        """While BLOCKED only a recovery machine may start, and only if moving can help."""
+        if self.blocked.violation is None or self.task is not None:
+            return None  # a running task's end is checked again before the next one starts
+        if not recovery:
+            return (
+                f"the robot is BLOCKED: {self.blocked.why()}: every task would abort at once; "
+                "send `recover` first (it backs the arm out, every guard active)"
+            )
+        if not self.blocked.recoverable:
+            return (
+                f"the robot is BLOCKED: {self.blocked.why()}: moving the arm cannot undo "
+                "this (a fault, not a place); find its cause and restart the session"
+            )
+        return None
+
     # -- the published state ------------------------------------------------------------
     @property
     def state(self) -> str:
-        """IDLE, MOVING, GRASPING, PAUSED, ESTOPPED or ERROR."""
+        """IDLE, MOVING, GRASPING, PAUSED, BLOCKED, ESTOPPED or ERROR."""
         if self.estopped:
             return "ESTOPPED"
         if self.error:
             return "ERROR"
         task = self.task
         if task is None or task.executor is None:
-            return "IDLE"
+            return "BLOCKED" if self.blocked.violation is not None else "IDLE"
         ex = task.executor
         if ex.paused:
             return "PAUSED"
@@ -327,6 +368,7 @@ class Session:
             "speed": self.speed,
             "watchdog_s": self.watchdog_s,
             "tcp": np.round(self.ctx.tcp_pos, 5).tolist(),
+            "blocked": self.blocked.to_dict(),
             "scene": self.scene,
             "last_estop": self.last_estop,
         }
@@ -340,15 +382,42 @@ class Session:
             if self.shutting_down and self.task is None:
                 break
             if self.task is None and self.tasks and not (self.estopped or self.error):
-                self._start(self.tasks[0])  # running before it leaves the queue: `busy`
-                self.tasks.popleft()  # never sees a moment with neither
+                self._start_next()
             self._tick()
+            self._after_tick()
             self._status_if_due()
             self._pace()
         self.publish("events", {"event": "shutdown"})
 
+    def _start_next(self) -> None:
+        """Start the next task, unless the world is BLOCKED and it is no recovery machine.
+        A task is running before it leaves the queue: `busy` never sees a moment with neither."""
+        task = self.tasks[0]
+        if self.blocked.violation is not None and not task.loaded.machine.recovery:
+            self.tasks.popleft()
+            self._task_end_rejected(task)
+            return
+        self._start(task)
+        self.tasks.popleft()
+
+    def _after_tick(self) -> None:
+        """The idle world's guards (BLOCKED), and an event for every change of the state."""
+        if self.task is None:
+            self.blocked.check(self.ctx)
+        state = self.state
+        if state != self._published_state:
+            event: dict[str, Any] = {"event": "state", "from": self._published_state,
+                                     "to": state, "t": round(self.ctx.t, 4)}  # fmt: skip
+            if self.task is not None:
+                event["task"] = self.task.id
+            if state == "BLOCKED":
+                event["blocked"] = self.blocked.to_dict()
+            self._published_state = state
+            self.publish("events", event)
+
     def _start(self, task: Task) -> None:
         """Start `task` on the world (with its recorder, if the session records)."""
+        self.blocked.task_started()
         self.task = task
         self._observer = self.recorder(task) if self.recorder is not None else None
         task.start([self._observer] if self._observer is not None else [])
@@ -420,7 +489,7 @@ class Session:
         elif op == "reset":
             self.estopped, self.error, self._reset_pending = False, None, False
             self.publish("events", {"event": "reset"})
-        elif op == "run" and isinstance(payload, Task):
+        elif op in ("run", "recover") and isinstance(payload, Task):
             if self.estopped or self.error:
                 self._pending.pop(payload.id, None)
                 self._task_end_rejected(payload)

@@ -9,6 +9,7 @@ from typing import Any
 
 from rich.console import Console
 from rich.live import Live
+from rich.markup import escape
 from rich.table import Table
 
 from .access import Credentials
@@ -19,7 +20,7 @@ __all__ = ["HEARTBEAT_LOST_S", "render", "watch"]
 HEARTBEAT_LOST_S = 0.5
 """No session heartbeat for this long (wall time) and the view says so [s]."""
 _STYLE = {"IDLE": "green", "MOVING": "cyan", "GRASPING": "cyan", "PAUSED": "yellow",
-          "ESTOPPED": "bold red", "ERROR": "bold red"}  # fmt: skip
+          "BLOCKED": "bold yellow", "ESTOPPED": "bold red", "ERROR": "bold red"}  # fmt: skip
 
 
 def render(status: dict[str, Any] | None, silent_s: float | None, name: str) -> Table:
@@ -45,6 +46,10 @@ def render(status: dict[str, Any] | None, silent_s: float | None, name: str) -> 
         table.add_row(
             "last result", f"#{last['task']} {last['machine']}: {last['outcome']}{reason}"
         )
+    blocked = status.get("blocked")
+    if blocked:  # the guard the idle world violates: `recover` gets out
+        why = escape(f"{blocked['guard']}: {blocked['message']}")
+        table.add_row("blocked", f"[yellow]{why}[/] (send recover)")
     if status.get("error"):
         table.add_row("error", f"[red]{status['error']}[/]")
     rt = status.get("realtime_factor")

@@ -18,12 +18,13 @@ from rerun.chunk import Chunk
 from .paths import SIM_TIME, TICK
 from .timeline import seconds_to_ns
 
-__all__ = ["StaticBatch", "TemporalBatch", "fixed_size_lists", "scalar_lists"]
+__all__ = ["StaticBatch", "TemporalBatch", "field_metadata", "fixed_size_lists", "scalar_lists"]
 
 _F32_ITEM = pa.field("item", pa.float32(), nullable=False)
 
 
-def _metadata(entity: str, descriptor: rr.ComponentDescriptor) -> dict[bytes, bytes]:
+def field_metadata(entity: str, descriptor: rr.ComponentDescriptor) -> dict[bytes, bytes]:
+    """The Arrow field metadata that tells Rerun which entity and component a column is."""
     meta = {
         b"rerun:kind": b"data",
         b"rerun:entity_path": entity.encode(),
@@ -73,7 +74,7 @@ class _Batch:
     def add(self, entity: str, descriptor: rr.ComponentDescriptor, array: pa.Array) -> None:
         """One component column of `entity` (a later one for the same component replaces)."""
         name = f"{entity}:{descriptor.component}"
-        field = pa.field(name, array.type, metadata=_metadata(entity, descriptor))
+        field = pa.field(name, array.type, metadata=field_metadata(entity, descriptor))
         self._columns[(entity, descriptor.component)] = (field, array)
 
     def _record_batch(self, index: list[tuple[pa.Field, pa.Array]]) -> pa.RecordBatch:

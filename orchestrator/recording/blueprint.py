@@ -4,24 +4,54 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import mujoco
 import numpy as np
 import rerun.blueprint as rrb
+from rerun.blueprint.encodings import TextLogColumn, TimelineColumn
 
-from .paths import ACTIVE_STATE, CAMERAS, EVENTS, GRAPH, GUARDS, LEVELS, SIM_TIME, WORLD
-from .signals import GRIPPER_WIDTH, JOINT_TORQUE, TCP_ERROR, WRIST_FORCE
+from .framing import WorkFrame
+from .paths import (
+    ACTIVE_STATE,
+    CAMERAS,
+    EVENTS,
+    GRAPH,
+    GUARD_VALUES,
+    GUARDS,
+    LEVELS,
+    SIM_TIME,
+    WORLD,
+)
+from .signals import GRIPPER_WIDTH, JOINT_TORQUE, TCP_ERROR, WRIST_FORCE, WRIST_FORCE_XYZ
 
-__all__ = ["default_blueprint", "graph_view_bounds", "machine_share"]
+__all__ = [
+    "LEGIBLE_ZOOM",
+    "WINDOWS",
+    "default_blueprint",
+    "graph_panel_px",
+    "graph_view_bounds",
+    "graph_zoom",
+    "machine_share",
+]
 
-_PLOTS_SHARE = 0.24
+_PLOTS_SHARE = 0.27
 """Width of the plots-and-events column, as a share of the window."""
-_MACHINE_SHARE = (0.28, 0.5)
+_MACHINE_SHARE = (0.24, 0.46)
 """Least and most width of the machine graph's column, as a share of the window."""
-_PANEL_H_PX, _WINDOW_W_PX = 800.0, 1600.0
-"""The graph panel's height in a 1600x900 window, and that window's width [px]."""
+WINDOWS = ((1600, 900), (1280, 720))
+"""The browser windows the layout is made for [px]: a laptop's and a small one."""
+_CHROME_PX = 100.0
+"""Window height the graph panel does not get: the viewer's top bar, the collapsed time
+panel and the view's title bar [px] (measured in Rerun 0.41's web viewer: an 800 px panel in
+a 900 px window)."""
+LEGIBLE_ZOOM = 0.75
+"""The least zoom at which the graph's 12 px labels are legible (9 px text)."""
 _MARGIN_PX = (16.0, 30.0)
 """Room kept around the graph: sides and bottom, top [px]. Rerun outlines the graph 10 px
 outside its nodes and writes the entity path above the outline; its own fit leaves that out."""
+_LANES_WINDOW_S = (6.0, 2.0)
+"""The state lanes show this much simulated time before and after the cursor [s]: 8 s across
+the lanes, so a state of half a second is wide enough for its name in a long run."""
+_MARGINS_RANGE = (0.0, 2.2)
+"""The guard margins' y axis: 1.0 (fires) below the middle, the legend (top left) above it."""
 
 
 def graph_view_bounds(bounds: tuple[float, float, float, float]) -> rrb.VisualBounds2D:
@@ -32,70 +62,140 @@ def graph_view_bounds(bounds: tuple[float, float, float, float]) -> rrb.VisualBo
     return rrb.VisualBounds2D(x_range=[x0 - side, x1 + side], y_range=[y0 - top, y1 + side])
 
 
+def _shown_size(bounds: tuple[float, float, float, float]) -> tuple[float, float]:
+    side, top = _MARGIN_PX
+    return bounds[2] - bounds[0] + 2 * side, bounds[3] - bounds[1] + side + top
+
+
+def graph_panel_px(share: float, window: tuple[int, int]) -> tuple[float, float]:
+    """The size of the graph panel [px] in a browser window `window` (w, h) [px] when its
+    column is `share` of the width."""
+    return share * window[0], window[1] - _CHROME_PX
+
+
+def graph_zoom(bounds: tuple[float, float, float, float], share: float, window: tuple[int, int]):
+    """The zoom Rerun shows a graph within `bounds` at, in a column of `share` of `window`:
+    the view fits its visual bounds in the panel, and never zooms in past 1."""
+    w, h = _shown_size(bounds)
+    pw, ph = graph_panel_px(share, window)
+    return min(1.0, pw / w, ph / h)
+
+
 def machine_share(bounds: tuple[float, float, float, float] | None) -> float:
-    """The share of the window's width that shows a graph laid out within `bounds` (x0, y0,
-    x1, y1) [px] at zoom 1 in a 1600x900 window (the panel is ~800 px high), within
-    `_MACHINE_SHARE`."""
+    """The share of the window's width the machine graph gets: enough to show a graph within
+    `bounds` (x0, y0, x1, y1) [px] at the zoom its panel's height allows (at most 1) in the
+    smallest of `WINDOWS`, within `_MACHINE_SHARE`."""
     lo, hi = _MACHINE_SHARE
     if bounds is None:
         return lo
-    side, top = _MARGIN_PX
-    w = bounds[2] - bounds[0] + 2 * side
-    h = bounds[3] - bounds[1] + side + top
-    zoom = min(1.0, _PANEL_H_PX / h)
-    return float(np.clip(w * zoom / _WINDOW_W_PX, lo, hi))
+    w, h = _shown_size(bounds)
+    window = min(WINDOWS)
+    zoom = min(1.0, graph_panel_px(1.0, window)[1] / h)
+    return float(np.clip(w * zoom / window[0], lo, hi))
 
 
 def default_blueprint(
-    model: mujoco.MjModel | None = None,
+    frame: WorkFrame | None = None,
     graph_bounds: tuple[float, float, float, float] | None = None,
     cameras: Sequence[str] = (),
 ) -> rrb.Blueprint:
     """The layout a saved or live recording opens with.
 
-    Left: the 3D scene above the state lanes (what the robot did, and in which state).
-    Middle: the machine graph, full height, its active states lit. Right: guard margins
-    against their limits, force, tracking error and torques, and the event log (errors in
-    red). The time panel is a single row following `sim_time`.
+    Left: the 3D scene framed on the work, the cameras (each its RGB image with the
+    detections over it; depth and segmentation are layers to turn on), the state lanes.
+    Middle: the machine graph, full height, its active states lit. Right: the guards' margins
+    (raw values in a tab behind), the wrist force (TCP error, gripper and torques in tabs
+    behind) and the event log. The time panel is a single row following `sim_time`.
 
     Args:
-        model: If given, the 3D camera frames the model (its `stat.center` and `stat.extent`).
-        graph_bounds: Where the machine graph's layout lies (x0, y0, x1, y1) [px]: the view
-            shows exactly that, and its column is made wide enough to show it at zoom 1 in a
-            1600x900 window (within 28-50% of the width).
-        cameras: Scenario cameras: each gets a 2D view (its image, depth, segmentation and
-            detections) under the 3D scene.
+        frame: If given, the 3D view's eye frames this work (framing.py); the user zooms out
+            with the mouse wheel.
+        graph_bounds: A box holding every expansion of the machine graph (x0, y0, x1, y1)
+            [px]: the view shows exactly that, its column wide enough to show it at the zoom
+            its height allows.
+        cameras: Scenario cameras: each gets a 2D view under the 3D scene.
     """
     eye = None
-    if model is not None:
-        center = np.asarray(model.stat.center, dtype=np.float64)
-        extent = max(float(model.stat.extent), 0.5)
+    if frame is not None:
         eye = rrb.EyeControls3D(
-            position=(center + extent * np.array([1.1, -1.3, 0.9])).tolist(),
-            look_target=center.tolist(),
-            eye_up=[0.0, 0.0, 1.0],
+            position=frame.eye.tolist(), look_target=frame.center.tolist(), eye_up=[0, 0, 1]
         )
-    scene = rrb.Spatial3DView(name="Scene", origin=WORLD, eye_controls=eye)
-    states = rrb.StateTimelineView(
-        name="States", origin="/", contents=[ACTIVE_STATE, f"{LEVELS}/**"]
+    hidden = rrb.EntityBehavior(visible=False)
+    layers = {
+        f"{CAMERAS}/{c}/{layer}": hidden for c in cameras for layer in ("depth", "segmentation")
+    }
+    scene = rrb.Spatial3DView(
+        name="Scene",
+        origin=WORLD,
+        contents=["$origin/**", *(f"- {path}" for path in layers)],
+        eye_controls=eye,
     )
-    right = rrb.Vertical(
-        rrb.TimeSeriesView(name="Guards: value vs limit", origin=GUARDS),
-        rrb.TimeSeriesView(name="Wrist force [N]", origin=WRIST_FORCE),
+    states = rrb.StateTimelineView(
+        name="States",
+        origin="/",
+        contents=[ACTIVE_STATE, f"{LEVELS}/**"],
+        time_view=rrb.TimeAxis(
+            view_range=rrb.TimeRange(
+                start=rrb.TimeRangeBoundary.cursor_relative(seconds=-_LANES_WINDOW_S[0]),
+                end=rrb.TimeRangeBoundary.cursor_relative(seconds=_LANES_WINDOW_S[1]),
+            )
+        ),
+    )
+    guards = rrb.Tabs(
+        rrb.TimeSeriesView(
+            name="Guards: margin (1.0 = fires)",
+            origin=GUARDS,
+            axis_y=rrb.ScalarAxis(range=_MARGINS_RANGE, zoom_lock=False),
+            plot_legend=rrb.PlotLegend(corner="LeftTop"),
+        ),
+        rrb.TimeSeriesView(
+            name="Guards: raw values",
+            origin=GUARD_VALUES,
+            plot_legend=rrb.PlotLegend(corner="LeftTop"),
+        ),
+        active_tab=0,
+    )
+    signals = rrb.Tabs(
+        rrb.TimeSeriesView(
+            name="Wrist force [N]",
+            origin=WRIST_FORCE,
+            plot_legend=rrb.PlotLegend(corner="LeftTop"),
+        ),
+        rrb.TimeSeriesView(name="Force x, y, z [N]", origin=WRIST_FORCE_XYZ),
         rrb.TimeSeriesView(name="TCP error, gripper [m]", contents=[TCP_ERROR, GRIPPER_WIDTH]),
         rrb.TimeSeriesView(name="Joint torques [N m]", origin=JOINT_TORQUE),
-        rrb.TextLogView(name="Events", origin=EVENTS),
+        active_tab=0,
     )
+    events = rrb.TextLogView(
+        name="Events",
+        origin=EVENTS,
+        columns=rrb.TextLogColumns(
+            timeline_columns=[TimelineColumn(SIM_TIME, visible=True)],
+            text_log_columns=[
+                TextLogColumn("EntityPath", visible=False),
+                TextLogColumn("LogLevel"),
+                TextLogColumn("Body"),
+            ],
+        ),
+    )
+    right = rrb.Vertical(guards, signals, events, row_shares=[6, 4, 3])
     machine = machine_share(graph_bounds)
     graph = rrb.GraphView(
         name="Machine",
         origin=GRAPH,
         visual_bounds=graph_view_bounds(graph_bounds) if graph_bounds is not None else None,
     )
-    left = rrb.Vertical(scene, states, row_shares=[3, 1])
+    left = rrb.Vertical(scene, states, row_shares=[5, 2])
     if cameras:
-        views = [rrb.Spatial2DView(name=f"Camera {c}", origin=f"{CAMERAS}/{c}") for c in cameras]
-        left = rrb.Vertical(scene, rrb.Horizontal(*views), states, row_shares=[3, 2, 1])
+        views = [
+            rrb.Spatial2DView(
+                name=f"Camera {c} (depth, segmentation: eye icons)",
+                origin=f"{CAMERAS}/{c}",
+                overrides={p: v for p, v in layers.items() if p.startswith(f"{CAMERAS}/{c}/")},
+            )
+            for c in cameras
+        ]
+        left = rrb.Vertical(scene, rrb.Horizontal(*views), states, row_shares=[4, 4, 3])
     return rrb.Blueprint(
         rrb.Horizontal(
             left,

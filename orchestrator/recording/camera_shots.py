@@ -1,6 +1,10 @@
 """Camera frames in a recording: each camera as a pinhole in the 3D scene, with the RGB, depth
 and segmentation images a perception skill looked at and its detections as labelled boxes.
 
+The RGB image is stored exactly as rendered (lossless PNG); depth in millimetres (uint16);
+segmentation as geom id + 1 (uint16). The default layout shows the RGB image with the boxes
+over it; depth and segmentation are layers the reader turns on (blueprint.py).
+
 Logged only at the ticks a skill captured a frame (`Context.camera_shots`), never per tick.
 """
 
@@ -8,6 +12,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+import cv2
 import numpy as np
 import rerun as rr
 
@@ -57,6 +62,19 @@ class CameraShots:
         self._pending.clear()
 
 
+def _png(bgr: np.ndarray) -> bytes:
+    """A lossless PNG of an 8-bit BGR image (the RGB image exactly as rendered, ~3x smaller)."""
+    ok, data = cv2.imencode(".png", bgr, [cv2.IMWRITE_PNG_COMPRESSION, 1])
+    if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
+        raise ValueError("PNG encoding failed")
+    return data.tobytes()
+
+
+def _millimetres(depth_m: np.ndarray) -> np.ndarray:
+    """Depth [m] as uint16 millimetres (0: nothing hit), half the size of float32."""
+    return np.clip(np.rint(depth_m * 1000.0), 0, np.iinfo(np.uint16).max).astype(np.uint16)
+
+
 def _archetypes(frame: Frame, found: list[Detection]) -> list[tuple[str, Any]]:
     k = frame.intrinsics
     path = camera_path(frame.camera)
@@ -71,11 +89,15 @@ def _archetypes(frame: Frame, found: list[Detection]) -> list[tuple[str, Any]]:
                 image_plane_distance=0.1,
             ),
         ),
-        (f"{path}/rgb", rr.Image(frame.rgb)),
-        (f"{path}/depth", rr.DepthImage(frame.depth, meter=1.0)),
+        (
+            f"{path}/rgb",
+            rr.EncodedImage(contents=_png(frame.rgb[:, :, ::-1]), media_type="image/png"),
+        ),
+        (f"{path}/depth", rr.DepthImage(_millimetres(frame.depth), meter=1000.0)),
     ]
     if frame.seg is not None:
-        out.append((f"{path}/segmentation", rr.SegmentationImage(frame.seg + 1)))
+        seg = np.clip(frame.seg + 1, 0, np.iinfo(np.uint16).max).astype(np.uint16)
+        out.append((f"{path}/segmentation", rr.SegmentationImage(seg)))
     out.append(
         (
             f"{path}/detections",

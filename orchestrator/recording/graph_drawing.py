@@ -9,8 +9,10 @@ it are lit: an accent colour (finals keep theirs) and `LIT_MARK` before the name
 A view showing more than one graph entity outlines each with a rectangle captioned with its
 entity path. The frames of nested machines are exactly that: one entity per nested machine
 (`state_machine/graph/PICK/GRASP`) holding two invisible corner points, so that its outline is
-the machine's frame and its caption names the nesting. Everything a reader follows (states,
-arrows) is one entity, `state_machine/graph`: Rerun draws edges only within an entity.
+the machine's frame and its caption names the nesting; a shut machine's entity holds no
+points, and no frame is drawn. Everything a reader follows (states, arrows, outcome labels) is
+one entity, `state_machine/graph`: Rerun draws edges only within an entity. Outcome labels are
+nodes without edges, in a muted blue grey (`EDGE_LABEL`), placed on or beside their arrow.
 """
 
 from __future__ import annotations
@@ -22,14 +24,17 @@ import rerun as rr
 from rerun.chunk import Chunk
 
 from .batches import StaticBatch
-from .machine_graph import GUARD, GUARD_LABEL, LIT_MARK, MachineGraph, on_path
+from .graph_views import ExpansionView
+from .machine_graph import GUARD, LIT_MARK, MachineGraph, on_path
 from .paths import GRAPH, frame_path
 from .timeline import time_columns
 
-__all__ = ["ACCENT", "IDLE", "GraphDrawing"]
+__all__ = ["ACCENT", "EDGE_LABEL", "IDLE", "GraphDrawing"]
 
 IDLE = 0x8C8C8CFF
 """Text colour of a state that is not active: legible on the light and the dark theme."""
+EDGE_LABEL = 0x7F9AADFF
+"""Text colour of the outcomes written on arrows (a muted blue grey: not a state)."""
 ACCENT = 0x2F80EDFF
 """Text colour of the active leaf and the states running it (final states keep theirs)."""
 _ENTITY_PAD = 10.0
@@ -44,68 +49,129 @@ def _rgba(colors: Iterable[int]) -> np.ndarray:
 
 
 class GraphDrawing:
-    """The static graph and, per state entry, which nodes are lit.
+    """The graph's expansions over time and, per state entry, which nodes are lit.
+
+    Everything is on the timeline: at each state entry the labels and colours of the nodes
+    (the leaf and its ancestors lit); when the entry opens other nested machines than the
+    previous one (graph_views.py), also the nodes, their positions, the arrows and the frames.
 
     Args:
-        graph: The machine tree's graph (with its layout).
+        graph: The machine tree's graph (with its expansions).
     """
 
     def __init__(self, graph: MachineGraph) -> None:
         self.graph = graph
-        self.node_ids = [*graph.states, GUARD]
-        infos = list(graph.states.values())
-        self.labels = [s.name for s in infos] + [GUARD_LABEL]
-        self._lit_labels = [LIT_MARK + s.name for s in infos] + [GUARD_LABEL]
-        final = ("success", "final", "abort")
-        self._idle = _rgba([s.color if s.kind in final else IDLE for s in infos] + [IDLE])
-        self._lit = _rgba([s.color if s.kind in final else ACCENT for s in infos] + [IDLE])
+        self._shown: tuple[str, ...] | None = None
+        """The expansion last drawn (None: none yet)."""
+        self._owners = sorted({o for o in graph.regions.values() if o})
 
     def log_static(self, static: StaticBatch) -> None:
-        """Nodes (ids, positions), arrows, and the nested frames. Labels and colours change
-        over time (`chunks`): static values would hide the temporal ones."""
+        """What never changes: the arrows are directed, labels are shown, frames are
+        invisible corner points."""
         static.log(
             GRAPH,
-            rr.GraphNodes(
-                node_ids=self.node_ids,
-                positions=[self.graph.positions[n] for n in self.node_ids],
-                show_labels=True,
-            ),
-            rr.GraphEdges(edges=self.graph.edges, graph_type="directed"),
+            rr.GraphEdges.from_fields(graph_type="directed"),
+            rr.GraphNodes.from_fields(show_labels=True),
         )
-        inset = _ENTITY_PAD + _CORNER_R
-        for owner, (x0, y0, x1, y1) in self.graph.layout.groups.items():
+        for owner in self._owners:
             static.log(
                 frame_path(owner),
-                rr.GraphNodes(
-                    node_ids=["top_left", "bottom_right"],
-                    positions=[(x0 + inset, y0 + inset), (x1 - inset, y1 - inset)],
-                    colors=_rgba([0, 0]),
-                    radii=[_CORNER_R, _CORNER_R],
-                    show_labels=False,
+                rr.GraphNodes.from_fields(
+                    colors=_rgba([0, 0]), radii=[_CORNER_R, _CORNER_R], show_labels=False
                 ),
             )
 
     def chunks(
         self, ticks: Sequence[int], t_s: Sequence[float], leaves: Sequence[str]
     ) -> list[Chunk]:
-        """Labels and colours of every node at each state entry (control tick, time [s],
-        the leaf entered): the leaf and its ancestors lit."""
-        lit = np.array(
-            [[on_path(node, leaf) for node in self.node_ids] for leaf in leaves], dtype=bool
-        )
-        labels = [
-            lit_label if on else label
-            for row in lit
-            for on, label, lit_label in zip(row, self.labels, self._lit_labels, strict=True)
-        ]
-        colors = np.where(lit, self._lit, self._idle).ravel()
-        n = len(self.node_ids)
-        return [
+        """The drawing at each state entry (control tick, time [s], the leaf entered)."""
+        out: list[Chunk] = []
+        layout_rows: list[int] = []
+        labels: list[str] = []
+        colors: list[int] = []
+        lengths: list[int] = []
+        for i, leaf in enumerate(leaves):
+            view = self.graph.view(leaf)
+            if view.expanded != self._shown:
+                layout_rows.append(i)
+                self._shown = view.expanded
+            for node in view.nodes:
+                labels.append(self._label(node, leaf, view))
+                colors.append(self._color(node, leaf))
+            lengths.append(len(view.nodes))
+        index = time_columns(np.asarray(ticks), np.asarray(t_s))
+        out.append(
             Chunk.from_columns(
                 GRAPH,
-                indexes=time_columns(np.asarray(ticks), np.asarray(t_s)),
-                columns=rr.GraphNodes.columns(labels=labels, colors=colors).partition(
-                    [n] * len(leaves)
+                indexes=index,
+                columns=rr.GraphNodes.columns(labels=labels, colors=_rgba(colors)).partition(
+                    lengths
                 ),
             )
+        )
+        if layout_rows:
+            out += self._layouts(
+                [ticks[i] for i in layout_rows],
+                [t_s[i] for i in layout_rows],
+                [leaves[i] for i in layout_rows],
+            )
+        return out
+
+    def _label(self, node: str, leaf: str, view: ExpansionView) -> str:
+        text = view.labels[node]
+        info = self.graph.states.get(node)
+        return LIT_MARK + text if info is not None and on_path(node, leaf) else text
+
+    def _color(self, node: str, leaf: str) -> int:
+        info = self.graph.states.get(node)
+        if info is None:
+            return IDLE if node == GUARD else EDGE_LABEL
+        if info.kind in ("success", "final", "abort"):
+            return info.color
+        return ACCENT if on_path(node, leaf) else IDLE
+
+    def _layouts(
+        self, ticks: Sequence[int], t_s: Sequence[float], leaves: Sequence[str]
+    ) -> list[Chunk]:
+        """Nodes, positions, arrows and frames of the expansions entered at these rows."""
+        views = [self.graph.view(leaf) for leaf in leaves]
+        index = time_columns(np.asarray(ticks), np.asarray(t_s))
+        ids = [n for v in views for n in v.nodes]
+        positions = [v.layout.positions[n] for v in views for n in v.nodes]
+        edges = [e for v in views for e in v.edges]
+        out = [
+            Chunk.from_columns(
+                GRAPH,
+                indexes=index,
+                columns=[
+                    *rr.GraphNodes.columns(node_ids=ids, positions=positions).partition(
+                        [len(v.nodes) for v in views]
+                    ),
+                    *rr.GraphEdges.columns(edges=edges).partition([len(v.edges) for v in views]),
+                ],
+            )
         ]
+        inset = _ENTITY_PAD + _CORNER_R
+        for owner in self._owners:
+            corner_ids: list[str] = []
+            corners: list[tuple[float, float]] = []
+            lengths = []
+            for v in views:
+                frame = v.layout.groups.get(owner)
+                if frame is None:
+                    lengths.append(0)
+                    continue
+                x0, y0, x1, y1 = frame
+                corner_ids += ["top_left", "bottom_right"]
+                corners += [(x0 + inset, y0 + inset), (x1 - inset, y1 - inset)]
+                lengths.append(2)
+            out.append(
+                Chunk.from_columns(
+                    frame_path(owner),
+                    indexes=index,
+                    columns=rr.GraphNodes.columns(
+                        node_ids=corner_ids, positions=np.array(corners).reshape(-1, 2)
+                    ).partition(lengths),
+                )
+            )
+        return out

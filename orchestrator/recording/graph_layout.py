@@ -27,14 +27,17 @@ _PAD_X, _PAD_Y = 6.0, 4.0
 """Inner margin of a label's frame in Rerun's graph view [px]."""
 _LINE_H = 16.0
 """Height of one line of label text [px]."""
-_WIDTHS = {" ": 0.30, ".": 0.30, ":": 0.30, "_": 0.55, "I": 0.32, "-": 0.40, "▶": 0.85}
+_WIDTHS = {
+    " ": 0.30, ".": 0.30, ",": 0.30, ":": 0.30, "_": 0.55, "I": 0.32, "-": 0.40, "▶": 0.85,
+    "…": 1.0, "i": 0.25, "l": 0.25, "t": 0.35, "f": 0.35, "r": 0.38, "m": 0.85, "w": 0.75,
+}  # fmt: skip
 _UPPER, _WIDE, _LOWER = 0.70, 1.0, 0.52
 """Advance widths of the narrow characters of Rerun's UI font (Inter), in ems."""
-_XSPACE, _YSPACE = 24.0, 20.0
-"""Gaps between neighbours in a layer and between layers [px]. A lit label (`▶ ` before the
-name, ~15 px wider, centred) still leaves neighbours ~16 px apart: only one state per machine
-level is lit."""
-_GROUP_PAD = 12.0
+_XSPACE, _YSPACE = 28.0, 21.0
+"""Gaps between neighbours in a layer and between layers [px]: a row of edge labels (26 px
+high) fits between two layers. A lit label (`▶ ` before the name, ~15 px wider, centred)
+still leaves neighbours ~16 px apart: only one state per machine level is lit."""
+_GROUP_PAD = 8.0
 """Margin inside a group frame around its states [px]."""
 CAPTION_H = 18.0
 """Room above a group frame for its caption (Rerun writes an entity's path there) [px]."""
@@ -45,21 +48,24 @@ _COMPONENT_GAP = 36.0
 
 
 def label_size(text: str) -> tuple[float, float]:
-    """The size of a node's label frame in the graph view: width, height [px].
+    """The size of a node's label frame in the graph view: width, height [px]. A label may
+    have several lines (`\n`).
 
     An estimate from Inter's advance widths (upper case ~0.70 em, lower case ~0.52 em), within
     ~5% of what Rerun 0.41 draws for upper-case state names (`TRANSPORT`: 90 px drawn, 90 px
     estimated); Rerun measures the real text, and the gaps are larger than the error.
     """
-    em = 0.0
-    for ch in text:
-        if ch in _WIDTHS:
-            em += _WIDTHS[ch]
-        elif ch.isupper() or ch.isdigit():
-            em += _WIDE if ch in "MW" else _UPPER
-        else:
-            em += _LOWER
-    return em * FONT_PX + 2 * _PAD_X + 2.0, _LINE_H + 2 * _PAD_Y + 2.0
+    lines = text.split("\n")
+    em = max(sum(_advance(ch) for ch in line) for line in lines)
+    return em * FONT_PX + 2 * _PAD_X + 2.0, _LINE_H * len(lines) + 2 * _PAD_Y + 2.0
+
+
+def _advance(ch: str) -> float:
+    if ch in _WIDTHS:
+        return _WIDTHS[ch]
+    if ch.isupper() or ch.isdigit():
+        return _WIDE if ch in "MW" else _UPPER
+    return _LOWER
 
 
 @dataclass

@@ -1,9 +1,10 @@
-"""The machine tree as a graph: state paths, kinds, colours, regions, edges and a layout.
+"""The machine tree as a graph: state paths, kinds, colours, regions, edges and expansions.
 
 Pure data computed from a `MachineNode` (no Rerun, no simulator), once per machine: the
-recorder turns it into StateConfiguration, GraphNodes and GraphEdges, and uses `lanes` to split
-a leaf path into the state of every machine level it passes through. The layout is layered,
-top to bottom in flow order, nested machines inside their owner's frame (`graph_layout.py`).
+recorder turns it into StateConfiguration, GraphNodes and GraphEdges. What the graph shows
+while a leaf runs is an expansion (`graph_views.py`): the nested machines holding the leaf
+open, the others one node; each expansion is laid out once, layered top to bottom in flow
+order, nested machines inside their owner's frame (`graph_layout.py`).
 """
 
 from __future__ import annotations
@@ -11,8 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ..language.machine import SAFE_STOP
-from .graph_layout import GraphLayout, Level, layered_layout
+from ..language.machine import SAFE_STOP, guard_entries
+from .graph_layout import GraphLayout, Level
+from .graph_views import ExpansionView, expansion_view, shifted
 from .paths import frame_path
 
 if TYPE_CHECKING:
@@ -95,20 +97,50 @@ class MachineGraph:
             a nested machine from the final states its outcomes come from, into it to the state
             that runs it), entry from that state to the nested initial state, and `GUARD` to
             the abort state.
-        layout: Positions of every node (the states and `GUARD`), frames of nested machines.
+        views: What the graph shows while a leaf runs: the expansion with the leaf's nested
+            machines open (`view`), keyed by the open composite states (sorted).
         initial_leaf: The leaf state the machine starts in.
+        outcomes: Each edge -> the outcomes that take it (empty for entries and the guard's).
     """
 
     states: dict[str, StateInfo]
     regions: dict[str, str]
     edges: list[tuple[str, str]]
-    layout: GraphLayout
+    views: dict[tuple[str, ...], ExpansionView]
     initial_leaf: str
+    outcomes: dict[tuple[str, str], list[str]]
+
+    def view(self, leaf: str) -> ExpansionView:
+        """The expansion shown while `leaf` runs: the nested machines holding it open."""
+        return self.views[self.expansion(leaf)]
+
+    def expansion(self, leaf: str) -> tuple[str, ...]:
+        """The composite states that hold `leaf` (its open nested machines), sorted."""
+        parts = leaf.split(".")
+        owners = (".".join(parts[:i]) for i in range(1, len(parts)))
+        composites = set(self.regions.values())
+        return tuple(sorted(o for o in owners if o and o in composites))
+
+    @property
+    def layout(self) -> GraphLayout:
+        """The layout of the initial leaf's expansion."""
+        return self.view(self.initial_leaf).layout
 
     @property
     def positions(self) -> dict[str, tuple[float, float]]:
-        """Node id -> centre (x, y) in the graph view [px]; y grows downwards."""
+        """Node id -> centre (x, y) in the initial expansion [px]; y grows downwards."""
         return self.layout.positions
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """A box holding every expansion, each laid out from (0, 0): (x0, y0, x1, y1) [px]."""
+        boxes = [v.layout.bounds for v in self.views.values()]
+        return (
+            min(b[0] for b in boxes),
+            min(b[1] for b in boxes),
+            max(b[2] for b in boxes),
+            max(b[3] for b in boxes),
+        )
 
     def lanes(self, leaf: str) -> dict[str, str]:
         """The state of every machine level along `leaf`: region path -> state name.
@@ -168,19 +200,28 @@ def build_graph(root: MachineNode) -> MachineGraph:
 
     initials = {_region_of(path): node.initial for path, _, node in walked}
     flow: dict[str, list[tuple[str, str]]] = {region: [] for region in regions}
-    edges: list[tuple[str, str]] = []
+    outcomes: dict[tuple[str, str], list[str]] = {}
 
-    def add(src: str, dst: str) -> None:
-        if src != dst and (src, dst) not in edges:
-            edges.append((src, dst))
+    def add(src: str, dst: str, outcome: str | None = None) -> None:
+        if src == dst:
+            return
+        outs = outcomes.setdefault((src, dst), [])
+        if outcome is not None and outcome not in outs:
+            outs.append(outcome)
 
+    retries: dict[str, int] = {}
+    guards: dict[str, list[str]] = {}
     for path, spec, _node in walked:
         region = _region_of(path)
         prefix = region + "." if region else ""
         for outcome, target in spec.transitions.items():
             flow[region].append((path, prefix + target))
             for src in _exits(path, outcome, states, regions) or [path]:
-                add(src, prefix + target)
+                add(src, prefix + target, outcome)
+        if getattr(spec, "retry", 0):
+            retries[path] = int(spec.retry)
+        if getattr(spec, "guards", None):
+            guards[path] = [name for _, name, _ in guard_entries(spec.guards)]
     for region, owner in regions.items():
         if region:
             add(owner, f"{region}.{initials[region]}")
@@ -190,10 +231,24 @@ def build_graph(root: MachineNode) -> MachineGraph:
     while leaf.rsplit(".", 1)[-1] in node.children:
         node = node.children[leaf.rsplit(".", 1)[-1]]
         leaf = f"{leaf}.{node.initial}"
-    labels = {path: info.name for path, info in states.items()} | {GUARD: GUARD_LABEL}
+    names = {path: info.name for path, info in states.items()} | {GUARD: GUARD_LABEL}
     captions = {o: "/" + frame_path(o) for o in set(regions.values()) if o}
-    layout = layered_layout(_level("", states, regions, flow, initials, abort), labels, captions)
-    return MachineGraph(states, regions, edges, layout, leaf)
+    composites = {owner for owner in regions.values() if owner}
+    top = _level("", states, regions, flow, initials, abort)
+    keys = {
+        tuple(sorted(o for o in composites if on_path(o, path) and o != path)) for path in states
+    }
+    views = {
+        key: expansion_view(top, names, composites, outcomes, retries, guards, captions, key)
+        for key in sorted(keys)
+    }
+    # every expansion top-aligned at y = 0 and centred on the widest: switching between them
+    # keeps the graph in place in its panel
+    width = max(v.layout.bounds[2] - v.layout.bounds[0] for v in views.values())
+    for key, v in views.items():
+        x0, y0, x1, _ = v.layout.bounds
+        views[key] = shifted(v, (width - (x1 - x0)) / 2 - x0, -y0)
+    return MachineGraph(states, regions, list(outcomes), views, leaf, outcomes)
 
 
 def _exits(

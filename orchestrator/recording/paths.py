@@ -12,6 +12,7 @@ __all__ = [
     "GEOMS",
     "GRAPH",
     "GUARDS",
+    "GUARD_VALUES",
     "LEVELS",
     "SIGNALS",
     "SIM_TIME",
@@ -45,12 +46,15 @@ STATE_MACHINE = "state_machine"
 ACTIVE_STATE = f"{STATE_MACHINE}/active"
 """StateChange of the active leaf state, by dotted path (`PICK.SEARCH`)."""
 LEVELS = f"{STATE_MACHINE}/levels"
-"""`<LEVELS>/<region>`: StateChange of each machine level (`root`, `PICK`, ...)."""
+"""`<LEVELS>/depth_<d>`: StateChange of each nesting depth (`depth_0` the top level)."""
 GRAPH = f"{STATE_MACHINE}/graph"
 """GraphNodes/GraphEdges of the machine tree, the active states highlighted over time."""
 SIGNALS = "signals"
 GUARDS = "guards"
-"""`<GUARDS>/<guard>`: each guard's monitored value next to its limit."""
+"""`<GUARDS>/<guard>`: each guard's utilisation (1.0 = it fires), `<GUARDS>/trip` the line at
+1.0, `<GUARDS>/<guard>/tripped` the instant a guard fired."""
+GUARD_VALUES = "guard_values"
+"""`<GUARD_VALUES>/<guard>`: each guard's raw monitored value next to its limit."""
 EVENTS = "events"
 """`<EVENTS>/<kind>`: TextLog per event kind (transition, outcome, retry, violation, ...)."""
 
@@ -78,6 +82,6 @@ def frame_path(owner: str) -> str:
     return "/".join([GRAPH, *(part(p) for p in owner.split("."))])
 
 
-def level_path(region: str) -> str:
-    """Entity path of a machine level's state lane (`""` is the top level: `root`)."""
-    return f"{LEVELS}/{part(region) if region else 'root'}"
+def level_path(depth: int) -> str:
+    """Entity path of the state lane of nesting depth `depth` (`depth_0` is the top level)."""
+    return f"{LEVELS}/depth_{depth}"

@@ -1,17 +1,30 @@
-"""Body poses: static bodies once, moving bodies every control tick, sent as columns."""
+"""Body poses: static bodies once, moving bodies whenever they moved, sent as columns.
+
+A body's pose is sent at the control ticks it moved: its position quantized to `POS_STEP_M`
+and its rotation to `QUAT_STEP` changed since the tick before. A parcel resting in its bin,
+a cube on the table, an arm holding still send nothing (Rerun shows the last pose sent): in
+a sorting run most of the bodies rest most of the time. The error this leaves is under the
+quantum (0.1 mm), far below what a viewer shows.
+"""
 
 from __future__ import annotations
 
 import mujoco
 import numpy as np
 import rerun as rr
+from rerun.chunk import Chunk
 
 from .batches import StaticBatch, TemporalBatch, fixed_size_lists
 from .geometry import body_names
 from .paths import body_path
 from .timeline import Rows
 
-__all__ = ["BodyPoses"]
+__all__ = ["POS_STEP_M", "QUAT_STEP", "BodyPoses"]
+
+POS_STEP_M = 1e-4
+"""A body whose position moves by less than this between ticks is at rest there [m]."""
+QUAT_STEP = 1e-4
+"""The same for each quaternion component (~0.01 deg)."""
 
 _TRANSLATION = rr.Transform3D.descriptor_translation()
 _QUATERNION = rr.Transform3D.descriptor_quaternion()
@@ -71,16 +84,43 @@ class BodyPoses:
         rows.pos[i] = data.xpos
         rows.quat[i] = data.xquat
 
-    def add_columns(self, batch: TemporalBatch, values: dict[str, np.ndarray]) -> None:
-        """Add rows of the per-tick table to `batch`: a Transform3D per moving body."""
-        # body-major float32 copies: each body's rows are then contiguous
-        pos = np.ascontiguousarray(values["pos"][:, self.moving].transpose(1, 0, 2), np.float32)
-        xyzw = values["quat"][:, self.moving][:, :, [1, 2, 3, 0]].transpose(1, 0, 2)
-        xyzw = np.ascontiguousarray(xyzw, np.float32)
-        for j, b in enumerate(self.moving):
-            path = self.paths[int(b)]
-            batch.add(path, _TRANSLATION, fixed_size_lists(pos[j]))
-            batch.add(path, _QUATERNION, fixed_size_lists(xyzw[j]))
+    def chunks(
+        self, ticks: np.ndarray, t_s: np.ndarray, values: dict[str, np.ndarray]
+    ) -> list[Chunk]:
+        """Rows of the per-tick table as one Transform3D chunk per moving body, holding the
+        rows at which it moved (`POS_STEP_M`, `QUAT_STEP`); the first row a body ever sends
+        is always kept."""
+        pos = values["pos"][:, self.moving]  # (n, bodies, 3)
+        quat = values["quat"][:, self.moving]
+        key = np.concatenate([np.rint(pos / POS_STEP_M), np.rint(quat / QUAT_STEP)], axis=2)
+        prev = np.concatenate([self._last_key(len(self.moving), key), key[:-1]], axis=0)
+        moved = (key != prev).any(axis=2)  # (n, bodies)
+        self._last = dict(zip(self.moving.tolist(), key[-1], strict=True)) if len(key) else {}
+        # bodies that moved at the same rows (the links of a moving arm) share one batch
+        groups: dict[bytes, list[int]] = {}
+        for j in range(len(self.moving)):
+            if moved[:, j].any():
+                groups.setdefault(moved[:, j].tobytes(), []).append(j)
+        out = []
+        for members in groups.values():
+            rows = np.flatnonzero(moved[:, members[0]])
+            batch = TemporalBatch(ticks[rows], t_s[rows])
+            for j in members:
+                path = self.paths[int(self.moving[j])]
+                batch.add(path, _TRANSLATION, fixed_size_lists(pos[rows, j]))
+                batch.add(path, _QUATERNION, fixed_size_lists(quat[rows, j][:, [1, 2, 3, 0]]))
+            out += batch.chunks()
+        return out
+
+    def _last_key(self, n: int, key: np.ndarray) -> np.ndarray:
+        """The quantized pose each moving body last sent (NaN: never: it is sent). Shape
+        (1, n, 7)."""
+        last = getattr(self, "_last", {})
+        out = np.full((1, n, key.shape[2]), np.nan)
+        for j, b in enumerate(self.moving.tolist()):
+            if b in last:
+                out[0, j] = last[b]
+        return out
 
 
 def _transform(pos: np.ndarray, quat_wxyz: np.ndarray) -> rr.Transform3D:

@@ -14,8 +14,10 @@ from .blueprint import default_blueprint
 from .camera_shots import CameraShots
 from .events import EventLog
 from .exceptions import RecordingError
+from .framing import work_frame
+from .guard_margins import GuardMargins
 from .reshaped import ReshapedGeoms
-from .signals import GuardSignals, RobotSignals
+from .signals import RobotSignals
 from .state_log import StateLog
 from .static_scene import static_scene
 from .targets import Targets
@@ -111,14 +113,19 @@ class RerunRecorder:
         self.rec = None
         scene = static_scene(ctx, executor.root)
         self._static = scene.chunks
-        self._graph_bounds = scene.graph.layout.bounds
+        self._graph_bounds = scene.graph.bounds
+        self._frame = work_frame(ctx)
         self._poses = scene.poses
         self._states = StateLog(scene.graph)
         self._signals = RobotSignals(ctx)
+        self._true_sq = ctx.true_wrist_force_norm_sq
+        self._peak_sq = -1.0
+        """Largest true |F|^2 [N^2] after a physics step since the last row (-1: none)."""
         self._targets = Targets()
         # the per-tick table: one row per control tick, shared by poses and signals
         self._rows = Rows({**self._poses.fields, **self._signals.fields})
-        self._guards = GuardSignals()
+        self._guards = GuardMargins()
+        self._guards.plan(executor.active_guards)
         self._events = EventLog()
         self._shots = CameraShots(ctx)
         self._reshaped = ReshapedGeoms(ctx.model, scene.reshaped)
@@ -127,7 +134,8 @@ class RerunRecorder:
                 ctx.tick, ctx.t, "recorder", f"geom {g}: an SDF without a mesh is not drawn", "WARN"
             )
         self._seen = 0
-        self._last_tick = -1
+        self._last_tick, self._last_t = -1, 0.0
+        self._guards.trip_line(ctx.tick, ctx.t)
         self._resumed_at = None if resumed_in is None else ctx.t
         if resumed_in is None:
             self._states.enter(ctx.tick, ctx.t, self._states.graph.initial_leaf)
@@ -141,6 +149,16 @@ class RerunRecorder:
         ctx.listeners.append(self._on_event)
         if self.live:
             self._flush()
+
+    def on_step(self, ctx: Context) -> None:
+        """After every physics step: keep the peaks a control tick would miss (the true wrist
+        force, the guards in `STEP_PEAK_GUARDS`). About 1 us per step; a run without a
+        recorder does not call it."""
+        f = self._true_sq()
+        if f > self._peak_sq:  # noqa: PLR1730 (cheaper than max() per step)
+            self._peak_sq = f
+        if self._guards.stepping:
+            self._guards.on_step(ctx)
 
     def on_tick(self, ctx: Context, executor: Executor) -> None:
         """Buffer this control tick: poses, signals, guard margins, target changes."""
@@ -214,6 +232,11 @@ class RerunRecorder:
         tick = self._ctx.tick
         self._catch_up(tick)
         self._events.add(tick, event)
+        data = event.data or {}
+        if event.kind == "violation" and "guard" in data:  # logged in the step that fired
+            self._guards.tripped(
+                tick, event.t, self._ctx, str(data["guard"]), data.get("value"), data.get("limit")
+            )
 
     def _catch_up(self, tick: int) -> None:
         """Turn transitions recorded since the last call into state entries at `tick`."""
@@ -227,12 +250,14 @@ class RerunRecorder:
         tick, t = ctx.tick, float(ctx.data.time)
         i = self._rows.append(tick, t)
         self._poses.sample(self._rows, i, ctx.data)
-        self._signals.sample(self._rows, i, ctx)
-        self._guards.sample(tick, t, ctx, executor.active_guards)
+        self._signals.sample(self._rows, i, ctx, self._peak_sq)
+        self._peak_sq = -1.0
+        self._guards.plan(executor.active_guards)
+        self._guards.sample(tick, t, ctx)
         self._targets.sample(tick, t, ctx)
         self._shots.sample()
         self._reshaped.sample(tick, t)
-        self._last_tick = tick
+        self._last_tick, self._last_t = tick, t
 
     def _flush(self) -> None:
         """Send everything buffered as chunks. The per-tick table (the largest) goes first, so
@@ -242,9 +267,9 @@ class RerunRecorder:
         if self._rows.n:
             ticks, t_s, values = self._rows.take()
             table = TemporalBatch(ticks, t_s)
-            self._poses.add_columns(table, values)
             error = self._signals.add_columns(table, values, t_s, ticks)
             chunks = table.chunks() + (error.chunks() if error is not None else [])
+            chunks += self._poses.chunks(ticks, t_s, values)
         first = self.rec is None
         if self.rec is None:
             self.rec = self._open(self._ctx)
@@ -252,7 +277,7 @@ class RerunRecorder:
         if first:
             self.rec.send_blueprint(
                 default_blueprint(
-                    self._ctx.model,
+                    self._frame,
                     self._graph_bounds,
                     [c.name for c in self._ctx.scenario.cameras],
                 ),
@@ -260,6 +285,8 @@ class RerunRecorder:
                 make_default=True,
             )
             self.rec.send_chunks(self._static)
+        if self._last_tick >= 0:  # the trip line at 1.0 reaches the last row sent
+            self._guards.trip_line(self._last_tick, self._last_t)
         chunks = self._guards.chunks()
         chunks += self._targets.chunks()
         chunks += self._states.chunks()

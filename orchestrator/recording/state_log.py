@@ -10,7 +10,7 @@ from rerun.chunk import Chunk
 
 from .batches import StaticBatch
 from .graph_drawing import GraphDrawing
-from .machine_graph import MachineGraph, on_path
+from .machine_graph import MachineGraph
 from .paths import ACTIVE_STATE, level_path
 from .timeline import time_columns
 
@@ -29,9 +29,9 @@ class StateLog:
 
     * `state_machine/active`: the leaf state by dotted path, one row per transition; its values
       are exactly the `to` fields of the run's `transitions` (after the initial state).
-    * `state_machine/levels/<region>`: one lane per machine level (`root`, `PICK`, ...), so a
-      nested machine's states sit under the state that runs it; a lane is reset (a gap) when
-      its owning state is left.
+    * `state_machine/levels/<depth>`: one lane per nesting depth (`depth_0`, `depth_1`, ...): the
+      state at that depth of the active leaf, so a nested machine's states sit under the state
+      that runs it; a lane is empty (a gap) while the leaf is shallower.
     * `state_machine/graph`: the machine's graph (`GraphDrawing`), the active leaf and its
       ancestors lit.
 
@@ -42,13 +42,13 @@ class StateLog:
     def __init__(self, graph: MachineGraph) -> None:
         self.graph = graph
         self._active: list[tuple[int, float, str]] = []
-        self._lanes: dict[str, list[tuple[int, float, str]]] = {}
-        self._lane_now: dict[str, str] = {}
+        self._lanes: dict[int, list[tuple[int, float, str]]] = {}
+        self._lane_now: dict[int, str] = {}
         self._leaf: str | None = None
         self.drawing = GraphDrawing(graph)
 
     def log_static(self, static: StaticBatch) -> None:
-        """State colours per lane, graph nodes (ids, labels, positions) and edges."""
+        """State colours per lane, and what the graph keeps all along."""
         states = list(self.graph.states.values())
         static.log(
             ACTIVE_STATE,
@@ -56,35 +56,29 @@ class StateLog:
                 values=[s.path for s in states], colors=_rgba(s.color for s in states)
             ),
         )
-        for region in self.graph.regions:
-            lane = self.graph.region_states(region)
+        depths: dict[int, dict[str, int]] = {}
+        for s in states:
+            depths.setdefault(s.path.count("."), {}).setdefault(s.name, s.color)
+        for depth, colours in sorted(depths.items()):
             static.log(
-                level_path(region),
-                rr.StateConfiguration(
-                    values=[s.name for s in lane], colors=_rgba(s.color for s in lane)
-                ),
+                level_path(depth),
+                rr.StateConfiguration(values=list(colours), colors=_rgba(colours.values())),
             )
         self.drawing.log_static(static)
 
     def enter(self, tick: int, t_s: float, leaf: str) -> None:
         """The machine entered leaf state `leaf` at control tick `tick`, time `t_s` [s]."""
-        prev = self._leaf
         self._active.append((tick, t_s, leaf))
-        lanes = self.graph.lanes(leaf)
-        for region, now in list(self._lane_now.items()):
-            owner = self.graph.regions[region]
-            if region in lanes or not now:
-                continue
-            if prev is None or (on_path(owner, prev) and not on_path(owner, leaf)):
-                self._lane(tick, t_s, region, "")
-        for region, name in lanes.items():
-            if self._lane_now.get(region) != name:
-                self._lane(tick, t_s, region, name)
+        names = leaf.split(".")
+        for depth in range(max(len(names), len(self._lane_now))):
+            name = names[depth] if depth < len(names) else ""
+            if self._lane_now.get(depth, "") != name:
+                self._lane(tick, t_s, depth, name)
         self._leaf = leaf
 
-    def _lane(self, tick: int, t_s: float, region: str, value: str) -> None:
-        self._lanes.setdefault(region, []).append((tick, t_s, value))
-        self._lane_now[region] = value
+    def _lane(self, tick: int, t_s: float, depth: int, value: str) -> None:
+        self._lanes.setdefault(depth, []).append((tick, t_s, value))
+        self._lane_now[depth] = value
 
     def chunks(self) -> list[Chunk]:
         """The buffered entries as chunks; the buffer is emptied."""
@@ -93,9 +87,9 @@ class StateLog:
             out.append(self._states(ACTIVE_STATE, self._active))
             out += self.drawing.chunks(*zip(*self._active, strict=True))
             self._active = []
-        for region, rows in self._lanes.items():
+        for depth, rows in self._lanes.items():
             if rows:
-                out.append(self._states(level_path(region), rows))
+                out.append(self._states(level_path(depth), rows))
         self._lanes = {}
         return out
 
