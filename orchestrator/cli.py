@@ -1111,6 +1111,14 @@ def serve(
             "(0: a run while busy is refused, naming the running task).",
         ),
     ] = 0,
+    snapshots: Annotated[
+        Path,
+        typer.Option(
+            "--snapshots",
+            help="Folder where `send NAME snapshot` writes and `send NAME restore` reads "
+            "(made when the first snapshot is written).",
+        ),
+    ] = Path("snapshots"),
     listen: Annotated[
         list[str] | None,
         typer.Option(
@@ -1197,6 +1205,7 @@ def serve(
             recorder=recorder,
             allow_paths=_allowed(allow_path),
             queue_limit=queue,
+            snapshot_dir=snapshots,
         )
     except ConfigError as exc:
         _fail_config(exc)
@@ -1223,10 +1232,14 @@ def send(
     session: Annotated[str, typer.Argument(help="The session's name.")],
     command: Annotated[
         str,
-        typer.Argument(help="run, stop, estop, reset, pause, resume, status, shutdown or recover."),
+        typer.Argument(
+            help="run, stop, estop, reset, pause, resume, status, shutdown, recover, snapshot, "
+            "restore or reload."
+        ),
     ],
     machine: Annotated[
-        str | None, typer.Argument(help="For run: machine file or bundled name.")
+        str | None,
+        typer.Argument(help="For run: machine file or bundled name; for reload: the file."),
     ] = None,
     set_: Annotated[
         list[str] | None, typer.Option("--set", help="For run: a blackboard value KEY=VALUE.")
@@ -1241,6 +1254,14 @@ def send(
     password: PasswordOption = None,
     credentials: CredentialsOption = None,
     tls_ca: TlsCaOption = None,
+    name: Annotated[
+        str | None,
+        typer.Option(
+            "--name",
+            help="For snapshot: the file's name (default: session and tick); for "
+            "restore: the snapshot to restore (in the session's --snapshots folder).",
+        ),
+    ] = None,
 ) -> None:
     """Send a command. Exit 2 if rejected; with --wait, the task's exit code (0 succeeded,
     1 failed, 3 aborted), or 5 if the session is lost while waiting (killed, shut down,
@@ -1252,9 +1273,13 @@ def send(
         _live_error(ValueError(f"unknown command {command!r} (valid: {', '.join(COMMANDS)})"))
     if command == "recover" and (machine or set_):
         _live_error(ValueError("recover: takes no MACHINE and no --set (it runs `recover`)"))
-    elif command not in ("run", "recover") and (machine or set_ or wait or preempt):
+    elif command == "reload" and (not machine or set_ or wait or preempt):
+        _live_error(ValueError("reload: give the MACHINE file (and no --set, --wait, --preempt)"))
+    elif command not in ("run", "recover", "reload") and (machine or set_ or wait or preempt):
         only = "takes no MACHINE, --set, --wait or --preempt (only run does)"
         _live_error(ValueError(f"{command}: {only}"))
+    if name is not None and command not in ("snapshot", "restore"):
+        _live_error(ValueError(f"{command}: takes no --name (only snapshot and restore do)"))
     creds = _credentials(user, password, credentials, tls_ca)
     watchdog_s = None
     try:
@@ -1267,7 +1292,7 @@ def send(
             elif command == "estop":
                 reply, result = client.estop(), None
             else:
-                reply, result = client.command(command), None
+                reply, result = client.command(command, machine, snapshot=name), None
     except SessionLost as exc:
         _live_error(exc, EXIT_SESSION_LOST)
         return
@@ -1293,6 +1318,8 @@ def send(
         _json_line(reply.model_dump(mode="json"))
     elif reply.status is not None:
         out.print_json(_strict_json(reply.status))
+    elif reply.snapshot is not None:
+        out.print(f"accepted: {command} {reply.snapshot}", markup=False)
     else:
         out.print(f"accepted{f': task {reply.task}' if reply.task else ''}", markup=False)
         if reply.task and watchdog_s:

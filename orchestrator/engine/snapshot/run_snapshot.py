@@ -17,16 +17,28 @@ from __future__ import annotations
 
 import hashlib
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..context import Context
+from ..episode import Episode
 from ..runner import RunState
 from .pickler import SnapshotError, dumps, loads
 from .snapfile import SnapshotFile, read_snapshot, write_snapshot
 from .versions import differences, versions
 
-__all__ = ["RunSnapshot", "capture_run", "file_digest", "load_run", "write_run"]
+__all__ = [
+    "RunSnapshot",
+    "capture_run",
+    "check_versions",
+    "detached",
+    "file_digest",
+    "load_run",
+    "write_run",
+]
 
 
 @dataclass(frozen=True)
@@ -51,23 +63,34 @@ def file_digest(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
+@contextmanager
+def detached(ctx: Context, episode: Episode | None) -> Iterator[None]:
+    """Within: `episode`'s observers, their listeners on `ctx` and the executor's
+    `entry_listeners` are taken off (they are this process's, not the run's); put back after."""
+    observers = episode.observers if episode is not None else []
+    own = {id(o) for o in observers}
+    listeners = ctx.listeners
+    entry = episode.executor.entry_listeners if episode is not None else []
+    try:
+        if episode is not None:
+            episode.observers = []
+            episode.loop.set_observers([])
+            episode.executor.entry_listeners = []
+        ctx.listeners = [f for f in listeners if id(getattr(f, "__self__", None)) not in own]
+        yield
+    finally:
+        ctx.listeners = listeners
+        if episode is not None:
+            episode.observers = observers
+            episode.loop.set_observers(observers)
+            episode.executor.entry_listeners = entry
+
+
 def capture_run(run: RunState) -> bytes:
     """Pickle `run` (pickler.py), without what is not the run's (see the module docstring);
     the run itself is left as it was and may continue."""
-    ep, ex, ctx = run.episode, run.executor, run.ctx
-    observers = ep.observers
-    own = {id(o) for o in observers}
-    listeners, entry = ctx.listeners, ex.entry_listeners
-    try:
-        ep.observers = []
-        ep.loop.set_observers([])
-        ctx.listeners = [f for f in listeners if id(getattr(f, "__self__", None)) not in own]
-        ex.entry_listeners = []
-        return dumps(run, [ctx.model, ctx.data])
-    finally:
-        ep.observers = observers
-        ep.loop.set_observers(observers)
-        ctx.listeners, ex.entry_listeners = listeners, entry
+    with detached(run.ctx, run.episode):
+        return dumps(run, [run.ctx.model, run.ctx.data])
 
 
 def run_header(run: RunState, stop: dict[str, Any], skill_paths: list[str]) -> dict[str, Any]:
