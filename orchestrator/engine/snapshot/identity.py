@@ -108,8 +108,13 @@ def reference(loaded: LoadedScenario, seed: int) -> tuple[RunResult, list[Case]]
     parallel = _parallel_prefixes(loaded.machine)
     picks: dict[str, tuple[int, bool, str]] = {}
     later = [e for e in log.entries if not e[1]]  # entries after the start
+    opened: dict[str, int] = {}  # parallel state -> tick of its (last) entry
     for tick, _, path, retry in later:
-        if "parallel" not in picks and any(path.startswith(p) for p in parallel):
+        if path + "." in parallel:
+            opened[path + "."] = tick
+        inside = next((p for p in parallel if path.startswith(p)), None)
+        # inside a parallel state while its branches run (not as it is entered)
+        if "parallel" not in picks and inside is not None and tick > opened.get(inside, tick):
             picks["parallel"] = (tick, False, f"entry of {path}")
         if "retry" not in picks and retry:
             picks["retry"] = (tick, False, f"retry {retry} of {path}")

@@ -22,11 +22,15 @@ from pathlib import Path
 
 from .pickler import SnapshotError
 
-__all__ = ["KEY_ENV", "key_path", "sign", "signing_key", "verify"]
+__all__ = ["KEY_ENV", "NoKeyError", "key_path", "sign", "signing_key", "verify"]
 
 KEY_ENV = "ORCHESTRATOR_SNAPSHOT_KEY"
 """Environment variable holding the signing key itself (any text; overrides the key file)."""
 _KEY_BYTES = 32
+
+
+class NoKeyError(SnapshotError):
+    """This user has no snapshot key yet (has written no snapshot)."""
 
 
 def key_path() -> Path:
@@ -47,7 +51,7 @@ def signing_key(create: bool = True) -> bytes:
     path = key_path()
     if not path.exists():
         if not create:
-            raise SnapshotError(f"no snapshot key at {path}: this user has written no snapshot")
+            raise NoKeyError(f"no snapshot key at {path}: this user has written no snapshot")
         _make_key(path)
     mode = path.stat().st_mode
     if mode & (stat.S_IRWXG | stat.S_IRWXO):

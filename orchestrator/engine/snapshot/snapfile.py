@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from .pickler import SnapshotError
-from .signing import KEY_ENV, key_path, sign, verify
+from .signing import KEY_ENV, NoKeyError, key_path, sign, verify
 from .versions import FORMAT
 
 __all__ = ["MAGIC", "SnapshotFile", "read_snapshot", "trust", "write_snapshot"]
@@ -125,7 +125,7 @@ def read_snapshot(path: Path) -> SnapshotFile:
 def _verified(signed: bytes, signature: str) -> bool:
     try:
         return verify(signed, signature)
-    except SnapshotError:  # no key yet: this user has written no snapshot, so not theirs
+    except NoKeyError:  # this user has written no snapshot: so not theirs
         return False
 
 
