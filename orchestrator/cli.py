@@ -35,6 +35,8 @@ err = Console(
 out = Console(highlight=False, emoji=False, width=None if sys.stdout.isatty() else _WIDE)
 
 EXIT_INVALID = 2
+EXIT_BREAK = 6
+"""`run --break ...` stopped at a break point and wrote its snapshot."""
 MAX_SEED = 2**63 - 1
 """Seeds are non-negative 64-bit integers (numpy's generators take any of them)."""
 
@@ -194,13 +196,19 @@ def _fail_config(exc: ConfigError, what: str = "nothing was simulated") -> None:
 @app.command()
 def run(
     scenario: Annotated[
-        str,
+        str | None,
         typer.Argument(
             help="Scenario file or bundled name (e.g. pick_place), or a machine file: it runs "
-            "in the default scene (a Panda, a table, a cube `cube`, a pad `pad`)."
+            "in the default scene (a Panda, a table, a cube `cube`, a pad `pad`). Optional "
+            "with --from (then it must be the snapshot's)."
         ),
-    ],
-    seed: SeedOption = 0,
+    ] = None,
+    seed: Annotated[
+        int | None,
+        typer.Option(
+            min=0, max=MAX_SEED, help="Episode seed: randomization and noise (>= 0; default 0)."
+        ),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the RunResult as JSON.")] = False,
     set_: Annotated[
         list[str] | None,
@@ -246,10 +254,51 @@ def run(
     debug: Annotated[
         bool, typer.Option("--debug", help="A skill that raises: print its traceback too.")
     ] = False,
+    break_: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--break",
+            help="Stop at this state's entry and write a snapshot: a state's dotted path or "
+            "its last part (GRASP, PICK.GRASP), STATE@N for its N-th entry. Repeatable: the "
+            "first reached stops. Exit 6. See docs/time-travel.md.",
+        ),
+    ] = None,
+    break_on: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--break-on",
+            help="Stop where a guard aborts the run and write a snapshot: `guard` (any), a "
+            "guard's name or `estop`. Repeatable. Exit 6.",
+        ),
+    ] = None,
+    break_at: Annotated[
+        float | None,
+        typer.Option(
+            "--break-at",
+            help="Stop at the first control tick at or after this simulated time [s] and "
+            "write a snapshot. Exit 6.",
+        ),
+    ] = None,
+    from_: Annotated[
+        Path | None,
+        typer.Option(
+            "--from",
+            help="Resume a snapshot: the run continues bit for bit as it would have; --set "
+            "changes blackboard keys first.",
+        ),
+    ] = None,
+    snapshot: Annotated[
+        Path | None,
+        typer.Option(
+            "--snapshot",
+            help="Where --break writes the snapshot (default: SCENARIO-seedS-tickN.snap here).",
+        ),
+    ] = None,
 ) -> None:
     """Run one episode. Exit 0 succeeded, 1 failed (or stopped by --max-wall-s), 2 invalid
     input, 3 aborted by a guard, 4 a skill raised (outcome `error`: the arm is brought to rest;
-    the skill's file:line and exception are printed, the traceback with --debug)."""
+    the skill's file:line and exception are printed, the traceback with --debug), 6 stopped
+    at a break point (--break, --break-on, --break-at: the snapshot's path is printed)."""
     from .engine.runner import WallTimeExceeded, run_episode
     from .language.entries import file_kind
     from .language.load import load_scenario
@@ -257,7 +306,24 @@ def run(
     _check_wall(max_wall_s)
     if rrd is not None:
         _check_writable(rrd, "--rrd")
+    breaking = bool(break_ or break_on or break_at is not None)
+    if breaking and rrd is not None:
+        _fail("--rrd records a run to its end: record the resumed run (--from SNAPSHOT --rrd)")
+    if snapshot is not None:
+        if not breaking:
+            _fail("--snapshot names the file a break point writes: give --break STATE too")
+        _check_writable(snapshot, "--snapshot")
     _use_skills(skills)
+    if from_ is not None:
+        _run_from(
+            from_, scenario, seed, set_ or [], fault or [], event or [], as_json, rrd, spawn,
+            connect, max_wall_s, debug, (break_ or [], break_on or [], break_at), snapshot,
+        )  # fmt: skip
+        return
+    if scenario is None:
+        _fail("give a SCENARIO to run, or --from SNAPSHOT to resume one")
+        return
+    seed = seed if seed is not None else 0
     _note_entry(scenario)
     if file_kind(scenario) == ("machine", scenario):
         err.print(
@@ -271,6 +337,12 @@ def run(
             scenario, set_ or [], fault or [], _allowed(allow_path), events=event or []
         )
         _guard_goals(loaded, set_ or [], seed)
+        if breaking:
+            from .engine.runner import new_run
+
+            points = _break_points(loaded.machine, break_ or [], break_on or [], break_at)
+            _break(lambda: new_run(loaded, seed), points, snapshot, as_json, debug)
+            return
         observers = []
         if rrd is not None or spawn or connect is not None:
             from .recording import RerunRecorder
@@ -304,6 +376,155 @@ def run(
 
 _TABLE_ENDS = 20
 """Transitions printed at each end of a long run's table."""
+
+
+def _break_points(machine, states: list[str], guards: list[str], at_t: float | None):
+    """The break points of the options, checked against `machine` (exit 2 otherwise)."""
+    from .engine.snapshot.breaks import break_points
+
+    try:
+        return break_points(machine, states, guards, at_t)
+    except ConfigError as exc:
+        _fail_config(exc)
+        raise  # unreachable: _fail_config exits
+
+
+def _break(make_run, points, out: Path | None, as_json: bool, debug: bool) -> None:
+    """Run to the first break point and write its snapshot (exit 6), or to the end if none is
+    reached (its exit code)."""
+    from .engine.snapshot import Broken, SnapshotError, break_run
+
+    try:
+        broken = break_run(make_run, points, out)
+    except SnapshotError as exc:
+        _fail(str(exc))
+        return
+    if not isinstance(broken, Broken):  # the run ended first: its result
+        result = broken
+        options = ", ".join(p.option for p in points)
+        err.print(f"no break point was reached ({options}): the run ended", markup=False)
+        _finish(result, as_json, debug, None)
+        return
+    if as_json:
+        _json_line(broken.to_json_dict())
+    info = broken.to_json_dict()
+    err.print(
+        f"snapshot written to {broken.path} ({broken.size / 1e6:.2f} MB): "
+        f"{info['scenario']} seed {info['seed']} stopped at t={info['t']:.3f} s, tick "
+        f"{info['tick']}, the start of the tick of the {broken.stop.reason} "
+        f"({broken.stop.option}); resume with: orchestrator run --from {broken.path}",
+        markup=False,
+        soft_wrap=True,
+    )
+    raise typer.Exit(EXIT_BREAK)
+
+
+def _run_from(
+    path: Path,
+    scenario: str | None,
+    seed: int | None,
+    sets: list[str],
+    faults: list[str],
+    events: list[str],
+    as_json: bool,
+    rrd: Path | None,
+    spawn: bool,
+    connect: str | None,
+    max_wall_s: float | None,
+    debug: bool,
+    breaks: tuple[list[str], list[str], float | None],
+    snapshot: Path | None,
+) -> None:
+    """`run --from SNAPSHOT`: resume it (and break again, if asked)."""
+    from .engine.runner import WallTimeExceeded, drive
+    from .engine.snapshot import SnapshotError, open_run
+
+    if faults or events:
+        _fail(
+            "--fault and --event shape a run from its start: a resumed run has its snapshot's "
+            "(run the scenario again with them, and --break where you want)"
+        )
+    try:
+        opened = open_run(path, scenario, seed, sets)
+    except SnapshotError as exc:
+        _fail(str(exc))
+        return
+    except ConfigError as exc:
+        _fail_config(exc, "nothing was resumed")
+        return
+    run = opened.run
+    _guard_resumed_goals(run, sets)
+    states, guards, at_t = breaks
+    if states or guards or at_t is not None:
+        points = _break_points(run.loaded.machine, states, guards, at_t)
+        first = [run]
+
+        def again():  # the snapshot read back once more for the second pass
+            if first:
+                return first.pop()
+            return open_run(path, scenario, seed, sets).run
+
+        _break(again, points, snapshot, as_json, debug)
+        return
+    h = opened.header
+    state = h.get("state") or "before the initial state"
+    err.print(
+        f"resumed {h.get('scenario')} seed {h.get('seed')} from {path} at t={h.get('t'):.3f} s "
+        f"(tick {h.get('tick')}, {state}; {(h.get('break') or {}).get('reason', '')}), read "
+        f"in {opened.load_s:.2f} s",
+        markup=False,
+        soft_wrap=True,
+    )
+    observers = []
+    if rrd is not None or spawn or connect is not None:
+        from .recording import RerunRecorder
+
+        observers.append(RerunRecorder(path=rrd, spawn=spawn, connect=connect))
+    try:
+        result = drive(run, observers, max_wall_s)
+    except ConfigError as exc:
+        _fail_config(exc)
+        return
+    except WallTimeExceeded as exc:
+        err.print(f"error: {exc}", markup=False, soft_wrap=True)
+        raise typer.Exit(1) from None
+    assert result is not None
+    _finish(result, as_json, debug, rrd)
+
+
+def _finish(result, as_json: bool, debug: bool, rrd: Path | None) -> None:
+    """Print a run's result and exit with its code."""
+    if as_json:
+        _json_line(result.to_json_dict())
+    else:
+        _print_result(result)
+    if result.error is not None:
+        _print_skill_fault(result.error, debug)
+    if rrd is not None:
+        err.print(f"recording saved to {rrd} (open it with: rerun {rrd})", markup=False)
+    raise typer.Exit(result.exit_code)
+
+
+def _guard_resumed_goals(run, sets: list[str]) -> None:
+    """Positions changed with `--set` at a resume go through the guardrail from where the
+    arm is (as a live session's goals do)."""
+    from .language.overrides import parse_override
+    from .live.guardrail import GoalRejected, check_goals
+
+    keys = [ov.path[0] for ov in map(parse_override, sets) if hasattr(ov, "path")]
+    if not keys:
+        return
+    from dataclasses import replace
+
+    world, scn = run.ctx.world, run.loaded.scenario
+    now = {**scn.blackboard, **{k: run.ctx.blackboard.get(k) for k in keys}}
+    loaded = replace(run.loaded, scenario=scn.model_copy(update={"blackboard": now}))
+    try:
+        check_goals(loaded, keys, world, world.data.qpos[world.arm_qpos].copy())
+    except GoalRejected as exc:
+        err.print(f"<--set>: goal rejected: {exc}", markup=False, soft_wrap=True)
+        err.print("1 error; nothing was resumed.", style="red")
+        raise typer.Exit(EXIT_INVALID) from None
 
 
 def _guard_goals(loaded, sets: list[str], seed: int) -> None:
@@ -676,6 +897,14 @@ def batch(
         ),
     ] = None,
     allow_path: AllowPathOption = None,
+    snapshot_on_failure: Annotated[
+        bool,
+        typer.Option(
+            "--snapshot-on-failure",
+            help="Keep DIR/snapshots/seed_S.snap for each episode that does not succeed: the "
+            "snapshot at its last state entry before the failure (`run --from` resumes it).",
+        ),
+    ] = False,
 ) -> None:
     """Run N seeded episodes in parallel: exit 0 all ran, 1 some raised, 2 invalid input."""
     import time as _time
@@ -707,6 +936,7 @@ def batch(
         record=record,
         max_wall_s=DEFAULT_MAX_WALL_S if max_wall_s is None else max_wall_s,
         allow_paths=tuple(str(p) for p in _allowed(allow_path)),
+        snapshot_on_failure=snapshot_on_failure,
     )
     show = sys.stdout.isatty() and not as_json
     progress = RichProgress(out, label=Path(scenario).stem) if show else NullProgress()
@@ -735,6 +965,84 @@ def batch(
     else:
         print_summary(summary, out)
     raise typer.Exit(1 if summary.errors else 0)
+
+
+# -- snapshots ----------------------------------------------------------------------------------
+
+snapshot_app = typer.Typer(
+    help="Read a snapshot's header, or sign one you trust (docs/time-travel.md).",
+    no_args_is_help=True,
+)
+app.add_typer(snapshot_app, name="snapshot")
+
+
+def _snapshot_header(path: Path) -> dict:
+    """A snapshot file's header, read without unpickling anything (exit 2 if it is not one)."""
+    from .engine.snapshot.snapfile import MAGIC
+
+    try:
+        with path.open("rb") as f:
+            head, line = f.readline(), f.readline(1 << 20)
+    except OSError as exc:
+        _fail(f"{path}: cannot read it ({exc.strerror})")
+    if not head.startswith(MAGIC + b" "):
+        _fail(f"{path}: not a snapshot file")
+    import json
+
+    try:
+        header = json.loads(line)
+    except ValueError as exc:
+        _fail(f"{path}: broken snapshot header: {exc}")
+    if not isinstance(header, dict):
+        _fail(f"{path}: broken snapshot header: not a JSON object")
+    return header
+
+
+@snapshot_app.command("show")
+def snapshot_show(
+    path: Annotated[Path, typer.Argument(help="The snapshot file.")],
+    as_json: Annotated[bool, typer.Option("--json", help="Print the header as JSON.")] = False,
+) -> None:
+    """What a snapshot is of: scenario, seed, time, state, break point, versions (nothing in it
+    is unpickled: safe on any file). Says whether this user's key signed it."""
+    from .engine.snapshot import SnapshotError, read_snapshot
+
+    header = _snapshot_header(path)
+    try:
+        read_snapshot(path)
+        signed = "yes: `run --from` loads it"
+    except SnapshotError as exc:
+        signed = f"no ({exc})"
+    if as_json:
+        _json_line({**header, "signed_by_you": signed.startswith("yes")})
+        return
+    stop = header.get("break") or {}
+    for key, value in (
+        ("scenario", f"{header.get('scenario')} ({header.get('scenario_file')})"),
+        ("seed", header.get("seed")),
+        ("at", f"t={header.get('t')} s, control tick {header.get('tick')}"),
+        ("state", header.get("state")),
+        ("stopped for", f"{stop.get('reason')} ({stop.get('option')})"),
+        ("versions", ", ".join(f"{k} {v}" for k, v in (header.get("versions") or {}).items())),
+        ("signed by you", signed),
+    ):
+        out.print(f"{key + ':':14} {value}", markup=False, soft_wrap=True)
+
+
+@snapshot_app.command("trust")
+def snapshot_trust(
+    path: Annotated[Path, typer.Argument(help="The snapshot file.")],
+) -> None:
+    """Sign a snapshot with your key, so that `run --from` loads it. Only for a snapshot from
+    someone you trust: loading a snapshot runs the code it names (it is a pickle)."""
+    from .engine.snapshot import SnapshotError, trust
+
+    _snapshot_header(path)
+    try:
+        trust(path)
+    except (SnapshotError, OSError) as exc:
+        _fail(f"{path}: {exc}")
+    err.print(f"{path} is signed with your key now", markup=False)
 
 
 # -- live sessions ------------------------------------------------------------------------------
@@ -809,6 +1117,14 @@ def serve(
             "(0: a run while busy is refused, naming the running task).",
         ),
     ] = 0,
+    snapshots: Annotated[
+        Path,
+        typer.Option(
+            "--snapshots",
+            help="Folder where `send NAME snapshot` writes and `send NAME restore` reads "
+            "(made when the first snapshot is written).",
+        ),
+    ] = Path("snapshots"),
     listen: Annotated[
         list[str] | None,
         typer.Option(
@@ -895,6 +1211,7 @@ def serve(
             recorder=recorder,
             allow_paths=_allowed(allow_path),
             queue_limit=queue,
+            snapshot_dir=snapshots,
         )
     except ConfigError as exc:
         _fail_config(exc)
@@ -921,10 +1238,14 @@ def send(
     session: Annotated[str, typer.Argument(help="The session's name.")],
     command: Annotated[
         str,
-        typer.Argument(help="run, stop, estop, reset, pause, resume, status, shutdown or recover."),
+        typer.Argument(
+            help="run, stop, estop, reset, pause, resume, status, shutdown, recover, snapshot, "
+            "restore or reload."
+        ),
     ],
     machine: Annotated[
-        str | None, typer.Argument(help="For run: machine file or bundled name.")
+        str | None,
+        typer.Argument(help="For run: machine file or bundled name; for reload: the file."),
     ] = None,
     set_: Annotated[
         list[str] | None, typer.Option("--set", help="For run: a blackboard value KEY=VALUE.")
@@ -939,6 +1260,14 @@ def send(
     password: PasswordOption = None,
     credentials: CredentialsOption = None,
     tls_ca: TlsCaOption = None,
+    name: Annotated[
+        str | None,
+        typer.Option(
+            "--name",
+            help="For snapshot: the file's name (default: session and tick); for "
+            "restore: the snapshot to restore (in the session's --snapshots folder).",
+        ),
+    ] = None,
 ) -> None:
     """Send a command. Exit 2 if rejected; with --wait, the task's exit code (0 succeeded,
     1 failed, 3 aborted), or 5 if the session is lost while waiting (killed, shut down,
@@ -950,9 +1279,13 @@ def send(
         _live_error(ValueError(f"unknown command {command!r} (valid: {', '.join(COMMANDS)})"))
     if command == "recover" and (machine or set_):
         _live_error(ValueError("recover: takes no MACHINE and no --set (it runs `recover`)"))
-    elif command not in ("run", "recover") and (machine or set_ or wait or preempt):
+    elif command == "reload" and (not machine or set_ or wait or preempt):
+        _live_error(ValueError("reload: give the MACHINE file (and no --set, --wait, --preempt)"))
+    elif command not in ("run", "recover", "reload") and (machine or set_ or wait or preempt):
         only = "takes no MACHINE, --set, --wait or --preempt (only run does)"
         _live_error(ValueError(f"{command}: {only}"))
+    if name is not None and command not in ("snapshot", "restore"):
+        _live_error(ValueError(f"{command}: takes no --name (only snapshot and restore do)"))
     creds = _credentials(user, password, credentials, tls_ca)
     watchdog_s = None
     try:
@@ -965,7 +1298,7 @@ def send(
             elif command == "estop":
                 reply, result = client.estop(), None
             else:
-                reply, result = client.command(command), None
+                reply, result = client.command(command, machine, snapshot=name), None
     except SessionLost as exc:
         _live_error(exc, EXIT_SESSION_LOST)
         return
@@ -991,6 +1324,8 @@ def send(
         _json_line(reply.model_dump(mode="json"))
     elif reply.status is not None:
         out.print_json(_strict_json(reply.status))
+    elif reply.snapshot is not None:
+        out.print(f"accepted: {command} {reply.snapshot}", markup=False)
     else:
         out.print(f"accepted{f': task {reply.task}' if reply.task else ''}", markup=False)
         if reply.task and watchdog_s:

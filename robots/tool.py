@@ -152,6 +152,11 @@ class ToolMount:
     def __init__(self, tool: Tool) -> None:
         self.tool = tool
 
+    def __reduce__(self) -> tuple:
+        # the class is made at run time (`mount_tool`): pickle (a snapshot, engine/snapshot)
+        # names the robot it is mounted on, and makes the class again from it
+        return (_tooled_instance, (self.bare,), vars(self))
+
     def build_spec(self) -> mujoco.MjSpec:
         spec: mujoco.MjSpec = super().build_spec()  # type: ignore[misc]
         self.tool.attach(spec, self.hand_body)
@@ -180,6 +185,12 @@ def _tooled_class(base: type[Robot]) -> type[Robot]:
     return type(
         f"{base.__name__}WithTool", (ToolMount, base), {"__module__": __name__, "bare": base}
     )
+
+
+def _tooled_instance(base: type[Robot]) -> Robot:
+    """An empty instance of `base` with a tool (its attributes are set by pickle)."""
+    cls = _tooled_class(base)
+    return cls.__new__(cls)
 
 
 @functools.cache

@@ -237,7 +237,9 @@ class IKSolver:
     def _solve(self, dt: float) -> np.ndarray:
         """mink's IK velocity over `dt` [s]: assembled in place (`IKProblem`, the same bits)
         for the tasks and limits this solver builds, by `mink.solve_ik` for any others."""
-        key = (tuple(map(id, self.tasks)), tuple(map(id, self.limits)), self.damping)
+        # the tasks and limits themselves, compared by identity (none defines __eq__): an id
+        # can be reused after its object is gone, and does not survive a snapshot's restore
+        key = (tuple(self.tasks), tuple(self.limits), self.damping)
         if key != self._problem_key:
             self._problem_key = key
             self._problem = (

@@ -155,7 +155,8 @@ class IKProblem:
         mu_total = 0.0
         frame_jacobian = None
         for i, (kind, task, e_rows, w_rows) in enumerate(self._plan):
-            if kind is _POSTURE:  # PostureTask, DampingTask: J = I, e = q - q* (DampingTask: 0)
+            # `==`, not `is`: a snapshot's restored plan holds its own copies of the strings
+            if kind == _POSTURE:  # PostureTask, DampingTask: J = I, e = q - q* (DampingTask: 0)
                 key = (task.cost.tobytes(), task.gain)
                 fresh = key != self._constant[i]
                 if fresh:
@@ -171,7 +172,7 @@ class IKProblem:
                 np.multiply(task.cost, -task.gain * error, out=e_rows)
                 mu_total += task.lm_damping * float(e_rows @ e_rows)
                 continue
-            if kind is _FRAME:
+            if kind == _FRAME:
                 error, jacobian = task._error_and_jacobian(config)
                 frame_jacobian = jacobian
             else:  # _NULLSPACE: its frame task comes first (`supports`)

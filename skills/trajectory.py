@@ -44,6 +44,9 @@ class Profile:
         v0: float = 0.0,
         a0: float = 0.0,
     ) -> None:
+        self._args = (distance, v_max, a_max, j_max, v0, a0)
+        """What it was made from: a snapshot (engine/snapshot) pickles these and computes the
+        same trajectory again (Ruckig's objects do not pickle; it never re-plans)."""
         self.distance, self.v_max, self.a_max = float(distance), float(v_max), float(a_max)
         self.j_max = float(j_max) if j_max is not None else JERK_PER_ACCEL * self.a_max
         self._trajectory: ruckig.Trajectory | None = None
@@ -70,6 +73,11 @@ class Profile:
         self._trajectory = trajectory
         self.duration = float(trajectory.duration)
         """Time to cover `distance` and come to rest [s]."""
+
+    def __reduce__(self) -> tuple:
+        # made again from its arguments (the Ruckig trajectory with it), then every other
+        # attribute as it was
+        return (type(self), self._args, {k: v for k, v in vars(self).items() if k != "_trajectory"})
 
     def progress(self, t: float) -> tuple[float, float]:
         """Normalized position s in [0, 1] and ds/dt [1/s] at time `t` [s] (clamped)."""

@@ -63,6 +63,8 @@ class BatchConfig:
         max_wall_s: Wall-clock limit of one episode [s]: past it the episode is stopped and
             recorded as `error` (its worker is killed if it does not stop within a grace).
         allow_paths: Directories the scenario's includes may name (`--allow-path`).
+        snapshot_on_failure: Keep, for each episode that does not succeed, the snapshot at
+            its last state entry before the failure (`DIR/snapshots/seed_<S>.snap`).
     """
 
     scenario: str
@@ -77,6 +79,7 @@ class BatchConfig:
     record: RecordMode | None = None
     max_wall_s: float | None = DEFAULT_MAX_WALL_S
     allow_paths: tuple[str, ...] = ()
+    snapshot_on_failure: bool = False
 
     @property
     def seeds(self) -> range:

@@ -7,13 +7,16 @@ each scenario once per process from (reference, overrides), then reuse it for ev
 from __future__ import annotations
 
 import traceback
+from pathlib import Path
 from typing import Any
 
 from ..engine.result import RunResult
-from ..engine.runner import Observer, WallTimeExceeded, run_episode
+from ..engine.runner import Observer, WallTimeExceeded, drive, new_run, run_episode
+from ..engine.snapshot import EntryLog, last_entry_stop, local_skill_files, run_to, write_run
+from ..engine.snapshot.breaks import final_paths
 from ..language.load import LoadedScenario, load_scenario
 from .memory import release_episode, rss_mb, worker_stamp
-from .task import EpisodeTask, error_line, rrd_name
+from .task import EpisodeTask, error_line, rrd_name, snapshot_name
 
 __all__ = ["loaded_scenario", "run_task", "same_episode"]
 
@@ -57,22 +60,46 @@ def run_task(task: EpisodeTask) -> dict[str, Any]:
 
 
 def _run(task: EpisodeTask) -> dict[str, Any]:
+    log: EntryLog | None = None
     try:
         loaded = loaded_scenario(task.scenario, task.overrides, task.allow_paths)
-        if task.record == "all":
-            result = run_episode(loaded, task.seed, [_recorder(task)], task.max_wall_s)
-            line = result.to_json_dict()
-            line["rrd"] = rrd_name(task.seed)
-            return line
-        result = run_episode(loaded, task.seed, max_wall_s=task.max_wall_s)
+        run = new_run(loaded, task.seed)
+        if task.snapshot_on_failure:  # where each state was entered, to break there later
+            log = EntryLog(run)
+            run.executor.entry_listeners.append(log)
+        observers = [_recorder(task)] if task.record == "all" else []
+        result = drive(run, observers, task.max_wall_s)
+        assert result is not None
         line = result.to_json_dict()
+        if task.record == "all":
+            line["rrd"] = rrd_name(task.seed)
     except WallTimeExceeded as exc:  # the episode was stopped: its reason, not a traceback
         return error_line(task, type(exc).__name__, str(exc), None)
     except Exception as exc:  # crash isolation: whatever went wrong is this episode's error
         return error_line(task, type(exc).__name__, _one_line(exc), traceback.format_exc())
     if task.record == "failures" and result.outcome != "succeeded":
         line.update(_record_again(loaded, task, result))
+    if log is not None and result.outcome != "succeeded":
+        line.update(_snapshot_again(loaded, task, log))
     return line
+
+
+def _snapshot_again(loaded: LoadedScenario, task: EpisodeTask, log: EntryLog) -> dict[str, Any]:
+    """Run a failed episode again to the start of the tick of its last state entry before the
+    failure and keep that snapshot (`snapshots/seed_<S>.snap`, or `snapshot_error`: why not)."""
+    try:
+        stop = last_entry_stop(log, final_paths(loaded.machine).__contains__)
+        if stop is None:
+            return {"snapshot_error": "no state was entered before the failure"}
+        run = new_run(loaded, task.seed)
+        if not run_to(run, stop):
+            return {"snapshot_error": "the re-run ended before that tick (not deterministic)"}
+        assert task.out_dir is not None
+        write_run(Path(task.out_dir) / snapshot_name(task.seed), run, stop.header(),
+                  local_skill_files())  # fmt: skip
+    except Exception as exc:  # the episode's result stands; say why there is no snapshot
+        return {"snapshot_error": f"{type(exc).__name__}: {_one_line(exc)}"}
+    return {"snapshot": snapshot_name(task.seed), "snapshot_state": stop.reason}
 
 
 def _record_again(loaded: LoadedScenario, task: EpisodeTask, result: RunResult) -> dict[str, Any]:

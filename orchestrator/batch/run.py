@@ -84,7 +84,16 @@ def run_batch(
         finished = [line for seed, line in sorted(existing.items()) if seed in seeds]
         todo = [s for s in config.seeds if s not in existing]
         tasks = [
-            EpisodeTask(ref, config.overrides, s, record, str(out_dir), config.max_wall_s, allow)
+            EpisodeTask(
+                ref,
+                config.overrides,
+                s,
+                record,
+                str(out_dir),
+                config.max_wall_s,
+                allow,
+                config.snapshot_on_failure,
+            )
             for s in todo
         ]
         out_dir.mkdir(parents=True, exist_ok=True)

@@ -94,7 +94,10 @@ class BatchSummary(BaseModel):
     episodes_run: int = Field(description="Episodes run by this invocation (not resumed).")
     episodes_per_s: float = Field(description="episodes_run / wall_time_s [1/s].")
     failing_seeds: list[int] = Field(description="Seeds that did not succeed, in order.")
-    rerun_command: str | None = Field(description="Re-runs the first failing seed alone.")
+    rerun_command: str | None = Field(
+        description="Re-runs the first failing seed alone (from its snapshot, at the last "
+        "state entry before the failure, with --snapshot-on-failure)."
+    )
     results: str = Field(description="Path of results.jsonl.")
     sorting: SortingStats | None = Field(
         default=None, description="Parcel counts of a batch whose scenario has parcels."
@@ -109,7 +112,13 @@ class BatchSummary(BaseModel):
         return self.model_dump(mode="json")
 
 
-def rerun_command(ref: str, overrides: Iterable[str], seed: int, rrd: Path | None = None) -> str:
+def rerun_command(
+    ref: str,
+    overrides: Iterable[str],
+    seed: int,
+    rrd: Path | None = None,
+    snapshot: Path | None = None,
+) -> str:
     """The shell command that runs one episode of the batch again, on its own.
 
     Args:
@@ -117,10 +126,15 @@ def rerun_command(ref: str, overrides: Iterable[str], seed: int, rrd: Path | Non
         overrides: The batch's `--set` texts.
         seed: The episode's seed.
         rrd: Where `run` should save a Rerun recording, if recording is available.
+        snapshot: The episode's snapshot (`--snapshot-on-failure`): the command resumes it,
+            at the last state entry before the failure, instead of running from the start.
     """
-    parts = ["orchestrator", "run", ref, "--seed", str(seed)]
-    for text in overrides:
-        parts += ["--set", text]
+    if snapshot is not None:
+        parts = ["orchestrator", "run", "--from", str(snapshot)]
+    else:
+        parts = ["orchestrator", "run", ref, "--seed", str(seed)]
+        for text in overrides:
+            parts += ["--set", text]
     if rrd is not None:
         parts += ["--rrd", str(rrd)]
     return shlex.join(parts)
@@ -178,7 +192,9 @@ def summarize(
         rrd = (
             rrd_dir / "episodes" / f"seed_{seed}.rerun.rrd" if rrd_dir is not None else None
         )  # beside the saved recording, never over it
-        command = rerun_command(scenario_ref, overrides, seed, rrd)
+        line = next(ln for ln in lines if int(ln["seed"]) == seed)
+        snapshot = results.parent / line["snapshot"] if line.get("snapshot") else None
+        command = rerun_command(scenario_ref, overrides, seed, rrd, snapshot)
     return BatchSummary(
         scenario=scenario,
         scenario_ref=scenario_ref,

@@ -8,7 +8,7 @@ from typing import Any
 
 from .config import RecordMode
 
-__all__ = ["ERROR", "EpisodeTask", "error_line", "rrd_name"]
+__all__ = ["ERROR", "EpisodeTask", "error_line", "rrd_name", "snapshot_name"]
 
 ERROR = "error"
 """The outcome of an episode that raised, or whose worker process died."""
@@ -17,6 +17,11 @@ ERROR = "error"
 def rrd_name(seed: int) -> str:
     """Where the recording of `seed` goes, relative to the batch directory."""
     return f"episodes/seed_{seed}.rrd"
+
+
+def snapshot_name(seed: int) -> str:
+    """Where the snapshot of a failed `seed` goes, relative to the batch directory."""
+    return f"snapshots/seed_{seed}.snap"
 
 
 @dataclass(frozen=True)
@@ -34,6 +39,9 @@ class EpisodeTask:
             recorded as `error` (None: no limit).
         allow_paths: Directories the scenario's `machine:` includes may name besides its own
             tree (`--allow-path`), absolute.
+        snapshot_on_failure: An episode that does not succeed is run again to the start of
+            the tick of its last state entry before the failure, and that snapshot is kept in
+            `out_dir/snapshots/` (engine/snapshot).
     """
 
     scenario: str
@@ -43,6 +51,7 @@ class EpisodeTask:
     out_dir: str | None = None
     max_wall_s: float | None = None
     allow_paths: tuple[str, ...] = ()
+    snapshot_on_failure: bool = False
 
     def rrd_path(self) -> Path:
         """Absolute path of this episode's recording."""

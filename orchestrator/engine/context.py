@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -192,7 +193,9 @@ class Context:
         ext = native()
         address = time_address(d) if ext is not None else 0
         self._now: Callable[[], float] = (
-            ext.Clock(d, address).now if ext is not None and address else lambda: float(d.time)
+            ext.Clock(d, address).now
+            if ext is not None and address
+            else partial(getattr, d, "time")  # a float; not a lambda: a snapshot pickles it
         )
         """Simulated time [s]: `float(data.time)`, read in place where compiled (the bindings
         build it through a property lookup: ~0.5 us with cold caches, ~2000 reads a second of

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -85,7 +86,7 @@ def make_executor(loaded: LoadedScenario, ctx: Context) -> Executor:
         loaded.machine,
         ctx,
         make_guards(loaded.scenario.guards, ctx),
-        lambda: SafetyStop(ctx, safe_stop),
+        partial(SafetyStop, ctx, safe_stop),  # not a lambda: a snapshot pickles it
         safe_stop.hold_s,
         make_guards(["joint_limits"], ctx),
         make_guards([{"contact_force": {"max_n": safe_stop.force_ceiling_n}}], ctx),

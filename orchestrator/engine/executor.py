@@ -265,6 +265,8 @@ class _ParallelActivity:
             if isinstance(activity, _Region):
                 activity.start(src, "parallel")
             else:
+                for listener in self.ex.entry_listeners:  # a single-skill branch is entered
+                    listener(activity.path, None)
                 activity.start()
 
     def tick(self) -> Finished | None:
@@ -314,6 +316,14 @@ class _Region:
     def __init__(self, ex: Executor, node: MachineNode, prefix: str) -> None:
         self.ex, self.node, self.prefix = ex, node, prefix
         self.model = _Model()
+        self.fsm = self._machine(node, node.initial)
+        self.activity: _Activity | None = None
+        self.entered_t = ex.ctx.clock
+        self.retries: dict[str, int] = {}
+        self.final: Finished | None = None
+
+    def _machine(self, node: MachineNode, initial: str) -> transitions.Machine:
+        """The `transitions` machine of `node`'s states and edges, in state `initial`."""
         edges: list[list[str]] = []
         for name, st in node.states.items():
             edges += [[outcome, name, target] for outcome, target in st.transitions.items()]
@@ -322,17 +332,28 @@ class _Region:
             edges.append([ABORT, "*", node.on_abort])
         if node.top:
             edges += [[event, "*", target] for event, target in node.events.items()]
-        self.fsm = transitions.Machine(
+        return transitions.Machine(
             model=self.model,
             states=list(node.states),
             transitions=edges,
-            initial=node.initial,
+            initial=initial,
             auto_transitions=False,
         )
-        self.activity: _Activity | None = None
-        self.entered_t = ex.ctx.clock
-        self.retries: dict[str, int] = {}
-        self.final: Finished | None = None
+
+    def _adopt(self, root: MachineNode) -> None:
+        """A reloaded machine file (engine/reload.py): this level takes its new definition
+        as it enters a state (the state that ran finished as it was defined when entered)."""
+        node = node_at(root, self.prefix)
+        if node is None or node is self.node or self.model.state not in node.states:
+            return
+        state = self.model.state
+        self.node = node
+        self.model = _Model()
+        self.fsm = self._machine(node, state)
+        if not self.prefix:
+            self.ex.root = root
+        level = self.prefix.rstrip(".") or "the top level"
+        self.ex.ctx.log("reload", f"{level}: the reloaded definition from {self.prefix}{state} on")
 
     @property
     def state(self) -> str:
@@ -439,9 +460,13 @@ class _Region:
     def _enter_once(
         self, src: str | None, trigger: str | None, retry: int | None
     ) -> Finished | _Instant | None:
+        if self.ex.reloaded is not None:
+            self._adopt(self.ex.reloaded)
         ex, name, st = self.ex, self.state, self.spec
         path = self.prefix + name
         self.entered_t = ex.ctx.clock
+        for listener in ex.entry_listeners:
+            listener(path, retry)
         at = (*self.node.at, "states", name)
         if st.states is None and st.machine is None and src is not None:
             ex.record(src, path, trigger or "", retry)
@@ -543,11 +568,36 @@ class Executor:
         self.fault: SkillFault | None = None
         """The first skill that raised, if any: the run ends `error` (engine/skill_fault.py)."""
         self._fault_handled = False
-        self._addresses: Addresses = {}
+        self.reloaded: MachineNode | None = None
+        """A machine reloaded while running (engine/reload.py): each level adopts it as it
+        enters its next state."""
+        self.entry_listeners: list[Callable[[str, int | None], None]] = []
+        """Called with (dotted path, retry number or None) as every state is entered, nested
+        machines and parallel states included, and SAFE_STOP (a snapshot's break points)."""
+        self._addresses = Addresses()
         """Where the guards' watched views start in memory, for every bank of the episode."""
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
+        """The guards of each machine level and state, by (`id(level)`, state or None)."""
+        self._levels: list[MachineNode] = []
+        """The machine levels `_guards` holds guards of."""
         for node in root.nodes():
             self._build_guards(node)
+
+    def __getstate__(self) -> dict:
+        # ids do not survive a process: a snapshot (engine/snapshot) keys the guards by level
+        state = dict(vars(self))
+        state["_guards"] = [
+            (node, name, self._guards[(id(node), name)])
+            for node in self._levels
+            for name in (None, *node.states)
+            if (id(node), name) in self._guards
+        ]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        guards = state["_guards"]
+        vars(self).update(state)
+        self._guards = {(id(node), name): listed for node, name, listed in guards}
 
     # -- guards -------------------------------------------------------------------------
     def _build_guards(self, node: MachineNode) -> None:
@@ -560,6 +610,7 @@ class Executor:
                 out.append(Eased(guard) if self.root.recovery else guard)
             return out
 
+        self._levels.append(node)
         self._guards[(id(node), None)] = make(node.guards)
         for name, st in node.states.items():
             if st.guards:
@@ -771,6 +822,8 @@ class Executor:
         assert self.region is not None
         leaf = self.leaf
         self.region.stop()
+        for listener in self.entry_listeners:
+            listener(SAFE_STOP, None)
         self.record(leaf, SAFE_STOP, trigger)
         self.final_state = SAFE_STOP
         self.safe_stop_until = None
@@ -867,6 +920,23 @@ class Executor:
         self.active_guards = []
         self.guard_bank = None
         self.active_checks = ()
+
+
+def node_at(root: MachineNode, prefix: str) -> MachineNode | None:
+    """The machine level a region with dotted `prefix` runs (`PICK.`, `WATCHED.watch.`) in the
+    tree `root`; None if the tree has no such level."""
+    node: MachineNode | None = root
+    parts = prefix.split(".")[:-1]
+    i = 0
+    while node is not None and i < len(parts):
+        name = parts[i]
+        branches = node.branches.get(name)
+        if branches is not None and i + 1 < len(parts) and parts[i + 1] in branches:
+            branch = branches[parts[i + 1]]
+            node, i = (branch if isinstance(branch, MachineNode) else None), i + 2
+        else:
+            node, i = node.children.get(name), i + 1
+    return node
 
 
 def runtime_error(node: MachineNode, state: str, message: str) -> Diagnostic:

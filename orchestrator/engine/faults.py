@@ -11,6 +11,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -48,7 +49,7 @@ class FaultInjector:
         events: list[ScheduledEvent] | None = None,
     ) -> None:
         self.ctx, self.executor = ctx, executor
-        self._queue: list[tuple[float, int, Callable[[], None]]] = []
+        self._queue: list[tuple[float, int, Callable[[], object]]] = []
         self._seq = 0
         self._on_enter: dict[str, list[tuple[int, Fault]]] = {}
         self.injected: list[dict[str, Any]] = []
@@ -75,7 +76,7 @@ class FaultInjector:
             _, _, action = heapq.heappop(self._queue)
             action()
 
-    def _schedule(self, t: float, action: Callable[[], None]) -> None:
+    def _schedule(self, t: float, action: Callable[[], object]) -> None:
         heapq.heappush(self._queue, (t, self._seq, action))
         self._seq += 1
 
@@ -87,14 +88,13 @@ class FaultInjector:
             for i, fault in self._on_enter.pop(".".join(path[:depth]), []):
                 self._schedule(event.t + fault.delay_s, self._starter(i, fault))
 
-    def _sender(self, name: str, source: str) -> Callable[[], None]:
-        def send() -> None:
-            self.executor.event(name, source)
-
-        return send
+    # scheduled actions are partials of methods, not closures: a snapshot (engine/snapshot)
+    # pickles the queue with the rest of the run
+    def _sender(self, name: str, source: str) -> Callable[[], object]:
+        return partial(self.executor.event, name, source)
 
     def _starter(self, index: int, fault: Fault) -> Callable[[], None]:
-        return lambda: self._start(index, fault)
+        return partial(self._start, index, fault)
 
     def _start(self, index: int, fault: Fault) -> None:
         ctx, t = self.ctx, self.ctx.t
@@ -133,7 +133,7 @@ class FaultInjector:
                 force, name = np.asarray(fault.force_n, float), obj
                 effects.push(name, force)
                 end = t + fault.duration_ms / 1000.0
-                self._schedule(end, lambda: effects.end_push(name, force))
+                self._schedule(end, partial(effects.end_push, name, force))
         elif isinstance(fault, F.PerceptionMiss):
             ctx.perception.miss(fault.count)
         elif isinstance(fault, F.PerceptionOffset):

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
@@ -34,10 +35,13 @@ __all__ = [
     "SETTLE_S",
     "WALL_GRACE_S",
     "Observer",
+    "RunState",
     "WallTimeExceeded",
+    "drive",
     "initial_blackboard",
     "make_context",
     "make_guards",
+    "new_run",
     "run_episode",
 ]
 
@@ -83,6 +87,55 @@ def make_context(
     return ctx
 
 
+@dataclass
+class RunState:
+    """One episode of `orchestrator run`, between two control ticks: everything the rest of
+    the run depends on (a snapshot pickles exactly this, engine/snapshot).
+
+    Attributes:
+        loaded: The scenario (with the run's `--set`, `--fault` and `--event`).
+        seed: The episode seed.
+        episode: The machine on its world (context, executor, step loop).
+        injector: The faults and timed events still to come.
+        started: The machine's initial state has been entered.
+    """
+
+    loaded: LoadedScenario
+    seed: int
+    episode: Episode
+    injector: FaultInjector
+    started: bool = False
+
+    @property
+    def ctx(self) -> Context:
+        return self.episode.ctx
+
+    @property
+    def executor(self) -> Executor:
+        return self.episode.executor
+
+
+def new_run(loaded: LoadedScenario, seed: int) -> RunState:
+    """The world of `loaded` built for `seed`, its machine not started yet."""
+    scn = loaded.scenario
+    world = World.build(scn, seed)
+    controller = make_controller(world, seed)
+    dt = float(world.model.opt.timestep)
+    n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
+    ctx = make_context(
+        world,
+        controller,
+        # the world's scenario: its blackboard holds the values drawn for this seed
+        initial_blackboard(loaded.machine, world.scenario.blackboard),
+        seed,
+        n_sub * dt,
+    )
+    executor = make_executor(loaded, ctx)
+    injector = FaultInjector(list(scn.faults), ctx, executor, list(scn.events))
+    loop = StepLoop(ctx, n_sub, injector)
+    return RunState(loaded, seed, Episode(loaded, ctx, executor, loop), injector)
+
+
 def run_episode(
     loaded: LoadedScenario,
     seed: int,
@@ -101,33 +154,58 @@ def run_episode(
     Raises:
         WallTimeExceeded: The episode ran past `max_wall_s`.
     """
+    result = drive(new_run(loaded, seed), observers, max_wall_s)
+    assert result is not None
+    return result
+
+
+def drive(
+    run: RunState,
+    observers: Sequence[Observer] | None = None,
+    max_wall_s: float | None = None,
+    until: Callable[[RunState], bool] | None = None,
+) -> RunResult | None:
+    """Run `run` (fresh, or restored from a snapshot) to its end, or until `until` says stop.
+
+    Args:
+        run: The run (`started` False: from the machine's initial state).
+        observers: Told about the run on simulated time. A restored run tells each observer
+            `on_resume(ctx, executor)` where it has one (the recorder marks the resume), else
+            `on_start`.
+        max_wall_s: Wall-clock limit [s] of this part of the run (None: none).
+        until: Asked before the machine starts and before every control tick: True stops
+            the run there (a break point: the caller writes the snapshot).
+
+    Returns:
+        The result, or None if `until` stopped the run (observers are not told the end).
+
+    Raises:
+        WallTimeExceeded: The episode ran past `max_wall_s`.
+    """
     observers = list(observers or [])
     wall0 = time.perf_counter()
-    scn = loaded.scenario
-    world = World.build(scn, seed)
-    controller = make_controller(world, seed)
-    dt = float(world.model.opt.timestep)
-    n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
-    ctx = make_context(
-        world,
-        controller,
-        # the world's scenario: its blackboard holds the values drawn for this seed
-        initial_blackboard(loaded.machine, world.scenario.blackboard),
-        seed,
-        n_sub * dt,
-    )
-    executor = make_executor(loaded, ctx)
-    injector = FaultInjector(list(scn.faults), ctx, executor, list(scn.events))
-    loop = StepLoop(ctx, n_sub, injector)
-    loop.set_observers(observers)
-    episode = Episode(loaded, ctx, executor, loop, observers)
+    episode, injector, ctx, executor = run.episode, run.injector, run.ctx, run.executor
+    episode.loop.set_observers(observers)
+    episode.observers = list(observers)
+    if until is not None and not run.started and until(run):
+        return None
+    for obs in observers:
+        resume = getattr(obs, "on_resume", None)
+        if run.started and resume is not None:
+            resume(ctx, executor)
+        else:
+            obs.on_start(ctx, executor)
+    if not run.started:
+        episode.start()
+        injector.fire_due(ctx.t)  # faults at t = 0
+        run.started = True
     wall_cut: str | None = None  # why the wall-clock limit ended the run
     wall_deadline = wall0 + max_wall_s if max_wall_s is not None else math.inf
-    for obs in observers:
-        obs.on_start(ctx, executor)
-    episode.start()
-    injector.fire_due(ctx.t)  # faults at t = 0
-    while not episode.tick():
+    while True:
+        if until is not None and until(run):
+            return None
+        if episode.tick():
+            break
         if time.perf_counter() > wall_deadline:  # one clock read per control tick
             if wall_cut is not None:
                 break
@@ -137,7 +215,7 @@ def run_episode(
             )
             episode.halt(wall_cut)
             wall_deadline += WALL_GRACE_S  # for the controlled stop
-    result = episode.result(seed, time.perf_counter() - wall0, injector.injected)
+    result = episode.result(run.seed, time.perf_counter() - wall0, injector.injected)
     if wall_cut:
         result.metrics["error"] = wall_cut
     for obs in observers:

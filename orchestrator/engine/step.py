@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable
+from functools import partial
 from typing import TYPE_CHECKING
 
 import mujoco
@@ -42,6 +43,11 @@ _DIVERGED_INDEX = as_index(np.array(sorted(_DIVERGED)))
 """The same warnings as one slice of `MjData.warning.number` (an index array if not adjacent)."""
 
 OnStep = Callable[["Context"], None]
+
+
+def _read_list(array: np.ndarray, index: np.ndarray) -> list:
+    """`array[index]` as a list (an index array makes a copy: read again at every call)."""
+    return array[index].tolist()
 
 
 class StepLoop:
@@ -79,7 +85,7 @@ class StepLoop:
         self._diverged_warnings = (
             warnings[_DIVERGED_INDEX].tolist  # a view, bound once
             if isinstance(_DIVERGED_INDEX, slice)
-            else lambda: warnings[_DIVERGED_INDEX].tolist()  # noqa: PLW0108 (a copy: re-read)
+            else partial(_read_list, warnings, _DIVERGED_INDEX)  # a copy: re-read each time
         )
 
     def set_observers(self, observers: Iterable[object]) -> None:

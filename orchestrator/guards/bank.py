@@ -40,11 +40,15 @@ __all__ = ["Addresses", "GuardBank"]
 _le = operator.le
 
 
-Addresses = dict[int, tuple[np.ndarray, int]]
-"""Memory addresses of views, by `id()` (the view is kept with its address, so the id cannot
-be reused while it is cached): an executor keeps one for its episode and hands it to every bank
-it builds (reading `__array_interface__` costs ~10 us, and a bank is built at every state
-change)."""
+class Addresses(dict[int, tuple[np.ndarray, int]]):
+    """Memory addresses of views, by `id()` (the view is kept with its address, so the id cannot
+    be reused while it is cached): an executor keeps one for its episode and hands it to every
+    bank it builds (reading `__array_interface__` costs ~10 us, and a bank is built at every
+    state change). Ids and addresses do not survive a process: a snapshot (engine/snapshot)
+    pickles it empty."""
+
+    def __reduce__(self) -> tuple:
+        return (type(self), ())
 
 
 def _address(view: np.ndarray, cache: Addresses) -> int:
@@ -64,6 +68,13 @@ class _Watched:
     lo: list[float]
     hi: list[float]
     address: int
+
+    def __getstate__(self) -> dict:
+        return {**vars(self), "address": 0}  # an address does not survive a process
+
+    def __setstate__(self, state: dict) -> None:
+        vars(self).update(state)
+        self.address = int(self.view.__array_interface__["data"][0])
 
 
 def _merged(watched: list[_Watched], cache: Addresses) -> list[_Watched]:
@@ -109,7 +120,7 @@ class GuardBank:
     def __init__(
         self, guards: Sequence[Guard], ctx: Context, addresses: Addresses | None = None
     ) -> None:
-        cache: Addresses = {} if addresses is None else addresses
+        cache: Addresses = Addresses() if addresses is None else addresses
         self.guards = list(guards)
         self.checks = tuple(g.check for g in self.guards)
         """Every guard's full `check`, in priority order."""
@@ -159,11 +170,11 @@ class GuardBank:
             (a.tolist, b.tolist) for (a, b), raw in zip(equal, as_bytes, strict=True) if not raw
         )
         self._scalars = tuple(scalars.items())
-        self.compiled = _compiled(zero, bounded, equal, as_bytes, self._scalars, cache)
+        self._envelope = (zero, bounded, equal, as_bytes)
+        """What `compiled` tests (a snapshot's restored bank compiles it again)."""
+        self.compiled: Callable[[], bool] | None = None
         """`inside()` in C (world/native.py), None on the pure-Python path."""
-        if self.compiled is not None:
-            self.check = self._check_compiled  # type: ignore[method-assign]
-            self.inside = self.compiled  # type: ignore[method-assign]
+        self._compile(cache)
         self._open = tuple(open_checks)
         """Checks of the guards without an envelope: run in full every step."""
         self._full = any(not g.settled() for g in self._stateful)
@@ -171,6 +182,22 @@ class GuardBank:
         duration counted before the active set changed)."""
         self.full_checks = 0
         """Steps on which the guards were checked in full (for tests and the bench)."""
+
+    def _compile(self, cache: Addresses) -> None:
+        self.compiled = _compiled(*self._envelope, self._scalars, cache)
+        if self.compiled is not None:
+            self.check = self._check_compiled  # type: ignore[method-assign]
+            self.inside = self.compiled  # type: ignore[method-assign]
+
+    def __getstate__(self) -> dict:
+        # the compiled test reads raw addresses: a snapshot (engine/snapshot) compiles it
+        # again on the restored views
+        return {k: v for k, v in vars(self).items() if k not in ("compiled", "check", "inside")}
+
+    def __setstate__(self, state: dict) -> None:
+        vars(self).update(state)
+        self.compiled = None
+        self._compile(Addresses())
 
     @staticmethod
     def _add_bounds(

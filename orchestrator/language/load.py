@@ -35,7 +35,7 @@ from .success import typed_success, validate_success
 from .validation import blackboard_types, validate_guards, validate_machine
 from .yamlio import SourceMap, load_yaml
 
-__all__ = ["LoadedScenario", "load_machine", "load_scenario"]
+__all__ = ["LoadedScenario", "check_blackboard_sets", "load_machine", "load_scenario"]
 
 
 @dataclass
@@ -279,6 +279,48 @@ def _check_blackboard(
                 )
             )
     return problems
+
+
+def check_blackboard_sets(loaded: LoadedScenario, texts: Sequence[str]) -> dict[str, Any]:
+    """`--set KEY=VALUE` for a machine already running (`run --from SNAPSHOT`): blackboard
+    keys the machine declares, checked as a scenario's `blackboard:` values are (the type the
+    machine declares, finite numbers, goals as numbers). Scenario values are refused: they
+    were built into the world when the run started.
+
+    Returns:
+        Key -> value.
+
+    Raises:
+        ConfigError: Every problem, each located at `<--set>` with the valid keys.
+    """
+    types = blackboard_types(loaded.machine)
+    values: dict[str, Any] = {}
+    problems: list[Diagnostic] = []
+    origin: dict[str, str] = {}
+    for text in texts:
+        ov = parse_override(text)
+        if isinstance(ov, Diagnostic):
+            problems.append(ov)
+            continue
+        if len(ov.path) != 1 or ov.path[0] not in types:
+            why = (
+                "not a blackboard key of this machine"
+                if len(ov.path) == 1
+                else "a resumed run changes blackboard keys only: scenario values were built "
+                "into its world when it started"
+            )
+            problems.append(ov.diag(why, tuple(sorted(types))))
+            continue
+        values[ov.path[0]] = ov.value
+        origin[ov.path[0]] = ov.text
+    stand_in = Scenario.model_construct(blackboard=values)
+    for diag in _check_blackboard(stand_in, loaded.machine, types, loaded.source):
+        key = diag.path.removeprefix("blackboard.")
+        message = f"{diag.message} (from --set {origin.get(key, key)})"
+        problems.append(Diagnostic("<--set>", 0, 0, key, message, diag.valid))
+    if problems:
+        raise ConfigError(problems)
+    return values
 
 
 def _number_as_text(value: object) -> str | None:

@@ -165,15 +165,16 @@ class Client:
 
     def command(
         self, op: str, machine: str | None = None, sets: list[str] | None = None,
-        timeout: float = 30.0, preempt: bool = False,
+        timeout: float = 30.0, preempt: bool = False, snapshot: str | None = None,
     ) -> Reply:  # fmt: skip
-        """Send one command and return the session's reply.
+        """Send one command and return the session's reply (`snapshot`: the name a `snapshot`
+        writes or a `restore` reads).
 
         Raises:
             LiveError: No session of that name answered within `timeout` seconds.
         """
         cmd = Command(op=op, machine=machine, set=list(sets or []), client=self.name,  # type: ignore[arg-type]
-                      owner=self.owner, preempt=preempt)  # fmt: skip
+                      owner=self.owner, preempt=preempt, snapshot=snapshot)  # fmt: skip
         return self._ask("command", cmd.model_dump_json(), timeout)
 
     def run(

@@ -25,10 +25,11 @@ __all__ = [
     "key",
 ]
 
-COMMANDS = ("run", "stop", "estop", "reset", "pause", "resume", "status", "shutdown", "recover")
+COMMANDS = ("run", "stop", "estop", "reset", "pause", "resume", "status", "shutdown", "recover",
+            "snapshot", "restore", "reload")  # fmt: skip
 """Every command a session takes."""
 PRIORITY = {"estop": 0, "shutdown": 1, "stop": 1, "pause": 2, "resume": 2, "reset": 2, "run": 3,
-            "recover": 3}  # fmt: skip
+            "recover": 3, "snapshot": 2, "restore": 3, "reload": 3}  # fmt: skip
 """Lower first: what arrives in the same control tick is applied in this order."""
 STATES = ("IDLE", "MOVING", "GRASPING", "PAUSED", "BLOCKED", "ESTOPPED", "ERROR")
 """The robot's state as the session publishes it."""
@@ -48,16 +49,25 @@ class Command(BaseModel):
             carry it (a bystander's do not keep the task alive).
         preempt: For `run`: stop the running task under control (and drop the queue), then
             run this one; without it a `run` while busy follows the session's queue policy.
+        snapshot: For `snapshot`: a name for the file (default: session, epoch and tick); for
+            `restore`: the snapshot's name. Plain names: the files stay in the session's
+            snapshot folder (live/snapshots.py). `reload` names its file in `machine`.
     """
 
     model_config = ConfigDict(extra="forbid")
 
-    op: Literal["run", "stop", "estop", "reset", "pause", "resume", "status", "shutdown", "recover"]
+    op: Literal[
+        "run", "stop", "estop", "reset", "pause", "resume", "status", "shutdown", "recover",
+        "snapshot", "restore", "reload",
+    ]  # fmt: skip
     machine: str | None = Field(default=None, description="For `run`: machine path or name.")
     set: list[str] = Field(default_factory=list, description="For `run`: KEY=VALUE texts.")
     client: str = Field(default="", max_length=128, description="Who sends the command.")
     owner: str = Field(default="", max_length=128, description="For `run`: owner token.")
     preempt: bool = Field(default=False, description="For `run`: replace the running task.")
+    snapshot: str | None = Field(
+        default=None, max_length=128, description="For `snapshot`/`restore`: the file's name."
+    )
 
 
 class Reply(BaseModel):
@@ -71,6 +81,9 @@ class Reply(BaseModel):
         "across restarts of the session.",
     )
     status: dict[str, Any] | None = Field(default=None, description="For `status`.")
+    snapshot: str | None = Field(
+        default=None, description="For `snapshot`: the file it writes; `restore`: it reads."
+    )
 
 
 def key(session: str, leaf: str) -> str:

@@ -61,6 +61,7 @@ from .guardrail import GoalRejected, check_goals
 from .inputs import parse_sets, refuse_non_inputs
 from .protocol import PRIORITY, Command, Reply
 from .task import Task
+from .time_travel import TIME_TRAVEL, apply_time_travel, submit_time_travel
 
 __all__ = ["GRIPPER_SKILLS", "RECOVER", "Session"]
 
@@ -105,7 +106,10 @@ class Session:
         recorder: Callable[[Task], Observer] | None = None,
         allow_paths: Sequence[Path | str] = (),
         queue_limit: int = 0,
+        snapshot_dir: Path | str | None = None,
     ) -> None:
+        self.snapshot_dir = Path(snapshot_dir) if snapshot_dir is not None else Path("snapshots")
+        """Where `snapshot` writes and `restore` reads (live/snapshots.py)."""
         self.recorder = recorder
         self.allow_paths = tuple(allow_paths)
         """Directories besides the scenario's tree that a task's machine may come from."""
@@ -239,6 +243,11 @@ class Session:
             if rejected is not None:
                 return Reply(accepted=False, reason=rejected)
             return self._admit_run(cmd, payload)
+        if op in TIME_TRAVEL:  # snapshot, restore, reload (live/time_travel.py)
+            reply, payload = submit_time_travel(self, cmd)
+            if reply.accepted:
+                self._enqueue(cmd, payload)
+            return reply
         why = self._refuse(op)
         if why is not None:
             return Reply(accepted=False, reason=why)
@@ -489,6 +498,8 @@ class Session:
         elif op == "reset":
             self.estopped, self.error, self._reset_pending = False, None, False
             self.publish("events", {"event": "reset"})
+        elif op in TIME_TRAVEL:
+            apply_time_travel(self, cmd, payload)
         elif op in ("run", "recover") and isinstance(payload, Task):
             if self.estopped or self.error:
                 self._pending.pop(payload.id, None)
@@ -501,6 +512,40 @@ class Session:
                     task.stop(why)  # type: ignore[union-attr]
             self.tasks.append(payload)
             self._pending.pop(payload.id, None)  # after the append: `busy` never undercounts
+
+    # -- time travel (live/time_travel.py) ------------------------------------------------
+    def next_task_id(self) -> str:
+        """A new task id of this session."""
+        return next(self._ids)
+
+    def drop_all(self, reason: str) -> None:
+        """Drop the queue and end the running task where it is, without a result (a
+        `restore` replaces the world they ran on); their clients are told `reason`."""
+        self._drop_queue(f"not started: {reason}")
+        task = self.task
+        if task is None:
+            return
+        obs, self._observer = self._observer, None
+        self.loop.set_observers([])
+        close = getattr(obs, "close", None)
+        if close is not None:
+            close()
+        self.task = None
+        self._task_end_rejected(task, f"ended: {reason}")
+
+    def resume_task(self, task: Task) -> None:
+        """Continue `task` restored from a snapshot (with a recorder, if the session
+        records: its recording starts at the snapshot's time)."""
+        self.task = task
+        self._observer = self.recorder(task) if self.recorder is not None else None
+        task.resume([self._observer] if self._observer is not None else [])
+        self.publish("events", {"event": "task_start", "task": task.id,
+                                "machine": task.machine_ref, "restored": True})  # fmt: skip
+
+    def restarted_clock(self) -> None:
+        """Simulated time jumped (a restore): pace from here."""
+        self._anchor = (time.perf_counter(), self.ctx.t, -1.0)
+        self.rt_window.clear()
 
     def _task_end_rejected(self, task: Task, reason: str | None = None) -> None:
         why = reason or f"not started: the robot is {self.state}"

@@ -83,6 +83,18 @@ class Task:
             obs.on_start(ctx, self.executor)
         self.episode.start()
 
+    def resume(self, observers: list | None = None) -> None:
+        """Continue this task as restored from a session snapshot (live/snapshots.py): its
+        machine where it was; `observers` told `on_resume` (or `on_start`)."""
+        assert self.episode is not None and self.executor is not None
+        observers = observers or []
+        self.loop.set_observers(observers)
+        self.episode.observers = list(observers)
+        self.wall0 = time.perf_counter()
+        for obs in observers:
+            resume = getattr(obs, "on_resume", None)
+            (resume if resume is not None else obs.on_start)(self.ctx, self.executor)
+
     @property
     def t0(self) -> float:
         """Simulated time the task started [s]."""

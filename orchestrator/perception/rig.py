@@ -60,6 +60,11 @@ class CameraRig:
         self.segmentation = False
         """Render the segmentation image too (a second pass for OpenGL): for a recording."""
 
+    def __getstate__(self) -> dict:
+        # a snapshot (engine/snapshot) keeps the noise stream; the renderer (an OpenGL
+        # context) opens again on first use
+        return {**vars(self), "_renderer": None}
+
     @property
     def renderer(self) -> Renderer:
         """The renderer (opened on first use, as `perception.backend` asks)."""

@@ -101,6 +101,14 @@ class RerunRecorder:
     # -- observer hooks -------------------------------------------------------------------
     def on_start(self, ctx: Context, executor: Executor) -> None:
         """Prepare everything static (world, frames, machine graph); open the stream if live."""
+        self._begin(ctx, executor, None)
+
+    def on_resume(self, ctx: Context, executor: Executor) -> None:
+        """A run resumed from a snapshot (`run --from`): the recording starts at the snapshot's
+        time, in the state active then, with a `resume` event marking it."""
+        self._begin(ctx, executor, executor.leaf)
+
+    def _begin(self, ctx: Context, executor: Executor, resumed_in: str | None) -> None:
         self._ctx, self._executor = ctx, executor
         self.rec = None
         scene = static_scene(ctx, executor.root)
@@ -128,7 +136,16 @@ class RerunRecorder:
         self._seen = 0
         self._last_tick, self._last_t = -1, 0.0
         self._guards.trip_line(ctx.tick, ctx.t)
-        self._states.enter(ctx.tick, ctx.t, self._states.graph.initial_leaf)
+        self._resumed_at = None if resumed_in is None else ctx.t
+        if resumed_in is None:
+            self._states.enter(ctx.tick, ctx.t, self._states.graph.initial_leaf)
+        else:  # what happened before the snapshot is in the recording of the run up to it
+            self._seen = len(executor.transitions)
+            self._states.enter(ctx.tick, ctx.t, resumed_in)
+            self._events.add_text(
+                ctx.tick, ctx.t, "resume", f"resumed from a snapshot at t={ctx.t:.3f} s "
+                f"(control tick {ctx.tick}) in {resumed_in}", "INFO",
+            )  # fmt: skip
         ctx.listeners.append(self._on_event)
         if self.live:
             self._flush()
@@ -207,7 +224,8 @@ class RerunRecorder:
                 raise RecordingError(f"cannot write the recording to {self.path}: {exc}") from None
             sinks.append(rr.FileSink(str(self.path)))
         rec.set_sinks(*sinks)
-        rec.send_recording_name(f"{ctx.scenario.name} seed {ctx.world.seed}")
+        resumed = "" if self._resumed_at is None else f", resumed at t={self._resumed_at:.3f} s"
+        rec.send_recording_name(f"{ctx.scenario.name} seed {ctx.world.seed}{resumed}")
         return rec
 
     def _on_event(self, event: Event) -> None:

@@ -20,6 +20,7 @@
 
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <structmember.h>
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
@@ -142,9 +143,63 @@ static PyObject *ftnoise_get_bias(FtNoise *self, void *closure) {
     return Py_BuildValue("[ddd]", self->bias[0], self->bias[1], self->bias[2]);
 }
 
+/* Snapshots (engine/snapshot): the stream's position travels with the object. `__reduce__`
+   gives the constructor's arguments and a state of plain values (the drift walked, the last
+   reading's time and offset, the block drawn ahead and the next reading's index in it);
+   `__setstate__` puts them back. */
+static PyObject *ftnoise_reduce(FtNoise *self, PyObject *unused) {
+    if (self->refill == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "FtNoise is not initialised (or was cleared)");
+        return NULL;
+    }
+    PyObject *block = self->block != NULL ? self->block : Py_None;
+    return Py_BuildValue("O(ddO)((ddd)d(ddd)On)", (PyObject *)Py_TYPE(self), self->std,
+                         self->drift, self->refill, self->bias[0], self->bias[1], self->bias[2],
+                         self->t, self->offset[0], self->offset[1], self->offset[2], block,
+                         self->next);
+}
+
+static PyObject *ftnoise_setstate(FtNoise *self, PyObject *state) {
+    double bias[3], t, offset[3];
+    PyObject *block;
+    Py_ssize_t next;
+    if (!PyArg_ParseTuple(state, "(ddd)d(ddd)On", &bias[0], &bias[1], &bias[2], &t, &offset[0],
+                          &offset[1], &offset[2], &block, &next))
+        return NULL;
+    const double *draws = NULL;
+    Py_ssize_t n = 0;
+    if (block != Py_None) {
+        Py_buffer view;
+        if (PyObject_GetBuffer(block, &view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) return NULL;
+        int ok = view.itemsize == 8 && view.format != NULL && strcmp(view.format, "d") == 0 &&
+                 view.len >= 48;
+        draws = (const double *)view.buf;
+        n = view.len / 48;
+        PyBuffer_Release(&view); /* the array is kept below: its memory stays */
+        if (!ok) {
+            PyErr_SetString(PyExc_ValueError, "FtNoise block must be float64, 6 a reading");
+            return NULL;
+        }
+    }
+    if (next < 0 || next > n) {
+        PyErr_SetString(PyExc_ValueError, "FtNoise state: next reading outside the block");
+        return NULL;
+    }
+    Py_XSETREF(self->block, block == Py_None ? NULL : Py_NewRef(block));
+    memcpy(self->bias, bias, sizeof bias);
+    memcpy(self->offset, offset, sizeof offset);
+    self->t = t;
+    self->draws = draws;
+    self->n = n;
+    self->next = next;
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef ftnoise_methods[] = {
     {"offset", (PyCFunction)ftnoise_offset_py, METH_O,
      "What noise and drift add to a reading at simulated time t [s], per axis [N]."},
+    {"__reduce__", (PyCFunction)ftnoise_reduce, METH_NOARGS, "For pickle: the whole stream."},
+    {"__setstate__", (PyCFunction)ftnoise_setstate, METH_O, "For pickle: the stream's position."},
     {NULL}};
 
 static PyGetSetDef ftnoise_getset[] = {
@@ -397,6 +452,30 @@ static PyObject *wf_forget(WristForce *self, PyObject *unused) {
     Py_RETURN_NONE;
 }
 
+/* Snapshots rebuild a WristForce on the restored MjData from what it was made of (world/
+   native.py): its readings are cached per simulated instant only, so a rebuilt one reads the
+   same. */
+static PyObject *wf_get_bias(WristForce *self, void *closure) {
+    return Py_BuildValue("(ddd)", self->bias[0], self->bias[1], self->bias[2]);
+}
+
+static PyObject *wf_get_weight(WristForce *self, void *closure) {
+    return Py_BuildValue("(ddd)", self->weight[0], self->weight[1], self->weight[2]);
+}
+
+static PyGetSetDef wf_getset[] = {
+    {"bias", (getter)wf_get_bias, NULL, "The sensor's zero offset [N].", NULL},
+    {"weight", (getter)wf_get_weight, NULL, "The true weight of hand and tool [N].", NULL},
+    {NULL}};
+
+static PyMemberDef wf_members[] = {
+    {"data", T_OBJECT, offsetof(WristForce, data), READONLY, "The MjData read."},
+    {"views", T_OBJECT, offsetof(WristForce, keep), READONLY, "(f_site, rot): the views read."},
+    {"noise", T_OBJECT, offsetof(WristForce, noise), READONLY, "The FtNoise, or None."},
+    {"fallback", T_OBJECT, offsetof(WristForce, fallback), READONLY,
+     "The Python reading while a sensor fault acts, or None."},
+    {NULL}};
+
 static PyMethodDef wf_methods[] = {
     {"norm_sq", (PyCFunction)wf_norm_sq_py, METH_NOARGS,
      "Squared norm of the measured wrist force now [N^2] (one reading per instant)."},
@@ -424,6 +503,8 @@ static PyTypeObject WristForceType = {
     .tp_init = (initproc)wf_init,
     .tp_dealloc = (destructor)wf_dealloc,
     .tp_methods = wf_methods,
+    .tp_members = wf_members,
+    .tp_getset = wf_getset,
 };
 
 /* ---------------------------------------------------------------- Clock ------------ */
@@ -461,6 +542,10 @@ static PyObject *clock_now(Clock *self, PyObject *unused) {
     return PyFloat_FromDouble(*self->time);
 }
 
+static PyMemberDef clock_members[] = {
+    {"data", T_OBJECT, offsetof(Clock, data), READONLY, "The MjData whose time it reads."},
+    {NULL}};
+
 static PyMethodDef clock_methods[] = {
     {"now", (PyCFunction)clock_now, METH_NOARGS, "MjData's simulated time [s], read in place."},
     {NULL}};
@@ -474,6 +559,7 @@ static PyTypeObject ClockType = {
     .tp_init = (initproc)clock_init,
     .tp_dealloc = (destructor)clock_dealloc,
     .tp_methods = clock_methods,
+    .tp_members = clock_members,
 };
 
 /* ---------------------------------------------------------------- Envelope --------- */

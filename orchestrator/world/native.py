@@ -8,6 +8,11 @@ give the same results bit for bit (tests/test_native.py holds them to it). Witho
 the environment variable `ORCHESTRATOR_PURE_PYTHON=1`, the pure-Python path runs.
 
 Objects choose their path when they are built (`native()`), so a test can build one of each.
+
+Snapshots (engine/snapshot) pickle the compiled objects too: an `FtNoise` pickles itself (its
+stream's position included); a `Clock` and a `WristForce` read MjData in place, so `REDUCERS`
+rebuilds them on the restored MjData (`time_address` found again); an `Envelope` holds raw
+addresses and is rebuilt by its owner (guards/bank.py).
 """
 
 from __future__ import annotations
@@ -15,11 +20,13 @@ from __future__ import annotations
 import ctypes
 import importlib
 import os
+from collections.abc import Callable
 from types import ModuleType
+from typing import Any
 
 import mujoco
 
-__all__ = ["PURE_PYTHON_ENV", "compiled", "native", "time_address"]
+__all__ = ["PURE_PYTHON_ENV", "REDUCERS", "compiled", "native", "time_address"]
 
 PURE_PYTHON_ENV = "ORCHESTRATOR_PURE_PYTHON"
 """Set to 1 to run the pure-Python path although the compiled one is built."""
@@ -67,3 +74,48 @@ def time_address(data: mujoco.MjData) -> int:
     finally:
         data.time = before
     return address if found and cell.value == before else 0
+
+
+def _rebuild_clock(data: mujoco.MjData) -> Any:
+    """A `Clock` reading `data`'s time in place (a snapshot's restored MjData)."""
+    assert compiled is not None
+    return compiled.Clock(data, _address_of_time(data))
+
+
+def _rebuild_wrist_force(
+    data: mujoco.MjData,
+    views: tuple[Any, Any],
+    bias: tuple[float, float, float],
+    weight: tuple[float, float, float],
+    noise: Any,
+    fallback: Callable[[], float] | None,
+) -> Any:
+    """A `WristForce` on `data` (a snapshot's restored MjData): its readings are cached per
+    simulated instant only, so the rebuilt one reads what the original would have."""
+    assert compiled is not None
+    f_site, rot = views
+    wf = compiled.WristForce(data, f_site, rot, bias, weight, noise, _address_of_time(data))
+    if fallback is not None:
+        wf.set_fallback(fallback)
+    return wf
+
+
+def _address_of_time(data: mujoco.MjData) -> int:
+    address = time_address(data)
+    if not address:  # it was found where the snapshot was taken: same MuJoCo, same layout
+        raise RuntimeError("cannot find MjData's time in memory to rebuild a compiled reader")
+    return address
+
+
+REDUCERS: dict[type, Callable[[Any], tuple]] = (
+    {
+        compiled.Clock: lambda c: (_rebuild_clock, (c.data,)),
+        compiled.WristForce: lambda w: (
+            _rebuild_wrist_force,
+            (w.data, w.views, w.bias, w.weight, w.noise, w.fallback),
+        ),
+    }
+    if compiled is not None
+    else {}
+)
+"""How a snapshot pickles the compiled readers of MjData (a `pickle` dispatch table's entries)."""

@@ -1,0 +1,143 @@
+"""A session's `snapshot`, `restore` and `reload` commands: checked when they arrive (the
+answer says why one is refused), applied at the start of the next control tick.
+
+* `snapshot [--name NAME]`: live/snapshots.py writes the world and the running task; the
+  answer names the file, an event says when it was written.
+* `restore NAME`: the snapshot is read and checked when the command arrives (signature,
+  version, scenario), put in place at the start of the next tick (live/snapshots.py).
+* `reload MACHINE`: the file is loaded and validated as a `run`'s machine is, and must fit the
+  running task (engine/reload.py); refused with the validator's errors otherwise, and the task
+  runs on unchanged. Applied, every level of the task adopts the new definition as it enters
+  its next state: the state running finishes as it was.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING, Any
+
+from ..engine.reload import apply_reload, reload_problems
+from ..engine.snapshot import SnapshotError
+from ..exceptions import ConfigError
+from ..language.load import load_scenario
+from ..language.loading import MachineNode
+from .protocol import Command, Reply
+from .snapshots import SessionState, read_session, snapshot_file, write_session
+from .task import Task
+
+if TYPE_CHECKING:
+    from .session import Session
+
+__all__ = ["TIME_TRAVEL", "apply_time_travel", "submit_time_travel"]
+
+TIME_TRAVEL = ("snapshot", "restore", "reload")
+"""The commands this module handles."""
+
+
+def submit_time_travel(session: Session, cmd: Command) -> tuple[Reply, Any]:
+    """Check a `snapshot`, `restore` or `reload` as it arrives (any thread).
+
+    Returns:
+        The answer, and what `apply_time_travel` needs if it was accepted.
+    """
+    op = cmd.op
+    if op == "snapshot":
+        name = cmd.snapshot or f"{session.name}-{session.epoch}-tick{session.ticks}"
+        try:
+            path = snapshot_file(session.snapshot_dir, name)
+        except SnapshotError as exc:
+            return Reply(accepted=False, reason=str(exc)), None
+        return Reply(accepted=True, snapshot=str(path)), path
+    if op == "restore":
+        if not cmd.snapshot:
+            return Reply(accepted=False, reason="restore: name the snapshot (--name)"), None
+        if session.estopped or session.error:
+            why = f"the robot is {session.state}: send `reset` first, then restore"
+            return Reply(accepted=False, reason=why), None
+        try:
+            path = snapshot_file(session.snapshot_dir, cmd.snapshot)
+            state, header = read_session(path, session.loaded)
+        except SnapshotError as exc:
+            return Reply(accepted=False, reason=str(exc)), None
+        return Reply(accepted=True, snapshot=str(path)), (path, state, header)
+    return _submit_reload(session, cmd)
+
+
+def _submit_reload(session: Session, cmd: Command) -> tuple[Reply, Any]:
+    if not cmd.machine:
+        return Reply(accepted=False, reason="reload: name the machine file (MACHINE)"), None
+    task = session.task
+    if task is None or task.executor is None or task.executor.done:
+        why = "no task is running: the next `run` loads the machine file as it is then"
+        return Reply(accepted=False, reason=why), None
+    try:
+        loaded = load_scenario(
+            session.scenario_ref, allow_paths=session.allow_paths, machine=cmd.machine
+        )
+    except ConfigError as exc:  # the validator's errors, every one: nothing changes
+        return Reply(accepted=False, reason=str(exc)), None
+    problems = reload_problems(task.executor, loaded.machine)
+    if problems:
+        return Reply(accepted=False, reason="reload: " + "; ".join(problems)), None
+    return Reply(accepted=True, task=task.id), (task, loaded.machine)
+
+
+def apply_time_travel(session: Session, cmd: Command, payload: Any) -> None:
+    """Apply an accepted `snapshot`, `restore` or `reload` (the session's loop, between two
+    control ticks)."""
+    if cmd.op == "snapshot":
+        _snapshot(session, payload)
+    elif cmd.op == "restore":
+        _restore(session, cmd, *payload)
+    else:
+        _reload(session, *payload)
+
+
+def _snapshot(session: Session, path: Any) -> None:
+    state = SessionState(
+        session.world, session.ctx, session.controller, session.loop, session.task,
+        session.idle_stop, session.estopped, session.error, session.blocked,
+    )  # fmt: skip
+    try:
+        size = write_session(path, state, session.loaded, session.name)
+    except SnapshotError as exc:
+        session.publish("events", {"event": "snapshot_failed", "reason": str(exc)})
+        return
+    session.publish("events", {"event": "snapshot", "snapshot": str(path), "bytes": size,
+                               "t": round(session.ctx.t, 6), "tick": session.ctx.tick})  # fmt: skip
+
+
+def _restore(
+    session: Session, cmd: Command, path: Any, state: SessionState, header: dict[str, Any]
+) -> None:
+    session.drop_all(f"the session was restored from {path}")
+    session.world, session.ctx, session.controller = state.world, state.ctx, state.controller
+    session.loop, session.idle_stop, session.blocked = state.loop, state.idle_stop, state.blocked
+    session.estopped, session.error = state.estopped, state.error
+    session.restarted_clock()
+    task = state.task
+    event: dict[str, Any] = {"event": "restore", "snapshot": str(path), "t": header.get("t"),
+                             "tick": header.get("tick"), "task": None}  # fmt: skip
+    if task is not None and task.executor is not None and not task.executor.done:
+        task.id = session.next_task_id()
+        task.owner, task.client = cmd.owner, cmd.client
+        task.accepted_wall, task.beat_wall = time.perf_counter(), None
+        session.resume_task(task)
+        event["task"] = task.id
+    session.publish("events", event)
+
+
+def _reload(session: Session, task: Task, root: MachineNode) -> None:
+    ex = task.executor
+    if session.task is not task or ex is None or ex.done:
+        session.publish("events", {"event": "reload_refused", "task": task.id,
+                                   "reason": "the task ended before the reload"})  # fmt: skip
+        return
+    problems = reload_problems(ex, root)  # again: states may have changed since it arrived
+    if problems:
+        session.publish("events", {"event": "reload_refused", "task": task.id,
+                                   "reason": "; ".join(problems)})  # fmt: skip
+        return
+    apply_reload(ex, root)
+    session.publish("events", {"event": "reload", "task": task.id, "machine": root.name,
+                               "t": round(session.ctx.t, 6)})  # fmt: skip

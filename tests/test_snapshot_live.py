@@ -1,0 +1,132 @@
+"""A live session's `reload`, `snapshot` and `restore` (live/time_travel.py), stepped by hand.
+
+The hot-reload acceptance: a machine file changed while its task runs takes effect at the
+next state entry (the running state finishes as it was); an invalid file is refused with the
+validator's errors and the session runs on unchanged.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from orchestrator.engine.snapshot.signing import KEY_ENV
+from orchestrator.live.protocol import Command
+from orchestrator.live.session import Session
+
+HOLD_LOOP = Path(__file__).parent / "machines" / "hold_loop.yaml"
+
+
+@pytest.fixture(autouse=True)
+def _own_key(tmp_path, monkeypatch):
+    monkeypatch.delenv(KEY_ENV, raising=False)
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+
+
+@pytest.fixture
+def files(tmp_path) -> dict[str, Path]:
+    """The loop, a copy with shorter holds, and one the validator refuses."""
+    text = HOLD_LOOP.read_text()
+    out = {"loop": tmp_path / "hold_loop.yaml", "fast": tmp_path / "hold_fast.yaml",
+           "broken": tmp_path / "hold_broken.yaml"}  # fmt: skip
+    out["loop"].write_text(text)
+    out["fast"].write_text(text.replace("duration_s: 0.3", "duration_s: 0.1"))
+    out["broken"].write_text(text.replace("duration_s: 0.3", "duration_s: fast"))
+    return out
+
+
+def _session(tmp_path: Path, events: list) -> Session:
+    def publish(leaf: str, message: dict) -> None:
+        if leaf == "events":
+            events.append(message)
+
+    return Session("pick_place", "tt", seed=0, speed=0.0, publish=publish,
+                   allow_paths=[tmp_path], snapshot_dir=tmp_path / "snaps")  # fmt: skip
+
+
+def _step(session: Session, ticks: int) -> None:
+    """The session's loop, one control tick at a time (no thread, no pacing)."""
+    for _ in range(ticks):
+        session._drain()
+        if session.task is None and session.tasks:
+            session._start_next()
+        session._tick()
+        session._after_tick()
+
+
+def _held_for(result: dict) -> list[float]:
+    """How long each entry of WAIT lasted [s]."""
+    times = [0.0, *(tr["t"] for tr in result["transitions"])]
+    return [round(b - a, 3) for a, b in zip(times, times[1:], strict=False)]
+
+
+def test_a_reloaded_parameter_takes_effect_at_the_next_entry(tmp_path, files):
+    events: list[dict] = []
+    session = _session(tmp_path, events)
+    assert session.submit(Command(op="run", machine=str(files["loop"]))).accepted
+    _step(session, 5)  # the first hold runs (0.3 s)
+    reply = session.submit(Command(op="reload", machine=str(files["fast"])))
+    assert reply.accepted, reply.reason
+    _step(session, 200)
+    result = session.last_result
+    assert result is not None and result["outcome"] == "succeeded"
+    # the hold that ran finished as it was defined when entered; the next three are 0.1 s
+    assert _held_for(result) == [0.3, 0.1, 0.1, 0.1]
+    assert [e["event"] for e in events if e["event"].startswith("reload")] == ["reload"]
+
+
+def test_an_invalid_file_is_refused_with_the_validators_errors_and_nothing_changes(tmp_path, files):
+    session = _session(tmp_path, [])
+    assert session.submit(Command(op="run", machine=str(files["loop"]))).accepted
+    _step(session, 5)
+    reply = session.submit(Command(op="reload", machine=str(files["broken"])))
+    assert not reply.accepted
+    assert f"{files['broken']}:10:12: " in reply.reason
+    assert "states.WAIT.with.duration_s: Input should be a valid number" in reply.reason
+    _step(session, 200)
+    assert session.last_result is not None
+    assert _held_for(session.last_result) == [0.3, 0.3, 0.3, 0.3]  # ran on unchanged
+
+
+def test_a_reload_that_does_not_fit_the_running_task_is_refused(tmp_path, files):
+    session = _session(tmp_path, [])
+    assert not session.submit(Command(op="reload", machine=str(files["fast"]))).accepted
+    other = tmp_path / "renamed.yaml"
+    other.write_text(files["loop"].read_text().replace("WAIT", "PAUSE"))
+    assert session.submit(Command(op="run", machine=str(files["loop"]))).accepted
+    _step(session, 3)
+    reply = session.submit(Command(op="reload", machine=str(other)))
+    assert not reply.accepted
+    assert "WAIT: runs now and is not in the new file (its states: PAUSE, DONE)" in reply.reason
+
+
+def test_a_session_snapshot_restores_the_task_where_it_was(tmp_path, files):
+    events: list[dict] = []
+    session = _session(tmp_path, events)
+    assert session.submit(Command(op="run", machine=str(files["loop"]))).accepted
+    _step(session, 40)  # inside the second hold
+    reply = session.submit(Command(op="snapshot", snapshot="second_hold"))
+    assert reply.accepted and reply.snapshot == str(tmp_path / "snaps" / "second_hold.snap")
+    _step(session, 200)
+    first = session.last_result
+    assert first is not None
+    reply = session.submit(Command(op="restore", snapshot="second_hold", client="me"))
+    assert reply.accepted, reply.reason
+    _step(session, 200)
+    again = session.last_result
+    assert again is not None and again["task"] != first["task"]  # a new task of `me`
+    assert again["transitions"] == first["transitions"]  # from there, the same run
+    assert again["sim_time"] == first["sim_time"]
+    restored = next(e for e in events if e["event"] == "restore")
+    assert restored["tick"] == 40 and restored["task"] == again["task"]
+
+
+@pytest.mark.parametrize(
+    ("name", "message"),
+    [("../../etc/passwd", "give a plain name"), ("missing", "cannot read the snapshot")],
+)
+def test_restore_refuses_a_path_or_a_missing_snapshot(tmp_path, name, message):
+    session = _session(tmp_path, [])
+    reply = session.submit(Command(op="restore", snapshot=name))
+    assert not reply.accepted and message in reply.reason
