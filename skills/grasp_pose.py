@@ -35,7 +35,7 @@ from .targets import resolve_target, rot_down, yaw_of_rot
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
 
-__all__ = ["GraspPose", "finger_boxes"]
+__all__ = ["GraspPose", "finger_boxes", "hand_box"]
 
 _MATCH_M = 0.02
 """A neighbour this close (xy) to the target is the target itself, seen [m]."""
@@ -128,6 +128,8 @@ class GraspPose(Skill):
         here = yaw_of_rot(ctx.tcp_rot)
         fingers = finger_boxes(ctx, p.opening_m)
         others = _neighbours(p.neighbours, centre) + _walls(ctx, tcp[2] - fingers.depth_m)
+        hand = hand_box(ctx)
+        hand_walls = _walls(ctx, tcp[2] - hand.depth_m)  # what stands as high as the palm
         size = p.size_m if p.size_m is not None else _seen_size(p.neighbours, centre)
         blocked: list[str] = []
         misses: list[float] = []
@@ -144,6 +146,10 @@ class GraspPose(Skill):
                 hit = _first_hit(fingers.at(tcp[0], tcp[1], yaw), others, p.clearance_m)
                 if hit is not None:
                     blocked.append(f"turned {turn:g} deg a finger comes within {hit}")
+                    continue
+                hit = _first_hit(hand.at(tcp[0], tcp[1], yaw), hand_walls, p.clearance_m)
+                if hit is not None:
+                    blocked.append(f"turned {turn:g} deg the hand comes within {hit}")
                     continue
                 miss = _ik_miss(ctx, tcp, yaw, p.tolerance_m, math.radians(p.tolerance_deg))
                 if miss[0] > 0.5 * p.tolerance_m or miss[1] > 0.5 * math.radians(p.tolerance_deg):
@@ -259,6 +265,47 @@ def _neighbours(items: list[Any], centre: np.ndarray) -> list[tuple[str, Box]]:
         )
         out.append((name, (pose.pos[0], pose.pos[1], pose.yaw, size[0] / 2, size[1] / 2)))
     return out
+
+
+class HandBox:
+    """The hand's (palm's) footprint around the TCP, for a hand pointing down.
+
+    Attributes:
+        half_x: Half its extent along the hand's x axis [m].
+        half_y: Half its extent along the closing axis [m].
+        depth_m: How far its lowest point is below the TCP [m] (negative: above it).
+    """
+
+    def __init__(self, half_x: float, half_y: float, depth_m: float) -> None:
+        self.half_x, self.half_y, self.depth_m = half_x, half_y, depth_m
+
+    def at(self, x: float, y: float, yaw: float) -> list[Box]:
+        """The footprint with the TCP at (x, y) [m], the hand at heading `yaw` [rad]."""
+        return [(x, y, yaw, self.half_x, self.half_y)]
+
+
+def hand_box(ctx: Context) -> HandBox:
+    """The hand's footprint, measured on the model: the bounding boxes of the hand body's
+    collision geoms (any shape), in the TCP's frame. A finger clearing a cabinet is not
+    enough: the palm, 20 cm across the closing axis, comes down beside it too."""
+    m, d, w = ctx.model, ctx.data, ctx.world
+    tcp = d.site_xpos[w.tcp_site]
+    rot = d.site_xmat[w.tcp_site].reshape(3, 3)
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    half_x = half_y = 0.0
+    depth = -math.inf
+    for g in range(m.ngeom):
+        if m.geom_bodyid[g] != w.hand_body or not (m.geom_contype[g] or m.geom_conaffinity[g]):
+            continue
+        local = m.geom_aabb[g, :3] + signs * m.geom_aabb[g, 3:]
+        world = d.geom_xpos[g] + local @ d.geom_xmat[g].reshape(3, 3).T
+        pts = (world - tcp) @ rot  # in the TCP frame: x, y closing, z down
+        half_x = max(half_x, float(np.max(np.abs(pts[:, 0]))))
+        half_y = max(half_y, float(np.max(np.abs(pts[:, 1]))))
+        depth = max(depth, float(np.max(pts[:, 2])))
+    if not math.isfinite(depth):  # no collision geom on the hand: nothing to clear
+        return HandBox(0.0, 0.0, -math.inf)
+    return HandBox(half_x, half_y, depth)
 
 
 def _walls(ctx: Context, fingertip_z: float) -> list[tuple[str, Box]]:

@@ -7,7 +7,6 @@ scene object it is; a flow that expects a particular one compares the name after
 
 from __future__ import annotations
 
-import weakref
 from typing import TYPE_CHECKING
 
 import mujoco
@@ -82,16 +81,12 @@ def gripped_object(ctx: Context, name: str) -> str | None:
     return held_object(ctx)[0]
 
 
-_GRASPED_AT: weakref.WeakKeyDictionary[Context, dict[str, float]] = weakref.WeakKeyDictionary()
-"""Per episode: the height [m] each object had when the fingers last closed on it."""
-
-
 def note_grasp(ctx: Context, name: str) -> None:
-    """Remember where `name` was when the fingers closed on it (`grasped_height`)."""
-    _GRASPED_AT.setdefault(ctx, {})[name] = float(ctx.object_pose(name).pos[2])
+    """Remember where `name` was when the fingers closed on it (`ctx.grasped_at`)."""
+    ctx.grasped_at[name] = float(ctx.object_pose(name).pos[2])
 
 
 def grasped_height(ctx: Context, name: str) -> float | None:
     """The height [m] of `name`'s centre when the fingers last closed on it (None: never in
     this episode): what a lift is measured from, wherever the object had been moved to."""
-    return _GRASPED_AT.get(ctx, {}).get(name)
+    return ctx.grasped_at.get(name)

@@ -228,17 +228,17 @@ def run_with_a_bug(task: EpisodeTask) -> dict[str, Any]:
     """A worker function: the real `run_task`, with an episode that raises on seed 1."""
     from orchestrator.batch import episode
 
-    real = episode.run_episode
+    real = episode.drive  # what runs the episode's ticks
     if task.seed == 1:
 
         def broken(*args: Any, **kwargs: Any) -> Any:
             raise ZeroDivisionError("a bug deep inside an episode")
 
-        episode.run_episode = broken  # type: ignore[assignment]
+        episode.drive = broken  # type: ignore[assignment]
     try:
         return episode.run_task(task)
     finally:
-        episode.run_episode = real  # type: ignore[assignment]
+        episode.drive = real  # type: ignore[assignment]
 
 
 def test_an_exception_in_an_episode_is_recorded_and_the_batch_goes_on(cli, tmp_path, monkeypatch):

@@ -180,3 +180,11 @@ def test_the_fault_matrix_prints_a_table(cli):
     res = cli("faults", "surgical_complication")
     assert res.exit_code == 0
     assert "estop" in res.stdout and "sensor_health" in res.stdout
+
+
+def test_a_fault_keyed_on_the_initial_state_fires():
+    # no transition leads into the initial state: it is keyed on the state's entry instead
+    # (a fault at `REACH+0.1` of the reach flow used to be silently never injected)
+    result = run_episode(load_scenario("reach_random", faults=["estop@REACH+0.1"]), 0)
+    assert result.outcome == "aborted" and result.reason["guard"] == "estop"
+    assert result.metrics["faults"][0]["t"] == pytest.approx(0.1)

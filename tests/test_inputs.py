@@ -202,8 +202,8 @@ def test_run_checks_an_offset_set_on_the_command_line_against_the_objects(cli):
     res = cli("run", "pick_place", "--set", "hover=[0, 0, 5]")
     assert res.exit_code == 2 and "Traceback" not in res.stderr
     assert (
-        "<--set>: goal rejected: hover = [0.0, 0.0, 5.0]: PICK.GRASP.APPROACH.via[0]: "
-        "$object_pose (cube at [0.4366, -0.1868, 0.225]) + $hover = [0.4366, -0.1868, 5.225]: "
+        "<--set>: goal rejected: hover = [0.0, 0.0, 5.0]: PICK.GRASP.APPROACH.motion.via[0]: "
+        "$grasp_pose (cube at [0.4366, -0.1868, 0.225]) + $hover = [0.4366, -0.1868, 5.225]: "
         "outside the workspace" in res.stderr
     ), res.stderr
 

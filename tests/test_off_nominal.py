@@ -255,3 +255,19 @@ def test_count_bounds_a_loop_and_says_when_it_is_spent():
     assert [skill.step(ctx) for _ in range(4)] == ["again", "again", "exhausted", "exhausted"]
     assert ctx.blackboard["tries"] == 3  # max + 1, never more
     assert skill.explain(ctx) == "tries: all 2 passes used"
+
+
+def test_the_palm_is_checked_against_the_walls_too(loaded_mobile):
+    # measured on the model: the hand's palm is wider along the closing axis than the open
+    # fingers reach, and sits above the fingertips; a cabinet beside a block on the floor
+    # can clear the fingers and still be in the palm's way (it was hit at 457 N)
+    from orchestrator.skills.grasp_pose import hand_box
+
+    from orchestrator.engine.runner import new_run
+
+    ctx = new_run(loaded_mobile, 0).ctx
+    hand, fingers = hand_box(ctx), finger_boxes(ctx, 0.04)
+    assert hand.half_y > fingers.outer + 0.03
+    assert hand.depth_m < 0.0 < fingers.depth_m  # the palm's bottom is above the TCP
+    (box,) = hand.at(1.0, 2.0, 0.3)
+    assert box == (1.0, 2.0, 0.3, hand.half_x, hand.half_y)

@@ -161,6 +161,20 @@ MATRICES: dict[str, list[MatrixRow]] = {
     ],
     "surgical": _SURGICAL,
     "surgical_complication": _SURGICAL,
+    "stack": [
+        *_sensor_rows("PICK.APPROACH+0.75"),
+        # a plate across the carry from the top cube to the base, put there as it starts
+        MatrixRow("obstacle:pos=[0.5,0.02,0.36],size=[0.1,0.02,0.1]@CARRY+0.05", "collision", 1.0),
+        MatrixRow("slip:object=top,factor=0.005@CARRY", "grasp_lost", 0.3),
+        MatrixRow(
+            "push:object=top,force_n=[0,0,-150],duration_ms=20@PICK.VERIFY+0.04",
+            "contact_force",
+            0.01,
+        ),
+        MatrixRow("perception_miss@0", "flow:handled"),
+        MatrixRow("perception_offset:offset_m=[0,0,-0.02]@0", "flow:failed"),
+    ],
+    "reach_random": _sensor_rows("REACH+0.3"),
 }
 """Matrices of the bundled scenarios, by scenario name."""
 

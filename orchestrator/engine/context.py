@@ -119,6 +119,10 @@ class Context:
         self.gripper_target = world.robot.gripper_open_m
         """Each finger's commanded opening [m] (`set_gripper` sets it; the fingers travel to it
         at the gripper's speed)."""
+        self.grasped_at: dict[str, float] = {}
+        """Height [m] of each object's centre when the fingers last closed on it (the `grasp`
+        skill writes it): what a lift is measured from wherever the object had been moved to
+        (`verify_grasp`, the `held` success check). Part of the episode: a snapshot keeps it."""
         self.events: list[Event] = []
         """Every event `log` recorded, in order."""
         self.listeners: list[Callable[[Event], None]] = []

@@ -25,7 +25,7 @@ from ..world.sensors import WristForceFault
 if TYPE_CHECKING:
     from ..language.events import ScheduledEvent
     from ..language.faults import Fault
-    from .context import Context, Event
+    from .context import Context
     from .executor import Executor
 
 __all__ = ["FaultInjector"]
@@ -60,8 +60,8 @@ class FaultInjector:
             else:
                 assert fault.on_enter is not None
                 self._on_enter.setdefault(fault.on_enter, []).append((i, fault))
-        if self._on_enter:
-            ctx.listeners.append(self._on_event)
+        if self._on_enter:  # every entry, the initial state's included (no transition leads there)
+            executor.entry_listeners.append(self._on_entry)
         for ev in events or []:
             self._schedule(ev.at, self._sender(ev.event, f"scheduled at t={ev.at:g} s"))
 
@@ -80,13 +80,11 @@ class FaultInjector:
         heapq.heappush(self._queue, (t, self._seq, action))
         self._seq += 1
 
-    def _on_event(self, event: Event) -> None:
-        if event.kind != "transition" or not event.data:
-            return
-        path = str(event.data["transition"]["to"]).split(".")
-        for depth in range(1, len(path) + 1):
-            for i, fault in self._on_enter.pop(".".join(path[:depth]), []):
-                self._schedule(event.t + fault.delay_s, self._starter(i, fault))
+    def _on_entry(self, path: str, retry: int | None) -> None:
+        """A state was entered (`path`, dotted from the root): start the faults keyed on it,
+        once, `delay_s` after this first entry."""
+        for i, fault in self._on_enter.pop(path, []):
+            self._schedule(self.ctx.t + fault.delay_s, self._starter(i, fault))
 
     # scheduled actions are partials of methods, not closures: a snapshot (engine/snapshot)
     # pickles the queue with the rest of the run

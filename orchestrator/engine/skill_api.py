@@ -147,6 +147,7 @@ SECTIONS: tuple[Section, ...] = (
             Member("set_gripper", ANY, "free"),
             Member("gripper_commanded", ANY, "~1 us"),
             Member("gripper_target", "read anywhere; write through `set_gripper`"),
+            Member("grasped_at", "read anywhere; a grasp skill writes it when it closes", "free"),
             Member("zero_wrist_force", "at rest, once (e.g. a `zero_sensor` skill)", "~2 us"),
             Member("advance_gripper", FRAMEWORK, "~2 us, once per tick"),
         ),

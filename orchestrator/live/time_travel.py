@@ -14,7 +14,9 @@ answer says why one is refused), applied at the start of the next control tick.
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
 
 from ..engine.reload import apply_reload, reload_problems
 from ..engine.snapshot import SnapshotError
@@ -26,7 +28,42 @@ from .snapshots import SessionState, read_session, snapshot_file, write_session
 from .task import Task
 
 if TYPE_CHECKING:
-    from .session import Session
+    from ..engine.context import Context
+    from ..engine.step import StepLoop
+    from ..language.load import LoadedScenario
+    from ..world.world import World
+    from .blocked import Blocked
+
+
+class Session(Protocol):
+    """What of a live session (live/session.py) the time-travel commands read and change:
+    a structural type, so this module does not import the session that calls it."""
+
+    allow_paths: tuple[Path | str, ...]
+    blocked: Blocked
+    controller: Any
+    ctx: Context
+    epoch: str
+    error: str | None
+    estopped: bool
+    idle_stop: Any
+    loaded: LoadedScenario
+    loop: StepLoop
+    name: str
+    publish: Callable[[str, dict[str, Any]], None]
+    scenario_ref: str
+    snapshot_dir: Path
+    task: Task | None
+    ticks: int
+    world: World
+
+    @property
+    def state(self) -> str: ...
+    def drop_all(self, reason: str) -> None: ...
+    def next_task_id(self) -> str: ...
+    def restarted_clock(self) -> None: ...
+    def resume_task(self, task: Task) -> None: ...
+
 
 __all__ = ["TIME_TRAVEL", "apply_time_travel", "submit_time_travel"]
 

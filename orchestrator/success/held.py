@@ -6,7 +6,6 @@ from typing import TYPE_CHECKING, ClassVar
 
 from pydantic import Field
 
-from ..skills.gripper import grasped_height
 from ..world.randomization import object_poses
 from .base import SCENE_OBJECT, CheckParams, SuccessCheck, Verdict
 
@@ -35,7 +34,7 @@ class Held(SuccessCheck):
     def evaluate(self, ctx: Context) -> Verdict:
         p = self.params
         pos = ctx.object_pose(p.object).pos
-        grasped = grasped_height(ctx, p.object)
+        grasped = ctx.grasped_at.get(p.object)
         start = (
             grasped
             if grasped is not None

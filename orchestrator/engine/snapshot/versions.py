@@ -15,8 +15,6 @@ import sys
 from importlib import metadata
 from pathlib import Path
 
-import orchestrator
-
 from ...skills.plugins import LOCAL_PREFIX
 from ...world.native import native
 
@@ -53,7 +51,7 @@ def _package_code() -> str:
     """SHA-256 of the framework's own code: every `.py` file of `orchestrator` (with the skills
     and robots installed into it) and the compiled module, by path."""
     h = hashlib.sha256()
-    roots = {Path(orchestrator.__file__).parent}
+    roots = {Path(__file__).resolve().parents[2]}  # the orchestrator package
     for sub in ("skills", "robots"):
         module = sys.modules.get(f"orchestrator.{sub}")
         if module is not None and module.__file__:
