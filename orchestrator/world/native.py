@@ -16,8 +16,10 @@ import ctypes
 import importlib
 import os
 from types import ModuleType
+from typing import TYPE_CHECKING
 
-import mujoco
+if TYPE_CHECKING:
+    import mujoco
 
 __all__ = ["PURE_PYTHON_ENV", "compiled", "native", "time_address"]
 
