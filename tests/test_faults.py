@@ -6,7 +6,8 @@ import json
 
 import pytest
 
-from orchestrator.batch.fault_matrix import MATRICES
+from orchestrator.batch import fault_matrix
+from orchestrator.batch.fault_matrix import MATRICES, RowResult, run_matrix
 from orchestrator.engine.runner import run_episode
 from orchestrator.language.bundled import bundled_names
 from orchestrator.language.diagnostics import Diagnostic
@@ -166,17 +167,47 @@ def test_the_pick_place_fault_matrix_is_caught_and_stopped_in_time(cli):
             assert row["stop_distance_mm"] <= far.get(kind, 5.0), row
 
 
-def test_the_surgical_fault_matrix_is_caught(cli):
+@pytest.fixture(scope="module")
+def surgical_matrix() -> list[RowResult]:
+    """The surgical fault matrix (seed 0), run once for the tests that read it (~15 s)."""
+    return run_matrix("surgical")
+
+
+def _replay(monkeypatch: pytest.MonkeyPatch, rows: list[RowResult]) -> None:
+    """`orchestrator faults` prints `rows` (the real matrix, already run) instead of rerunning."""
+
+    def replay(scenario, seed=0, overrides=None, on_row=None) -> list[RowResult]:
+        assert (seed, overrides) == (0, []), "the shared rows are seed 0's without overrides"
+        for row in rows:
+            if on_row is not None:
+                on_row(row)
+        return rows
+
+    monkeypatch.setattr(fault_matrix, "run_matrix", replay)
+
+
+def test_the_surgical_fault_matrix_is_caught(cli, surgical_matrix, monkeypatch):
+    _replay(monkeypatch, surgical_matrix)
     res = cli("faults", "surgical", "--json")
     assert res.exit_code == 0, res.stderr
     rows = json.loads(res.stdout)
+    assert len(rows) == len(surgical_matrix)
     assert rows and all(row["ok"] for row in rows), [r for r in rows if not r["ok"]]
     for row in rows:
         if row["guard"] is not None:
             assert row["stop_time_s"] <= 0.15, row
 
 
-def test_the_fault_matrix_prints_a_table(cli):
+def test_the_fault_matrix_prints_a_table(cli, surgical_matrix, monkeypatch):
+    _replay(monkeypatch, surgical_matrix)
+    res = cli("faults", "surgical")
+    assert res.exit_code == 0
+    assert "estop" in res.stdout and "sensor_health" in res.stdout
+    assert f"{len(surgical_matrix)} faults: {len(surgical_matrix)} as expected" in res.stdout
+
+
+@pytest.mark.slow
+def test_the_surgical_complication_fault_matrix_is_caught(cli):
     res = cli("faults", "surgical_complication")
     assert res.exit_code == 0
     assert "estop" in res.stdout and "sensor_health" in res.stdout

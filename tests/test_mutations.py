@@ -32,7 +32,7 @@ finger penetration, wrist force, the true incision, the SAFE_HOLD force decay)."
 def test_the_suite_fails_for_each_mutant(mutant):
     env = {**os.environ, "ORCH_MUTANT": mutant}
     cmd = [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider"]
-    cmd += ["-p", "tests.mutants", "-m", "not slow", *TARGETS]
+    cmd += ["-p", "tests.mutants", "-n", "0", "-m", "not slow", *TARGETS]  # serial: -x stops
     proc = subprocess.run(
         cmd, check=False, cwd=ROOT, env=env, capture_output=True, text=True, timeout=3600
     )

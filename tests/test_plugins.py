@@ -119,14 +119,15 @@ def test_show_skill_from_a_local_folder(tmp_path):
     ],
     ids=["import_error", "name_clash", "no_skill", "empty"],
 )  # fmt: skip
-def test_a_bad_skill_folder_is_one_clear_error_exit_2(tmp_path, files, message):
+def test_a_bad_skill_folder_is_one_clear_error_exit_2(tmp_path, files, message, cli, monkeypatch):
     (tmp_path / "mine").mkdir()
     for name, text in files.items():
         (tmp_path / "mine" / name).write_text(text)
-    proc = _cli("list", "skills", "--skills", "mine", cwd=tmp_path)
-    assert proc.returncode == 2
-    assert "Traceback" not in proc.stderr
-    assert proc.stderr.startswith("error: ") and message in proc.stderr, proc.stderr
+    monkeypatch.chdir(tmp_path)  # in-process (nothing is registered): `mine` as a user types it
+    res = cli("list", "skills", "--skills", "mine")
+    assert res.exit_code == 2
+    assert res.exception is None and "Traceback" not in res.stderr
+    assert res.stderr.startswith("error: ") and message in res.stderr, res.stderr
 
 
 def test_a_scenario_names_a_missing_skill_folder_at_its_line(tmp_path):

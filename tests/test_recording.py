@@ -377,7 +377,17 @@ def test_the_recording_opens_with_the_default_blueprint(recorded):
     assert len(reader.blueprints()) == 1
 
 
-@pytest.mark.parametrize("name", bundled_names("scenarios"))
+LONG_EPISODES = {"sorting", "sorting_conveyor"}
+"""Scenarios whose episode takes 10-14 s: their recordings run with the slow suite."""
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(n, marks=pytest.mark.slow) if n in LONG_EPISODES else n
+        for n in bundled_names("scenarios")
+    ],
+)
 def test_every_bundled_scenario_records_its_transitions_and_geoms(name, tmp_path):
     loaded = load_scenario(name)
     rec = record(loaded, 0, tmp_path / f"{name}.rrd")

@@ -216,11 +216,16 @@ def test_parcels_are_drawn_per_seed_inside_the_area_apart_or_touching_another_cl
     assert touching >= 5  # some parcels touch
 
 
-def test_single_class_parcels_fit_and_one_class_never_touches(sorting):
+@pytest.mark.parametrize(
+    "seeds",
+    [range(5), pytest.param(range(5, 20), marks=pytest.mark.slow)],  # ~0.5 s a seed
+    ids=["seeds0-4", "seeds5-19"],
+)
+def test_single_class_parcels_fit_and_one_class_never_touches(sorting, seeds):
     p = sorting.scenario.scene.parcels
     one = p.model_copy(update={"classes": {"A": [0.85, 0.15, 0.15, 1.0]}})
     flush = p.model_copy(update={"gap_m": 0.0})
-    for seed in range(20):
+    for seed in seeds:
         drawn = draw_parcels(one, seed)  # random layouts fill ~60 %: then a grid
         assert len(drawn) == 8
         boxes = [(x, y, yaw, s[0] / 2, s[1] / 2) for _, (_, s, _, x, y, yaw) in drawn]

@@ -51,7 +51,13 @@ def _run(line: str, cwd: Path) -> subprocess.CompletedProcess:
 
 @pytest.mark.parametrize(
     ("page", "section"),
-    [(PAGES[0], None), (PAGES[1], "## Your first flow")],
+    [
+        # the tutorial's seven commands (a batch among them) take ~30 s: the slow suite plays
+        # them; the default run plays the README's flow and runs the tutorial's cell and skill
+        # (the two tests below)
+        pytest.param(PAGES[0], None, marks=pytest.mark.slow),
+        (PAGES[1], "## Your first flow"),
+    ],
     ids=["tutorial", "readme"],
 )
 def test_a_new_user_follows_the_page_and_every_command_succeeds(tmp_path, page, section):

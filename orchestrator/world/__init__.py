@@ -1,9 +1,13 @@
-"""The body: the MuJoCo world built from a scenario (robot, scene, randomization), poses."""
+"""The body: the MuJoCo world built from a scenario (robot, scene, randomization), poses.
 
-from .path import PlannedPath
-from .phantom import PhantomHandle
-from .pose import Pose, quat_from_yaw, yaw_of
-from .world import ObjectHandle, World, as_index, robot_only_model
+Names are imported on first use: importing a submodule (`orchestrator.world.native`, which
+`orchestrator --version` reads) does not load MuJoCo, pinocchio and the robots.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 __all__ = [
     "ObjectHandle",
@@ -16,3 +20,15 @@ __all__ = [
     "robot_only_model",
     "yaw_of",
 ]
+
+_WHERE = {
+    "PlannedPath": "path", "PhantomHandle": "phantom", "Pose": "pose", "quat_from_yaw": "pose",
+    "yaw_of": "pose", "ObjectHandle": "world", "World": "world", "as_index": "world",
+    "robot_only_model": "world",
+}  # fmt: skip
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)

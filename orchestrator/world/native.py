@@ -22,9 +22,10 @@ import importlib
 import os
 from collections.abc import Callable
 from types import ModuleType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import mujoco
+if TYPE_CHECKING:
+    import mujoco
 
 __all__ = ["PURE_PYTHON_ENV", "REDUCERS", "compiled", "native", "time_address"]
 
