@@ -289,6 +289,25 @@ def test_graph_reads_top_to_bottom_in_flow_order():
                     assert pos[dst][1] > pos[src][1], (name, src, dst)
 
 
+def test_graph_layout_is_the_same_in_every_process():
+    # string hashes (and so object addresses) differ between processes: the layout must not
+    code = (
+        "from orchestrator.language.load import load_machine;"
+        "from orchestrator.recording.machine_graph import build_graph;"
+        "g = build_graph(load_machine('sorting_conveyor'));"
+        "print(sorted((k, sorted(v.layout.positions.items())) for k, v in g.views.items()))"
+    )
+    runs = {
+        subprocess.run(
+            [sys.executable, "-c", code],
+            env={**os.environ, "PYTHONHASHSEED": seed},
+            capture_output=True, text=True, check=True,
+        ).stdout
+        for seed in ("1", "2")
+    }  # fmt: skip
+    assert len(runs) == 1
+
+
 def test_nested_states_lie_inside_their_parents_frame():
     for name in ("pick_place", "surgical", "mobile_search"):
         graph = build_graph(load_scenario(name).machine)

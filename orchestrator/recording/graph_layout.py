@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from grandalf.graphs import Edge, Graph, Vertex
+from grandalf.graphs import Edge, Vertex, graph_core
 from grandalf.layouts import SugiyamaLayout
 
 __all__ = ["CAPTION_H", "FONT_PX", "GraphLayout", "Level", "label_size", "layered_layout"]
@@ -229,18 +229,29 @@ def _sugiyama(level: Level, box: dict[str, tuple[float, float]]) -> dict[str, tu
     vertices = {node: Vertex(node) for node in level.nodes}
     for node, v in vertices.items():
         v.view = _View(*box[node])
-    edges, seen = [], set()
+    seen: dict[tuple[str, str], None] = {}
     for src, dst in level.edges:
         if src != dst and (src, dst) not in seen and (dst, src) not in seen:
-            seen.add((src, dst))
-            edges.append(Edge(vertices[src], vertices[dst]))
-    graph = Graph(list(vertices.values()), edges)
+            seen[(src, dst)] = None
+    # the connected parts built here, not by grandalf's Graph: it collects a part's edges in a
+    # set of objects hashed by address, and the layout then changed from run to run
+    part_of = {node: node for node in level.nodes}
+
+    def root(node: str) -> str:
+        while part_of[node] != node:
+            node = part_of[node]
+        return node
+
+    for src, dst in seen:
+        a, b = sorted((root(src), root(dst)), key=level.nodes.index)
+        part_of[b] = a
     parts = []
-    for part in graph.C:
-        nodes = [v.data for v in part.sV]
-        order = min(level.nodes.index(n) for n in nodes)
+    for head in dict.fromkeys(root(n) for n in level.nodes):
+        nodes = [n for n in level.nodes if root(n) == head]
         first = 0 if level.initial in nodes else 1
-        parts.append(((first, order), part))
+        mine = [Edge(vertices[s], vertices[d]) for s, d in seen if root(s) == head]
+        part = graph_core([vertices[n] for n in nodes], mine)
+        parts.append(((first, level.nodes.index(head)), part))
     centres: dict[str, tuple[float, float]] = {}
     x = 0.0
     for _, part in sorted(parts, key=lambda p: p[0]):
@@ -307,7 +318,7 @@ def _extent(
 
 
 def _part_layout(
-    part: Graph,
+    part: graph_core,
     level: Level,
     box: dict[str, tuple[float, float]],
     edges: list[tuple[str, str]],
