@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import socket
 import subprocess
 import sys
@@ -703,3 +704,38 @@ def test_recording_does_not_change_the_run(tmp_path):
         result.pop("wall_time")
     assert recorded == plain
     assert recorded["reason"]["guard"] == "contact_force"
+
+
+# -- the pictures in docs/ --------------------------------------------------------------------
+_DOCS = Path(__file__).resolve().parents[1] / "docs"
+PICTURE_PAGES = {
+    "rerun_pick_place": ["recording.md", "../README.md"],
+    "rerun_pick_place_vision": ["recording.md", "perception.md"],
+    "rerun_mobile_search": ["recording.md", "mobile.md"],
+    "rerun_sorting": ["recording.md", "sorting.md"],
+    "rerun_sorting_conveyor": ["recording.md", "sorting.md"],
+    "rerun_surgical": ["recording.md", "surgical.md"],
+    "rerun_surgical_complication": ["recording.md", "surgical.md", "safety.md"],
+    "machine_pick_place": ["recording.md", "machine-language.md", "../README.md"],
+    "machine_surgical": ["recording.md", "machine-language.md", "surgical.md"],
+    "live_spawn_pick_place": ["recording.md", "live.md"],
+    "live_connect_pick_place": ["recording.md", "live.md"],
+}
+"""Each picture in docs/images -> the pages it illustrates (in docs/)."""
+
+
+def test_every_picture_is_linked_from_the_pages_it_illustrates():
+    assert sorted(p.stem for p in (_DOCS / "images").glob("*.png")) == sorted(PICTURE_PAGES)
+    for name, pages in PICTURE_PAGES.items():
+        for page in pages:
+            prefix = "docs/images/" if page.startswith("../") else "images/"
+            assert f"{prefix}{name}.png" in (_DOCS / page).read_text(), (name, page)
+
+
+def test_every_picture_a_page_links_exists():
+    for page in [*_DOCS.glob("*.md"), _DOCS.parent / "README.md"]:
+        for link in re.findall(
+            r"\(((?:docs/)?images/[^)\s]+)\)|src=\"([^\"]+)\"", page.read_text()
+        ):
+            target = next(part for part in link if part)
+            assert (page.parent / target).is_file(), (page.name, target)
