@@ -249,8 +249,8 @@ def _sugiyama(level: Level, box: dict[str, tuple[float, float]]) -> dict[str, tu
     for head in dict.fromkeys(root(n) for n in level.nodes):
         nodes = [n for n in level.nodes if root(n) == head]
         first = 0 if level.initial in nodes else 1
-        mine = [Edge(vertices[s], vertices[d]) for s, d in seen if root(s) == head]
-        part = graph_core([vertices[n] for n in nodes], mine)
+        joins = [Edge(vertices[s], vertices[d]) for s, d in seen if root(s) == head]
+        part = graph_core([vertices[n] for n in nodes], joins)
         parts.append(((first, level.nodes.index(head)), part))
     centres: dict[str, tuple[float, float]] = {}
     x = 0.0
