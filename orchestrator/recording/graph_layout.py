@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from grandalf.graphs import Edge, Graph, Vertex
+from grandalf.graphs import Edge, Vertex, graph_core
 from grandalf.layouts import SugiyamaLayout
 
 __all__ = ["CAPTION_H", "FONT_PX", "GraphLayout", "Level", "label_size", "layered_layout"]
@@ -195,10 +195,7 @@ def _place(level: Level, sizes: dict[str, tuple[float, float]]) -> _Placed:
             out.groups.update(sub.groups)
         else:
             out.positions[node] = (cx, cy)
-    x0 = min(cx - box[n][0] / 2 for n, (cx, _) in centres.items())
-    y0 = min(cy - box[n][1] / 2 for n, (_, cy) in centres.items())
-    x1 = max(cx + box[n][0] / 2 for n, (cx, _) in centres.items())
-    y1 = max(cy + box[n][1] / 2 for n, (_, cy) in centres.items())
+    x0, y0, x1, y1 = _extent(centres, box)
     out = out.shifted(-x0, -y0)
     out.width, out.height = x1 - x0, y1 - y0
     return out
@@ -232,18 +229,29 @@ def _sugiyama(level: Level, box: dict[str, tuple[float, float]]) -> dict[str, tu
     vertices = {node: Vertex(node) for node in level.nodes}
     for node, v in vertices.items():
         v.view = _View(*box[node])
-    edges, seen = [], set()
+    seen: dict[tuple[str, str], None] = {}
     for src, dst in level.edges:
         if src != dst and (src, dst) not in seen and (dst, src) not in seen:
-            seen.add((src, dst))
-            edges.append(Edge(vertices[src], vertices[dst]))
-    graph = Graph(list(vertices.values()), edges)
+            seen[(src, dst)] = None
+    # the connected parts built here, not by grandalf's Graph: it collects a part's edges in a
+    # set of objects hashed by address, and the layout then changed from run to run
+    part_of = {node: node for node in level.nodes}
+
+    def root(node: str) -> str:
+        while part_of[node] != node:
+            node = part_of[node]
+        return node
+
+    for src, dst in seen:
+        a, b = sorted((root(src), root(dst)), key=level.nodes.index)
+        part_of[b] = a
     parts = []
-    for part in graph.C:
-        nodes = [v.data for v in part.sV]
-        order = min(level.nodes.index(n) for n in nodes)
+    for head in dict.fromkeys(root(n) for n in level.nodes):
+        nodes = [n for n in level.nodes if root(n) == head]
         first = 0 if level.initial in nodes else 1
-        parts.append(((first, order), part))
+        joins = [Edge(vertices[s], vertices[d]) for s, d in seen if root(s) == head]
+        part = graph_core([vertices[n] for n in nodes], joins)
+        parts.append(((first, level.nodes.index(head)), part))
     centres: dict[str, tuple[float, float]] = {}
     x = 0.0
     for _, part in sorted(parts, key=lambda p: p[0]):
@@ -251,14 +259,66 @@ def _sugiyama(level: Level, box: dict[str, tuple[float, float]]) -> dict[str, tu
         left = min(cx - box[n][0] / 2 for n, (cx, _) in mine.items())
         top = min(cy - box[n][1] / 2 for n, (_, cy) in mine.items())
         right = max(cx + box[n][0] / 2 for n, (cx, _) in mine.items())
-        for n, (cx, cy) in mine.items():
-            centres[n] = (cx - left + x, cy - top)
-        x += right - left + _COMPONENT_GAP
+        local = {n: (cx - left, cy - top) for n, (cx, cy) in mine.items()}
+        spot = _free_corner(local, centres, box, sorted(seen)) if centres else None
+        dx, dy = spot if spot is not None else (x, 0.0)
+        for n, (cx, cy) in local.items():
+            centres[n] = (cx + dx, cy + dy)
+        if spot is None:
+            x += right - left + _COMPONENT_GAP
     return centres
 
 
+def _free_corner(
+    part: dict[str, tuple[float, float]],
+    placed: dict[str, tuple[float, float]],
+    box: dict[str, tuple[float, float]],
+    edges: list[tuple[str, str]],
+) -> tuple[float, float] | None:
+    """Where a part of a level no transition connects (`part`, its top-left at 0, 0) fits
+    inside the room the `placed` parts already take: the highest, then rightmost, offset at
+    which its labels keep `_COMPONENT_GAP / 2` from every placed label (lit or not) and no
+    placed arrow runs through it; None if there is no such room (it then goes to the right).
+    The guard node and its abort state sit in a corner instead of widening the graph."""
+    w = max(x + box[n][0] / 2 for n, (x, _) in part.items())
+    h = max(y + box[n][1] / 2 for n, (_, y) in part.items())
+    x0, y0, x1, y1 = _extent(placed, box)
+    m = _COMPONENT_GAP / 2
+    labels = [
+        (cx - box[n][0] / 2 - m, cy - box[n][1] / 2 - m, cx + box[n][0] / 2 + m,
+         cy + box[n][1] / 2 + m)
+        for n, (cx, cy) in placed.items()
+    ]  # fmt: skip
+    lines = [(placed[s], placed[d]) for s, d in edges if s in placed and d in placed]
+    tops = sorted({y0, *(r[3] - m + _YSPACE for r in labels)})
+    for top in tops:
+        if top + h > y1:
+            break
+        left = x1 - w
+        while left >= x0:
+            r = (left, top, left + w, top + h)
+            free = not any(a[0] < r[2] and r[0] < a[2] and a[1] < r[3] and r[1] < a[3]
+                           for a in labels)  # fmt: skip
+            if free and not any(_segment_hits(*a, *b, *r) for a, b in lines):
+                return left, top
+            left -= 4.0
+    return None
+
+
+def _extent(
+    pos: dict[str, tuple[float, float]], box: dict[str, tuple[float, float]]
+) -> tuple[float, float, float, float]:
+    """The box around the labels centred at `pos`: (x0, y0, x1, y1) [px]."""
+    return (
+        min(x - box[n][0] / 2 for n, (x, _) in pos.items()),
+        min(y - box[n][1] / 2 for n, (_, y) in pos.items()),
+        max(x + box[n][0] / 2 for n, (x, _) in pos.items()),
+        max(y + box[n][1] / 2 for n, (_, y) in pos.items()),
+    )
+
+
 def _part_layout(
-    part: Graph,
+    part: graph_core,
     level: Level,
     box: dict[str, tuple[float, float]],
     edges: list[tuple[str, str]],
@@ -271,6 +331,10 @@ def _part_layout(
     cross frames. An exit is scored as a line straight down out of the level."""
     layout = SugiyamaLayout(part)
     layout.xspace, layout.yspace = _XSPACE, _YSPACE
+    # grandalf gives the bends of a long edge (dummy vertices) the median label's width; Rerun
+    # draws edges straight, so a bend needs no room: with -xspace it takes none (sorting_conveyor
+    # 1172 -> 863 px wide; the gaps between labels are unchanged)
+    layout.dw = -_XSPACE
     roots = [v for v in part.sV if v.data == level.initial]
     if not roots:
         roots = [v for v in part.sV if not v.e_in()] or [part.sV[0]]
@@ -280,7 +344,7 @@ def _part_layout(
     ys = {v.data: v.view.xy[1] for v in vs}
     candidates = [{v.data: v.view.xy[0] for v in vs}]
     candidates += [{v.data: layout.grx[v].x[k] for v in vs} for k in range(4)]
-    names = set(ys)
+    names = list(ys)
     mine = [(s, d) for s, d in edges if s in names and d in names]
     exits = [n for n in level.exits if n in names]
     groups = set(level.nested)
