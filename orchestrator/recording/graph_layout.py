@@ -14,6 +14,7 @@ pixel at zoom 1 (the view fits the whole graph in its panel, and never zooms in 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from grandalf.graphs import Edge, Vertex, graph_core
@@ -226,9 +227,6 @@ def _group(owner: str, levels: list[Level], sizes: dict[str, tuple[float, float]
 def _sugiyama(level: Level, box: dict[str, tuple[float, float]]) -> dict[str, tuple[float, float]]:
     """Centres of the level's nodes; each connected part laid out on its own, the part with
     the initial state first, the others to its right in declaration order, tops aligned."""
-    vertices = {node: Vertex(node) for node in level.nodes}
-    for node, v in vertices.items():
-        v.view = _View(*box[node])
     seen: dict[tuple[str, str], None] = {}
     for src, dst in level.edges:
         if src != dst and (src, dst) not in seen and (dst, src) not in seen:
@@ -249,13 +247,11 @@ def _sugiyama(level: Level, box: dict[str, tuple[float, float]]) -> dict[str, tu
     for head in dict.fromkeys(root(n) for n in level.nodes):
         nodes = [n for n in level.nodes if root(n) == head]
         first = 0 if level.initial in nodes else 1
-        joins = [Edge(vertices[s], vertices[d]) for s, d in seen if root(s) == head]
-        part = graph_core([vertices[n] for n in nodes], joins)
-        parts.append(((first, level.nodes.index(head)), part))
+        parts.append(((first, level.nodes.index(head)), nodes))
     centres: dict[str, tuple[float, float]] = {}
     x = 0.0
-    for _, part in sorted(parts, key=lambda p: p[0]):
-        mine = _part_layout(part, level, box, sorted(seen))
+    for _, nodes in sorted(parts, key=lambda p: p[0]):
+        mine = _part_placement(nodes, level, box, sorted(seen))
         left = min(cx - box[n][0] / 2 for n, (cx, _) in mine.items())
         top = min(cy - box[n][1] / 2 for n, (_, cy) in mine.items())
         right = max(cx + box[n][0] / 2 for n, (cx, _) in mine.items())
@@ -267,6 +263,74 @@ def _sugiyama(level: Level, box: dict[str, tuple[float, float]]) -> dict[str, tu
         if spot is None:
             x += right - left + _COMPONENT_GAP
     return centres
+
+
+def _part_placement(
+    nodes: list[str],
+    level: Level,
+    box: dict[str, tuple[float, float]],
+    edges: list[tuple[str, str]],
+) -> dict[str, tuple[float, float]]:
+    """One connected part laid out twice, its final states in the layers they fall in and in
+    a column at its side (`_ends`): the column if it makes the part narrower and no taller
+    (mobile_search's grasp 939 -> 842 px wide, stack's 771 -> 596 px)."""
+    ends = _ends(nodes, edges, level)
+    options = [_part_layout(_core(nodes, edges, box), level, box, edges, [])]
+    if ends:
+        rest = [n for n in nodes if n not in ends]
+        options.append(_part_layout(_core(rest, edges, box), level, box, edges, ends))
+
+    def size(pos: dict[str, tuple[float, float]]) -> tuple[float, float]:
+        x0, y0, x1, y1 = _extent(pos, box)
+        return y1 - y0, x1 - x0
+
+    tall = size(options[0])[0]
+    return min(options, key=lambda p: (size(p)[0] > tall, size(p)[1]))
+
+
+def _core(
+    nodes: list[str], edges: list[tuple[str, str]], box: dict[str, tuple[float, float]]
+) -> graph_core:
+    """A grandalf graph of `nodes` and the `edges` between them, each vertex sized."""
+    vertices = {node: Vertex(node) for node in nodes}
+    for node, v in vertices.items():
+        v.view = _View(*box[node])
+    joins = [Edge(vertices[s], vertices[d]) for s, d in edges if s in nodes and d in nodes]
+    return graph_core(list(vertices.values()), joins)
+
+
+def _ends(nodes: list[str], edges: list[tuple[str, str]], level: Level) -> list[str]:
+    """The states of a connected part that only end it (no transition out within the level:
+    final states), when there are several and something else to lay out: they go into a
+    column at the part's right (`_end_column`) instead of widening its layers."""
+    sources = {s for s, _ in edges}
+    ends = [n for n in nodes if n not in sources and n not in level.nested]
+    return ends if len(ends) > 1 and len(ends) < len(nodes) else []
+
+
+def _end_column(
+    ends: list[str],
+    pos: dict[str, tuple[float, float]],
+    box: dict[str, tuple[float, float]],
+    edges: list[tuple[str, str]],
+) -> dict[str, tuple[float, float]]:
+    """Centres of the `ends` in one column right of the states at `pos`: each one a layer gap
+    below the lowest state leading to it and below the end above it (the flow still reads
+    top to bottom), in that order, then declaration order."""
+    right = max(x + box[n][0] / 2 for n, (x, _) in pos.items())
+    cx = right + _XSPACE + max(box[n][0] for n in ends) / 2
+
+    def lowest(end: str) -> float:
+        feeds = [pos[s][1] + box[s][1] / 2 for s, d in edges if d == end and s in pos]
+        return max(feeds, default=min(y for _, y in pos.values())) + _YSPACE
+
+    out: dict[str, tuple[float, float]] = {}
+    floor = -math.inf
+    for end in sorted(ends, key=lambda n: (lowest(n), ends.index(n))):
+        top = max(lowest(end), floor)
+        out[end] = (cx, top + box[end][1] / 2)
+        floor = top + box[end][1] + _YSPACE
+    return out
 
 
 def _free_corner(
@@ -322,6 +386,7 @@ def _part_layout(
     level: Level,
     box: dict[str, tuple[float, float]],
     edges: list[tuple[str, str]],
+    ends: list[str],
 ) -> dict[str, tuple[float, float]]:
     """One connected part: grandalf's layers and orderings, then of the five horizontal
     placements it computes (four Brandes-Köpf alignments and their balanced mean) the one whose
@@ -342,25 +407,23 @@ def _part_layout(
     layout.draw(3)
     vs = list(part.sV)
     ys = {v.data: v.view.xy[1] for v in vs}
-    candidates = [{v.data: v.view.xy[0] for v in vs}]
-    candidates += [{v.data: layout.grx[v].x[k] for v in vs} for k in range(4)]
-    names = list(ys)
+    placements = [{v.data: (v.view.xy[0], ys[v.data]) for v in vs}]
+    placements += [{v.data: (layout.grx[v].x[k], ys[v.data]) for v in vs} for k in range(4)]
+    names = [*placements[0], *ends]
     mine = [(s, d) for s, d in edges if s in names and d in names]
     exits = [n for n in level.exits if n in names]
     groups = set(level.nested)
-    below = max(ys.values()) + 1e4
+    below = max(y for _, y in placements[0].values()) + 1e4
 
-    def score(xs: dict[str, float]) -> tuple[int, float]:
-        pos = {n: (xs[n], ys[n]) for n in names}
+    def score(pos: dict[str, tuple[float, float]]) -> tuple[int, float]:
         segments: list[_Segment] = [(pos[s], pos[d], (s, d)) for s, d in mine]
-        segments += [(pos[n], (xs[n], below), (n,)) for n in exits]
-        width = max(xs[n] + box[n][0] / 2 for n in names) - min(
-            xs[n] - box[n][0] / 2 for n in names
-        )
-        return _crossings(pos, box, segments, groups), width
+        segments += [(pos[n], (pos[n][0], below), (n,)) for n in exits]
+        x0, _, x1, _ = _extent(pos, box)
+        return _crossings(pos, box, segments, groups), x1 - x0
 
-    best = min(candidates, key=score)
-    return {n: (best[n], ys[n]) for n in names}
+    if ends:
+        placements = [p | _end_column(ends, p, box, edges) for p in placements]
+    return min(placements, key=score)
 
 
 def _crossings(
