@@ -208,15 +208,28 @@ def _group(owner: str, levels: list[Level], sizes: dict[str, tuple[float, float]
     title_w, title_h = sizes[owner]
     parts = [_place(lv, sizes) for lv in levels]
     frame_top = CAPTION_H
-    top = frame_top + _GROUP_PAD + title_h + _YSPACE / 2
     title = (_GROUP_PAD + title_w / 2, frame_top + _GROUP_PAD + title_h / 2)
     out = _Placed({owner: title}, {}, 0.0, 0.0)
+    inner = _Placed({}, {}, 0.0, 0.0)
     x = _GROUP_PAD
     for part in parts:
-        sub = part.shifted(x, top)
-        out.positions.update(sub.positions)
-        out.groups.update(sub.groups)
+        sub = part.shifted(x, 0.0)
+        inner.positions.update(sub.positions)
+        inner.groups.update(sub.groups)
         x += part.width + _BRANCH_GAP
+    # the levels start half a label under the title's top when what comes first in them lies
+    # clear of the title, to its right (pick_place_vision 819 -> 772 px tall); else below it
+    top = frame_top + _GROUP_PAD + title_h + _YSPACE / 2
+    raised = frame_top + _GROUP_PAD + title_h / 2
+    keep = (_GROUP_PAD + title_w + _XSPACE, frame_top + _GROUP_PAD + title_h + _YSPACE / 2)
+    rects = [(cx - sizes[n][0] / 2, cy - sizes[n][1] / 2 + raised)
+             for n, (cx, cy) in inner.positions.items()]  # fmt: skip
+    rects += [(x0, y0 - CAPTION_H + raised) for x0, y0, _, _ in inner.groups.values()]
+    if all(rx >= keep[0] or ry >= keep[1] for rx, ry in rects):
+        top = raised
+    sub = inner.shifted(0.0, top)
+    out.positions.update(sub.positions)
+    out.groups.update(sub.groups)
     inner_w = x - _BRANCH_GAP - _GROUP_PAD
     out.width = max(inner_w, title_w) + 2 * _GROUP_PAD
     out.height = top + max(p.height for p in parts) + _GROUP_PAD
@@ -314,23 +327,64 @@ def _end_column(
     box: dict[str, tuple[float, float]],
     edges: list[tuple[str, str]],
 ) -> dict[str, tuple[float, float]]:
-    """Centres of the `ends` in one column right of the states at `pos`: each one a layer gap
-    below the lowest state leading to it and below the end above it (the flow still reads
-    top to bottom), in that order, then declaration order."""
-    right = max(x + box[n][0] / 2 for n, (x, _) in pos.items())
-    cx = right + _XSPACE + max(box[n][0] for n in ends) / 2
+    """Centres of the `ends` among the states at `pos`: each one at least a layer gap below
+    the lowest state leading to it (the flow still reads top to bottom), in the first row of
+    the room those states take where its label keeps the layout's gaps, no arrow runs through
+    it and its own arrows cross no label, nearest the states leading to it; an end with no
+    such room goes into a column at the right. In order of that row, then declaration order."""
+    placed = dict(pos)
+    x0, _, right, bottom = _extent(pos, box)
+    column = -math.inf
+    mx, my = _XSPACE / 2, _YSPACE / 2
+
+    def feeders(end: str) -> list[str]:
+        return [s for s, d in edges if d == end and s in pos]
 
     def lowest(end: str) -> float:
-        feeds = [pos[s][1] + box[s][1] / 2 for s, d in edges if d == end and s in pos]
+        feeds = [pos[s][1] + box[s][1] / 2 for s in feeders(end)]
         return max(feeds, default=min(y for _, y in pos.values())) + _YSPACE
 
-    out: dict[str, tuple[float, float]] = {}
-    floor = -math.inf
     for end in sorted(ends, key=lambda n: (lowest(n), ends.index(n))):
-        top = max(lowest(end), floor)
-        out[end] = (cx, top + box[end][1] / 2)
-        floor = top + box[end][1] + _YSPACE
-    return out
+        w, h = box[end]
+        srcs = feeders(end)
+        want = sum(placed[s][0] for s in srcs) / len(srcs) if srcs else x0 + w / 2
+        rects = {n: (cx - box[n][0] / 2 - mx, cy - box[n][1] / 2 - my, cx + box[n][0] / 2 + mx,
+                     cy + box[n][1] / 2 + my) for n, (cx, cy) in placed.items()}  # fmt: skip
+        lines = [(placed[s], placed[d]) for s, d in edges if s in placed and d in placed]
+        low = lowest(end)
+        tops = sorted({low, *(r[3] + my for r in rects.values() if r[3] + my > low)})
+        spot, least = None, math.inf
+        for top in (t for t in tops if t + h <= max(bottom, tops[0] + h)):
+            cy = top + h / 2
+            xs = sorted(
+                (x0 + w / 2 + 4.0 * i for i in range(int((right - x0 - w) / 4.0) + 1)),
+                key=lambda x: (abs(x - want), x),
+            )
+            for cx in xs:
+                r = (cx - w / 2, top, cx + w / 2, top + h)
+                if any(a[0] < r[2] and r[0] < a[2] and a[1] < r[3] and r[1] < a[3]
+                       for a in rects.values()):  # fmt: skip
+                    continue
+                if any(_segment_hits(*a, *b, *r) for a, b in lines):
+                    continue
+                crossed = sum(_segment_hits(*placed[s], cx, cy, *_shrunk(rects[n], mx, my))
+                              for s in srcs for n in rects if n not in (s, end))  # fmt: skip
+                if crossed < least:
+                    spot, least = (cx, cy), crossed
+                if crossed == 0:
+                    break
+            if least == 0:
+                break
+        if spot is None:
+            top = max(lowest(end), column)
+            spot = (right + _XSPACE + w / 2, top + h / 2)
+            column = top + h + _YSPACE
+        placed[end] = spot
+    return {end: placed[end] for end in ends}
+
+
+def _shrunk(r: tuple[float, float, float, float], mx: float, my: float) -> tuple[float, ...]:
+    return (r[0] + mx, r[1] + my, r[2] - mx, r[3] - my)
 
 
 def _free_corner(
