@@ -15,6 +15,7 @@ pixel at zoom 1 (the view fits the whole graph in its panel, and never zooms in 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from grandalf.graphs import Edge, Vertex, graph_core
@@ -183,7 +184,9 @@ def _place(level: Level, sizes: dict[str, tuple[float, float]]) -> _Placed:
     for node in level.nodes:
         if node in level.nested:
             inner[node] = _group(node, level.nested[node], sizes)
-            box[node] = (inner[node].width, inner[node].height)
+            # Rerun's caption above the frame goes into the layer gap above it (18 of 21 px):
+            # the layout places the frame (sorting_conveyor 794 -> 776 px tall)
+            box[node] = (inner[node].width, inner[node].height - CAPTION_H)
         else:
             box[node] = sizes[node]
     centres = _sugiyama(level, box)
@@ -191,12 +194,13 @@ def _place(level: Level, sizes: dict[str, tuple[float, float]]) -> _Placed:
     for node, (cx, cy) in centres.items():
         w, h = box[node]
         if node in inner:
-            sub = inner[node].shifted(cx - w / 2, cy - h / 2)
+            sub = inner[node].shifted(cx - w / 2, cy - h / 2 - CAPTION_H)
             out.positions.update(sub.positions)
             out.groups.update(sub.groups)
         else:
             out.positions[node] = (cx, cy)
     x0, y0, x1, y1 = _extent(centres, box)
+    y0 = min([y0, *(centres[n][1] - box[n][1] / 2 - CAPTION_H for n in inner)])
     out = out.shifted(-x0, -y0)
     out.width, out.height = x1 - x0, y1 - y0
     return out
@@ -326,6 +330,7 @@ def _end_column(
     pos: dict[str, tuple[float, float]],
     box: dict[str, tuple[float, float]],
     edges: list[tuple[str, str]],
+    groups: set[str],
 ) -> dict[str, tuple[float, float]]:
     """Centres of the `ends` among the states at `pos`: each one at least a layer gap below
     the lowest state leading to it (the flow still reads top to bottom), in the first row of
@@ -348,8 +353,9 @@ def _end_column(
         w, h = box[end]
         srcs = feeders(end)
         want = sum(placed[s][0] for s in srcs) / len(srcs) if srcs else x0 + w / 2
-        rects = {n: (cx - box[n][0] / 2 - mx, cy - box[n][1] / 2 - my, cx + box[n][0] / 2 + mx,
-                     cy + box[n][1] / 2 + my) for n, (cx, cy) in placed.items()}  # fmt: skip
+        rects = {n: (cx - box[n][0] / 2 - mx, cy - box[n][1] / 2 - my - CAPTION_H * (n in groups),
+                     cx + box[n][0] / 2 + mx, cy + box[n][1] / 2 + my)
+                 for n, (cx, cy) in placed.items()}  # fmt: skip
         lines = [(placed[s], placed[d]) for s, d in edges if s in placed and d in placed]
         low = lowest(end)
         tops = sorted({low, *(r[3] + my for r in rects.values() if r[3] + my > low)})
@@ -476,8 +482,48 @@ def _part_layout(
         return _crossings(pos, box, segments, groups), x1 - x0
 
     if ends:
-        placements = [p | _end_column(ends, p, box, edges) for p in placements]
-    return min(placements, key=score)
+        placements = [p | _end_column(ends, p, box, edges, groups) for p in placements]
+    return _narrowed(min(placements, key=score), box, score)
+
+
+def _narrowed(
+    pos: dict[str, tuple[float, float]],
+    box: dict[str, tuple[float, float]],
+    score: Callable[[dict[str, tuple[float, float]]], tuple[int, float]],
+) -> dict[str, tuple[float, float]]:
+    """`pos` with the states that stick out at the left or right moved in, one at a time, to
+    the nearest spot within the others' width where its label keeps the layer gap from every
+    label and no more edges cross labels (a Brandes-Köpf alignment can leave the initial state
+    alone at one side: sorting 797 -> 7xx px)."""
+    pos = dict(pos)
+    for _ in range(len(pos)):
+        crossed, width = score(pos)
+        x0, _, x1, _ = _extent(pos, box)
+        out = sorted(n for n in pos if abs(pos[n][0] - box[n][0] / 2 - x0) < 1e-6
+                     or abs(pos[n][0] + box[n][0] / 2 - x1) < 1e-6)  # fmt: skip
+        moved = False
+        for node in out:
+            others = {n: p for n, p in pos.items() if n != node}
+            ox0, _, ox1, _ = _extent(others, box)
+            (cx, cy), (w, h) = pos[node], box[node]
+            steps = int((ox1 - ox0 - w) / 4.0) + 1
+            spots = sorted((ox0 + w / 2 + 4.0 * i for i in range(max(steps, 0))),
+                           key=lambda x: (abs(x - cx), x))  # fmt: skip
+            for x in spots:
+                if any(abs(x - px) < (w + box[n][0]) / 2 + _XSPACE
+                       and abs(cy - py) < (h + box[n][1]) / 2 + _YSPACE / 2
+                       for n, (px, py) in others.items()):  # fmt: skip
+                    continue
+                trial = others | {node: (x, cy)}
+                now = score(trial)
+                if now[0] <= crossed and now[1] < width - 1.0:
+                    pos, moved = trial, True
+                    break
+            if moved:
+                break
+        if not moved:
+            return pos
+    return pos
 
 
 def _crossings(
