@@ -356,6 +356,7 @@ def _end_column(
         rects = {n: (cx - box[n][0] / 2 - mx, cy - box[n][1] / 2 - my - CAPTION_H * (n in groups),
                      cx + box[n][0] / 2 + mx, cy + box[n][1] / 2 + my)
                  for n, (cx, cy) in placed.items()}  # fmt: skip
+        inner = {n: _shrunk(r, mx, my) for n, r in rects.items()}
         lines = [(placed[s], placed[d]) for s, d in edges if s in placed and d in placed]
         low = lowest(end)
         tops = sorted({low, *(r[3] + my for r in rects.values() if r[3] + my > low)})
@@ -373,8 +374,11 @@ def _end_column(
                     continue
                 if any(_segment_hits(*a, *b, *r) for a, b in lines):
                     continue
-                crossed = sum(_segment_hits(*placed[s], cx, cy, *_shrunk(rects[n], mx, my))
-                              for s in srcs for n in rects if n not in (s, end))  # fmt: skip
+                crossed = 0
+                for a, n in ((a, n) for a in srcs for n in inner if n != a):
+                    crossed += _segment_hits(*placed[a], cx, cy, *inner[n])
+                    if crossed >= least:
+                        break
                 if crossed < least:
                     spot, least = (cx, cy), crossed
                 if crossed == 0:
@@ -475,29 +479,42 @@ def _part_layout(
     groups = set(level.nested)
     below = max(y for _, y in placements[0].values()) + 1e4
 
+    def segments(pos: dict[str, tuple[float, float]], node: str | None = None) -> list[_Segment]:
+        out: list[_Segment] = [(pos[s], pos[d], (s, d)) for s, d in mine]
+        out += [(pos[n], (pos[n][0], below), (n,)) for n in exits]
+        return out if node is None else [seg for seg in out if node in seg[2]]
+
     def score(pos: dict[str, tuple[float, float]]) -> tuple[int, float]:
-        segments: list[_Segment] = [(pos[s], pos[d], (s, d)) for s, d in mine]
-        segments += [(pos[n], (pos[n][0], below), (n,)) for n in exits]
         x0, _, x1, _ = _extent(pos, box)
-        return _crossings(pos, box, segments, groups), x1 - x0
+        return _crossings(pos, box, segments(pos), groups), x1 - x0
+
+    def touching(pos: dict[str, tuple[float, float]], node: str) -> int:
+        """The crossings `node` takes part in: its edges through labels, edges through it."""
+        n = _crossings(pos, box, segments(pos, node), groups)
+        if node not in groups:
+            (cx, cy), (w, h) = pos[node], box[node]
+            rect = (cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2)
+            n += sum(
+                _segment_hits(*a, *b, *rect) for a, b, ends in segments(pos) if node not in ends
+            )
+        return n
 
     if ends:
         placements = [p | _end_column(ends, p, box, edges, groups) for p in placements]
-    return _narrowed(min(placements, key=score), box, score)
+    return _narrowed(min(placements, key=score), box, touching)
 
 
 def _narrowed(
     pos: dict[str, tuple[float, float]],
     box: dict[str, tuple[float, float]],
-    score: Callable[[dict[str, tuple[float, float]]], tuple[int, float]],
+    touching: Callable[[dict[str, tuple[float, float]], str], int],
 ) -> dict[str, tuple[float, float]]:
     """`pos` with the states that stick out at the left or right moved in, one at a time, to
     the nearest spot within the others' width where its label keeps the layer gap from every
-    label and no more edges cross labels (a Brandes-Köpf alignment can leave the initial state
-    alone at one side: sorting 797 -> 7xx px)."""
+    label and it takes part in no more crossings of edges and labels (`touching`): a
+    Brandes-Köpf alignment can leave a state alone at one side (sorting 797 -> 713 px wide)."""
     pos = dict(pos)
     for _ in range(len(pos)):
-        crossed, width = score(pos)
         x0, _, x1, _ = _extent(pos, box)
         out = sorted(n for n in pos if abs(pos[n][0] - box[n][0] / 2 - x0) < 1e-6
                      or abs(pos[n][0] + box[n][0] / 2 - x1) < 1e-6)  # fmt: skip
@@ -506,6 +523,9 @@ def _narrowed(
             others = {n: p for n, p in pos.items() if n != node}
             ox0, _, ox1, _ = _extent(others, box)
             (cx, cy), (w, h) = pos[node], box[node]
+            if ox1 - ox0 >= x1 - x0 - 1.0:
+                continue
+            crossed = touching(pos, node)
             steps = int((ox1 - ox0 - w) / 4.0) + 1
             spots = sorted((ox0 + w / 2 + 4.0 * i for i in range(max(steps, 0))),
                            key=lambda x: (abs(x - cx), x))  # fmt: skip
@@ -515,8 +535,7 @@ def _narrowed(
                        for n, (px, py) in others.items()):  # fmt: skip
                     continue
                 trial = others | {node: (x, cy)}
-                now = score(trial)
-                if now[0] <= crossed and now[1] < width - 1.0:
+                if touching(trial, node) <= crossed:
                     pos, moved = trial, True
                     break
             if moved:
