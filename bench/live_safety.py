@@ -198,7 +198,7 @@ def recovery(endpoint: str, session: Session, probe: Probe, client: Client, case
     if case == "hand on the cube":
         sets = ["guards={}", f"target=[{cube[0]}, {cube[1]}, 0.21]"]
     else:
-        sets = ["guards.workspace.max=[0.95, 0.7, 1.2]", "target=[0.45, 0.62, 0.4]"]
+        sets = ["guards.workspace.max=[0.95, 0.7, 1.2]", "target=[0.35, 0.62, 0.4]"]
     task = Task(900 + len(case), load_scenario("pick_place", sets, machine="reach"),
                 session.ctx, "reach", session.loop)  # fmt: skip
     session.tasks.append(task)  # past the channel's rules, as an abort would leave it
