@@ -4,10 +4,11 @@ neighbour or a wall, and the arm can take the pose.
 Of the hand's headings the object allows — its symmetric yaws, and turned by each of `turns_deg`
 (closing across its other side, where the open hand spans it) — the first whose two finger
 footprints, at the opening they come down with, clear every neighbour seen (`neighbours`: the
-detections) and every fixed box of the scene by `clearance_m`, and whose grasp pose the IK
-reaches from where the arm is, becomes the grasp: its pose, with the chosen yaw, goes to
-`into` for the approach (`move` with `align_yaw` and `yaw_symmetry_deg: 360`). Headings are
-tried in order of `turns_deg`, then of the wrist's turn from where it stands.
+detections) and every fixed box of the scene by `clearance_m`, whose palm clears every fixed
+box standing as high as the palm's bottom (a cabinet beside a block on the floor), and whose
+grasp pose the IK reaches from where the arm is, becomes the grasp: its pose, with the chosen
+yaw, goes to `into` for the approach (`move` with `align_yaw` and `yaw_symmetry_deg: 360`).
+Headings are tried in order of `turns_deg`, then of the wrist's turn from where it stands.
 
 Two parcels touching along their long sides leave no room for a finger between them: the
 grasp is `blocked` before the hand goes down (with touching parcels, a finger used to come
@@ -105,9 +106,9 @@ class GraspPose(Skill):
     """Choose the grasp heading whose fingers clear the neighbours and the walls and whose
     pose the arm reaches (see the module's description).
 
-    Outcomes: `ready` (the pose is in `into`), `blocked` (no heading leaves the fingers room:
-    the detail names what is in the way), `unreachable` (the fingers would fit, but the arm
-    cannot take any of those poses: the detail gives the IK's residual).
+    Outcomes: `ready` (the pose is in `into`), `blocked` (no heading leaves the fingers and
+    the palm room: the detail names what is in the way), `unreachable` (the fingers would
+    fit, but the arm cannot take any of those poses: the detail gives the IK's residual).
     """
 
     name: ClassVar[str] = "grasp_pose"
