@@ -424,11 +424,13 @@ def local_ray():
     ray.shutdown()
 
 
+@pytest.mark.slow  # a local Ray cluster: ~1 min to start and run
 def test_results_do_not_depend_on_the_backend(local_results, local_ray, tmp_path):
     on_ray = _batch(tmp_path, "ray", backend="ray", workers=2)
     assert on_ray == local_results[1]
 
 
+@pytest.mark.slow  # a local Ray cluster
 def test_a_dead_ray_worker_is_retried_once_then_an_error(local_ray, tmp_path):
     from orchestrator.batch.backends.ray import RayBackend
 

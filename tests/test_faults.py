@@ -186,6 +186,7 @@ def _replay(monkeypatch: pytest.MonkeyPatch, rows: list[RowResult]) -> None:
     monkeypatch.setattr(fault_matrix, "run_matrix", replay)
 
 
+@pytest.mark.slow  # 12 surgical episodes of ~40 s simulated each (the touch registration)
 def test_the_surgical_fault_matrix_is_caught(cli, surgical_matrix, monkeypatch):
     _replay(monkeypatch, surgical_matrix)
     res = cli("faults", "surgical", "--json")
@@ -198,6 +199,7 @@ def test_the_surgical_fault_matrix_is_caught(cli, surgical_matrix, monkeypatch):
             assert row["stop_time_s"] <= 0.15, row
 
 
+@pytest.mark.slow  # shares the surgical matrix above
 def test_the_fault_matrix_prints_a_table(cli, surgical_matrix, monkeypatch):
     _replay(monkeypatch, surgical_matrix)
     res = cli("faults", "surgical")

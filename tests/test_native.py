@@ -193,7 +193,8 @@ def test_the_envelope_test_is_the_same_in_c_and_in_python(monkeypatch: pytest.Mo
         ("pick_place", 2, ["guards.contact_force.max_n=2.0"], []),
         ("pick_place", 4, [], ["ft_bias:force_n=[0,0,20]@TRANSPORT+0.1"]),
         ("pick_place", 4, [], ["encoder_noise@PICK.GRASP.APPROACH+0.6"]),
-        ("surgical", 0, [], []),
+        # 40 s simulated since the touch registration: with the slow suite
+        pytest.param("surgical", 0, [], [], marks=pytest.mark.slow),
     ],
 )
 def test_an_episode_is_the_same_in_c_and_in_python(

@@ -411,8 +411,9 @@ def test_the_recording_opens_with_the_default_blueprint(recorded):
     assert len(reader.blueprints()) == 1
 
 
-LONG_EPISODES = {"sorting", "sorting_conveyor"}
-"""Scenarios whose episode takes 10-14 s: their recordings run with the slow suite."""
+LONG_EPISODES = {"sorting", "sorting_conveyor", "surgical", "surgical_complication"}
+"""Scenarios whose episode takes 10-40 s (the surgical ones register by touch first): their
+recordings run with the slow suite."""
 
 
 @pytest.mark.parametrize(
