@@ -185,6 +185,8 @@ SCENES: list[Scene] = [
     ViewerShot("rerun_sorting_conveyor", "sorting_conveyor", at_s=15.0),
     ViewerShot("rerun_surgical", "surgical", at_s=33.4),
     ViewerShot("rerun_surgical_complication", "surgical_complication", at_s=36.0),
+    ViewerShot("rerun_stack", "stack", at_s=2.3),
+    ViewerShot("rerun_reach_random", "reach_random", at_s=0.6),
     MachineDrawing("machine_pick_place", "pick_place"),
     MachineDrawing("machine_surgical", "surgical"),
     LiveShot("live_connect_pick_place", "pick_place"),

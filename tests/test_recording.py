@@ -743,6 +743,8 @@ PICTURE_PAGES = {
     "rerun_sorting_conveyor": ["recording.md", "sorting.md"],
     "rerun_surgical": ["recording.md", "surgical.md"],
     "rerun_surgical_complication": ["recording.md", "surgical.md", "safety.md"],
+    "rerun_stack": ["recording.md", "success-checks.md"],
+    "rerun_reach_random": ["recording.md"],
     "machine_pick_place": ["recording.md", "machine-language.md", "../README.md"],
     "machine_surgical": ["recording.md", "machine-language.md", "surgical.md"],
     "live_spawn_pick_place": ["recording.md", "live.md"],
