@@ -207,23 +207,30 @@ class FingerBoxes:
         ]
 
 
+_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+"""The eight corners of a unit box's half extents, as signs."""
+
+
+def _corners_in_tcp(ctx: Context, g: int, centre: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """The corners of a box `centre` +- `half` in geom `g`'s frame, in the TCP's frame (x
+    across the finger, y closing, z down) [m], shape (8, 3)."""
+    d, w = ctx.data, ctx.world
+    world = d.geom_xpos[g] + (centre + _CORNERS * half) @ d.geom_xmat[g].reshape(3, 3).T
+    return (world - d.site_xpos[w.tcp_site]) @ d.site_xmat[w.tcp_site].reshape(3, 3)
+
+
 def finger_boxes(ctx: Context, opening_m: float) -> FingerBoxes:
     """The fingers' footprints at each finger's opening `opening_m` [m], measured on the
     model: every collision box of the finger bodies, in the TCP's frame."""
-    m, d, w = ctx.model, ctx.data, ctx.world
-    tcp = d.site_xpos[w.tcp_site]
-    rot = d.site_xmat[w.tcp_site].reshape(3, 3)
+    m, w = ctx.model, ctx.world
     opening_now = 0.5 * ctx.gripper_width
     half_x, inner, outer, depth = 0.0, math.inf, 0.0, 0.0
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     for g in sorted(w.finger_geoms):
         if m.geom_type[g] != mujoco.mjtGeom.mjGEOM_BOX or not (
             m.geom_contype[g] or m.geom_conaffinity[g]
         ):
             continue
-        local = signs * m.geom_size[g]
-        world = d.geom_xpos[g] + local @ d.geom_xmat[g].reshape(3, 3).T
-        pts = (world - tcp) @ rot  # in the TCP frame: x across the finger, y closing, z down
+        pts = _corners_in_tcp(ctx, g, np.zeros(3), m.geom_size[g])
         half_x = max(half_x, float(np.max(np.abs(pts[:, 0]))))
         ys = np.abs(pts[:, 1]) - opening_now
         inner, outer = min(inner, float(np.min(ys))), max(outer, float(np.max(ys)))
@@ -289,18 +296,13 @@ def hand_box(ctx: Context) -> HandBox:
     """The hand's footprint, measured on the model: the bounding boxes of the hand body's
     collision geoms (any shape), in the TCP's frame. A finger clearing a cabinet is not
     enough: the palm, 20 cm across the closing axis, comes down beside it too."""
-    m, d, w = ctx.model, ctx.data, ctx.world
-    tcp = d.site_xpos[w.tcp_site]
-    rot = d.site_xmat[w.tcp_site].reshape(3, 3)
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    m, w = ctx.model, ctx.world
     half_x = half_y = 0.0
     depth = -math.inf
     for g in range(m.ngeom):
         if m.geom_bodyid[g] != w.hand_body or not (m.geom_contype[g] or m.geom_conaffinity[g]):
             continue
-        local = m.geom_aabb[g, :3] + signs * m.geom_aabb[g, 3:]
-        world = d.geom_xpos[g] + local @ d.geom_xmat[g].reshape(3, 3).T
-        pts = (world - tcp) @ rot  # in the TCP frame: x, y closing, z down
+        pts = _corners_in_tcp(ctx, g, m.geom_aabb[g, :3], m.geom_aabb[g, 3:])
         half_x = max(half_x, float(np.max(np.abs(pts[:, 0]))))
         half_y = max(half_y, float(np.max(np.abs(pts[:, 1]))))
         depth = max(depth, float(np.max(pts[:, 2])))
