@@ -1,0 +1,113 @@
+"""Start-up: what a command costs before it does anything, measured as a user runs it.
+
+Each command runs as its own process (the console script `orchestrator` next to this Python),
+N times, interleaved (run 1 of every command, then run 2, ...) so that a change in the
+machine's load hits every command alike. Printed per command: the median wall time and the
+median CPU time (user + system of the child, from `resource.getrusage`), with two references
+measured in the same rounds: `python -c pass` (the interpreter alone) and
+`python -c 'import numpy'` (the one library every command needs). The load average
+(`os.getloadavg`) is printed before and after: on a shared machine the wall figures grow with
+it, the CPU figures much less.
+
+The commands:
+
+* `orchestrator --version`
+* `orchestrator validate scenarios/pick_place.yaml` (a bundled scenario: its machine, its
+  includes, every check, and MuJoCo compiling its scene once)
+* `orchestrator validate small.yaml`, a user's machine of two states written to a temporary
+  directory (the language layer and the skills' declarations, no physics)
+
+Each command must exit 0; the bench stops with the command's output otherwise.
+
+    python bench/startup.py [--runs 11]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+SMALL_MACHINE = """\
+name: small
+initial: REACH
+states:
+  REACH:
+    skill: move
+    with: {target: [0.5, 0.0, 0.4]}
+    transitions: {reached: DONE, unreachable: FAILED, timeout: FAILED}
+  DONE: {final: succeeded}
+  FAILED: {final: failed}
+"""
+"""The small user file `validate` is timed on: one skill state, two final states."""
+
+
+def _console_script() -> str:
+    """The `orchestrator` console script installed next to this interpreter."""
+    beside = Path(sys.executable).with_name("orchestrator")
+    found = beside if beside.exists() else shutil.which("orchestrator")
+    if found is None:
+        raise SystemExit("no `orchestrator` console script: pip install -e . first")
+    return str(found)
+
+
+def _timed(cmd: list[str], cwd: Path) -> tuple[float, float]:
+    """Run `cmd` once; its wall time and CPU time (user + system) [s]."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} exited {proc.returncode}:\n{proc.stdout}{proc.stderr}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", type=int, default=11, help="runs of each command")
+    args = parser.parse_args()
+
+    cli = _console_script()
+    with tempfile.TemporaryDirectory() as tmp:
+        small = Path(tmp) / "small.yaml"
+        small.write_text(SMALL_MACHINE)
+        commands = {
+            "python -c pass": [sys.executable, "-c", "pass"],
+            "python -c 'import numpy'": [sys.executable, "-c", "import numpy"],
+            "orchestrator --version": [cli, "--version"],
+            "orchestrator validate scenarios/pick_place.yaml": [
+                cli, "validate", str(REPO / "scenarios" / "pick_place.yaml"),
+            ],
+            "orchestrator validate small.yaml (a user's machine)": [cli, "validate", str(small)],
+        }  # fmt: skip
+        load_before = os.getloadavg()
+        walls: dict[str, list[float]] = {name: [] for name in commands}
+        cpus: dict[str, list[float]] = {name: [] for name in commands}
+        for _ in range(args.runs):
+            for name, cmd in commands.items():
+                wall, cpu = _timed(cmd, Path(tmp))
+                walls[name].append(wall)
+                cpus[name].append(cpu)
+        load_after = os.getloadavg()
+
+    print(f"load average (1, 5, 15 min): before {load_before}, after {load_after}")
+    print(f"median of {args.runs} runs each, interleaved\n")
+    print("| command | wall [s] | CPU [s] |")
+    print("|---|---|---|")
+    for name in commands:
+        print(f"| `{name}` | {statistics.median(walls[name]):.3f} | "
+              f"{statistics.median(cpus[name]):.3f} |")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
