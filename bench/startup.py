@@ -17,9 +17,15 @@ The commands:
 * `orchestrator validate small.yaml`, a user's machine of two states written to a temporary
   directory (the language layer and the skills' declarations, no physics)
 
+Bytecode: an installed package carries its compiled `.pyc` files, so by default the children
+run with a bytecode cache of their own (`PYTHONPYCACHEPREFIX`, a temporary directory; one
+untimed round fills it) even when this shell sets `PYTHONDONTWRITEBYTECODE`. `--no-bytecode`
+runs them with this shell's environment unchanged: with `PYTHONDONTWRITEBYTECODE=1` and no
+`__pycache__` beside the sources, every run compiles every module it imports from source.
+
 Each command must exit 0; the bench stops with the command's output otherwise.
 
-    python bench/startup.py [--runs 11]
+    python bench/startup.py [--runs 11] [--no-bytecode]
 """
 
 from __future__ import annotations
@@ -59,11 +65,11 @@ def _console_script() -> str:
     return str(found)
 
 
-def _timed(cmd: list[str], cwd: Path) -> tuple[float, float]:
+def _timed(cmd: list[str], cwd: Path, env: dict[str, str]) -> tuple[float, float]:
     """Run `cmd` once; its wall time and CPU time (user + system) [s]."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, check=False)
+    proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, check=False)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
@@ -75,6 +81,9 @@ def _timed(cmd: list[str], cwd: Path) -> tuple[float, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=int, default=11, help="runs of each command")
+    parser.add_argument(
+        "--no-bytecode", action="store_true", help="run with this environment unchanged"
+    )
     args = parser.parse_args()
 
     cli = _console_script()
@@ -90,18 +99,28 @@ def main() -> None:
             ],
             "orchestrator validate small.yaml (a user's machine)": [cli, "validate", str(small)],
         }  # fmt: skip
+        env = dict(os.environ)
+        if args.no_bytecode:
+            flag = env.get("PYTHONDONTWRITEBYTECODE")
+            mode = f"environment unchanged (PYTHONDONTWRITEBYTECODE={flag})"
+        else:
+            env.pop("PYTHONDONTWRITEBYTECODE", None)
+            env["PYTHONPYCACHEPREFIX"] = str(Path(tmp) / "pycache")
+            mode = "bytecode cached (as installed)"
+            for cmd in commands.values():
+                _timed(cmd, Path(tmp), env)
         load_before = os.getloadavg()
         walls: dict[str, list[float]] = {name: [] for name in commands}
         cpus: dict[str, list[float]] = {name: [] for name in commands}
         for _ in range(args.runs):
             for name, cmd in commands.items():
-                wall, cpu = _timed(cmd, Path(tmp))
+                wall, cpu = _timed(cmd, Path(tmp), env)
                 walls[name].append(wall)
                 cpus[name].append(cpu)
         load_after = os.getloadavg()
 
     print(f"load average (1, 5, 15 min): before {load_before}, after {load_after}")
-    print(f"median of {args.runs} runs each, interleaved\n")
+    print(f"median of {args.runs} runs each, interleaved; {mode}\n")
     print("| command | wall [s] | CPU [s] |")
     print("|---|---|---|")
     for name in commands:

@@ -1,12 +1,31 @@
-"""Robot models and the low-level controller (installed as `orchestrator.robots`)."""
+"""Robot models and the low-level controller (installed as `orchestrator.robots`).
+
+The robot classes are declarations (joint names, gains, reach) the validator reads: their
+modules import MuJoCo and pinocchio inside the methods that build models. The controller
+(pinocchio at its top) is imported on first use of `Controller` or `ControlMode`.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 from .base import Gains, Robot
-from .controller import Controller, ControlMode
 from .exceptions import RobotError
 from .mobile import MobilePanda
 from .panda import Panda
 
 ROBOTS: dict[str, type[Robot]] = {Panda.name: Panda, MobilePanda.name: MobilePanda}
+
+
+if TYPE_CHECKING:
+    from .controller import Controller, ControlMode
+
+
+def __getattr__(name: str) -> Any:
+    if name not in ("Controller", "ControlMode"):
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(".controller", __name__), name)
 
 
 def get_robot(name: str) -> Robot:

@@ -6,11 +6,13 @@ import abc
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
-import mujoco
 import numpy as np
-import pinocchio as pin
+
+if TYPE_CHECKING:
+    import mujoco
+    import pinocchio as pin
 
 __all__ = ["CARTESIAN_MASS", "CONTACT_SOLIMP", "CONTACT_TIMECONST_S", "Gains", "Robot"]
 
@@ -186,4 +188,6 @@ class Robot(abc.ABC):
 
 @functools.cache
 def _pinocchio_model(urdf: str) -> pin.Model:
+    import pinocchio as pin
+
     return pin.buildModelFromUrdf(urdf)

@@ -11,9 +11,12 @@ the robot's home pose are left out (neighbours whose capsules overlap by constru
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import mujoco
 import numpy as np
+
+if TYPE_CHECKING:
+    import mujoco
 
 __all__ = ["PROXY_GROUP", "CapsuleProxy", "add_self_collision_proxies", "proxy_name"]
 
@@ -51,6 +54,8 @@ def fit_capsule(points: np.ndarray, coverage: float = 0.97) -> tuple[np.ndarray,
 
 
 def _mesh_points(model: mujoco.MjModel, body: int) -> np.ndarray | None:
+    import mujoco
+
     pts = []
     for g in range(model.ngeom):
         if model.geom_bodyid[g] != body or model.geom_type[g] != mujoco.mjtGeom.mjGEOM_MESH:
@@ -87,6 +92,8 @@ def _plan(
     spec: mujoco.MjSpec, bodies: tuple[str, ...], home_qpos: tuple[float, ...], min_gap: int
 ) -> tuple[tuple[CapsuleProxy, ...], tuple[tuple[str, str], ...]]:
     """Fit the proxies on a compiled copy of `spec` and choose the pairs (the costly part)."""
+    import mujoco
+
     model = spec.copy().compile()
     proxies = []
     for name in bodies:
@@ -113,6 +120,8 @@ def _plan(
 
 
 def _add_geoms(spec: mujoco.MjSpec, proxies: list[CapsuleProxy] | tuple[CapsuleProxy, ...]) -> None:
+    import mujoco
+
     for p in proxies:
         g = spec.body(p.body).add_geom(
             name=proxy_name(p.body),

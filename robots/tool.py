@@ -14,14 +14,16 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
-import mujoco
 import numpy as np
-import pinocchio as pin
 
 from .base import Robot
 from .panda.model import ROBOT_CONTYPE, WORLD_CONTYPE
+
+if TYPE_CHECKING:
+    import mujoco
+    import pinocchio as pin
 
 __all__ = [
     "TIP_SITE",
@@ -98,6 +100,8 @@ class Tool:
 
     def attach(self, spec: mujoco.MjSpec, parent: str) -> None:
         """Add the tool body, its geoms and the tip site to `spec` under body `parent`."""
+        import mujoco
+
         body = spec.body(parent).add_body(name=self.body)
         body.explicitinertial = True
         body.mass = self.mass_kg
@@ -125,6 +129,8 @@ class Tool:
 
     def extend_pinocchio(self, model: pin.Model, hand_frame: str) -> pin.Model:
         """A copy of `model` with the tip frame on `hand_frame` (and the payload, if declared)."""
+        import pinocchio as pin
+
         out = pin.Model(model)
         hand_id = out.getFrameId(hand_frame)
         hand = out.frames[hand_id]

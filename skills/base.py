@@ -28,7 +28,9 @@ class SkillParams(BaseModel):
     `json_schema_extra` of `SCENE_OBJECT`, `GRIPPED_OBJECT` or `SCENE_TARGET` makes the
     validator check the name against the scenario before anything moves."""
 
-    model_config = ConfigDict(extra="forbid", arbitrary_types_allowed=True, allow_inf_nan=False)
+    model_config = ConfigDict(
+        defer_build=True, extra="forbid", arbitrary_types_allowed=True, allow_inf_nan=False
+    )
 
 
 class Skill(abc.ABC):

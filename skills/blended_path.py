@@ -14,11 +14,14 @@ descends), along the geodesic, within the angular speed and acceleration limits.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
-import mink
 import numpy as np
 
 from .trajectory import turned
+
+if TYPE_CHECKING:
+    import mink
 
 __all__ = ["BlendedPath"]
 
@@ -51,6 +54,8 @@ class BlendedPath:
         alpha_max: float,
         blend_m: float,
     ) -> None:
+        import mink
+
         pts = _drop_repeats(np.asarray(points, float))
         self.rot0 = mink.SO3.from_matrix(np.asarray(rot0, float))
         self.delta = (self.rot0.inverse() @ mink.SO3.from_matrix(np.asarray(rot1, float))).log()

@@ -23,7 +23,6 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Annotated, Any, ClassVar
 
-import mujoco
 import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat, field_validator, model_validator
 
@@ -385,6 +384,8 @@ class Contact(Skill):
 
 def _rotation_vector(rot: np.ndarray) -> np.ndarray:
     """Rotation vector [rad] of a rotation matrix (shape (3, 3)). Shape (3,)."""
+    import mujoco
+
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rot).reshape(9))
     vec = np.zeros(3)
@@ -394,6 +395,8 @@ def _rotation_vector(rot: np.ndarray) -> np.ndarray:
 
 def _exp(vec: np.ndarray) -> np.ndarray:
     """Rotation matrix of a rotation vector [rad] (shape (3,)). Shape (3, 3)."""
+    import mujoco
+
     angle = float(np.linalg.norm(vec))
     quat = np.array([1.0, 0.0, 0.0, 0.0])
     if angle > 0.0:
@@ -408,6 +411,8 @@ def _frame(
 ) -> tuple[Callable[[Any], np.ndarray], tuple[np.ndarray, np.ndarray] | None]:
     """A function mapping points [m] in the pose `value` (or the world if None) to the world,
     and the pose as (position [m] shape (3,), rotation shape (3, 3)) or None."""
+    import mujoco
+
     if value is None:
         return (lambda p: np.asarray(p, dtype=float)), None
     try:

@@ -9,8 +9,6 @@ import numpy as np
 from pydantic import Field, NonNegativeFloat, model_validator
 
 from orchestrator.exceptions import SkillError
-from orchestrator.perception.detections import Detection, detect_objects, sort_detections
-from orchestrator.perception.truth import match_detections, true_objects
 from orchestrator.world.pose import Pose
 
 from .base import Skill, SkillParams
@@ -18,6 +16,7 @@ from .hint import Hint, HintRadius, hint_distance
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
+    from orchestrator.perception.detections import Detection
 
 __all__ = ["Detect"]
 
@@ -103,6 +102,8 @@ class Detect(Skill):
         self.t0 = ctx.clock
 
     def step(self, ctx: Context) -> str | None:
+        from orchestrator.perception.detections import detect_objects, sort_detections
+
         p = self.params
         if ctx.clock - self.t0 < p.duration_s - 1e-9:
             return None
@@ -149,6 +150,8 @@ class Detect(Skill):
 
     def _score(self, ctx: Context, found: list[Detection]) -> None:
         """Add this call's errors against the truth to the run's metrics (worst over calls)."""
+        from orchestrator.perception.truth import match_detections, true_objects
+
         m = ctx.metrics
         m["perception_backend"] = ctx.cameras.renderer.name
         matches = match_detections(found, true_objects(ctx.world))

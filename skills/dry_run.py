@@ -14,13 +14,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
-import mink
-import mujoco
 import numpy as np
 
 from .ik import IKSolver
+
+if TYPE_CHECKING:
+    import mink
+    import mujoco
 
 __all__ = ["DryRun", "dry_run"]
 
@@ -153,6 +155,8 @@ _INVERSE: dict[int, mujoco.MjData] = {}
 
 
 def _data(ik: IKSolver) -> mujoco.MjData:
+    import mujoco
+
     model = ik.config.model
     data = _INVERSE.get(id(model))
     if data is None:
@@ -162,6 +166,8 @@ def _data(ik: IKSolver) -> mujoco.MjData:
 
 def _sigma_min(ik: IKSolver, q: np.ndarray) -> float:
     """The smallest singular value of the TCP's 6-D Jacobian over the IK's joints at `q`."""
+    import mujoco
+
     model, data = ik.config.model, _data(ik)
     data.qpos[: ik.n] = q[: ik.n]
     mujoco.mj_kinematics(model, data)
@@ -178,6 +184,8 @@ def _torque_ratio(
     at the end of each tick of `dt` [s], from `q0`), by inverse dynamics (`mj_inverse`) of the
     IK's robot model, and which joint: gravity and the path's own accelerations, no
     payload."""
+    import mujoco
+
     model, data = ik.config.model, _data(ik)
     n = ik.n
     q = np.vstack([q0[None, :n], q_path[:, :n]])

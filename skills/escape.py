@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, ClassVar
 
-import mujoco
 import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat
 
@@ -53,6 +52,8 @@ class Escape(Skill):
     params: EscapeParams
 
     def step(self, ctx: Context) -> str | None:
+        import mujoco
+
         p = self.params
         tcp = ctx.tcp_pos.copy()
         away = _away_from_contacts(ctx)

@@ -20,13 +20,11 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any, ClassVar
 
-import mujoco
 import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat
 
 from orchestrator.world.footprint import Box, separation
 from orchestrator.world.pose import Pose
-from orchestrator.world.world import robot_only_model
 
 from .base import SCENE_TARGET, Skill, SkillParams
 from .ik import IKSolver
@@ -222,6 +220,8 @@ def _corners_in_tcp(ctx: Context, g: int, centre: np.ndarray, half: np.ndarray) 
 def finger_boxes(ctx: Context, opening_m: float) -> FingerBoxes:
     """The fingers' footprints at each finger's opening `opening_m` [m], measured on the
     model: every collision box of the finger bodies, in the TCP's frame."""
+    import mujoco
+
     m, w = ctx.model, ctx.world
     opening_now = 0.5 * ctx.gripper_width
     half_x, inner, outer, depth = 0.0, math.inf, 0.0, 0.0
@@ -315,6 +315,8 @@ def _walls(ctx: Context, fingertip_z: float) -> list[tuple[str, Box]]:
     """Footprints of the scene's fixed boxes a finger can collide with that stand higher than
     the fingertips at the grasp (walls, bins, furniture; the surface the object lies on is
     lower)."""
+    import mujoco
+
     m, d, w = ctx.model, ctx.data, ctx.world
     fingers = [g for g in w.finger_geoms if m.geom_contype[g] or m.geom_conaffinity[g]]
     out = []
@@ -354,6 +356,8 @@ def _ik_miss(
     """How close the IK gets the TCP to `pos` [m] pointing down at heading `yaw` [rad] from
     the measured joints: (position [m], orientation [rad]) left. On the robot's own IK model,
     never the running solver."""
+    from orchestrator.world.world import robot_only_model
+
     ik = IKSolver(ctx.robot, robot_only_model(ctx.robot), _IK_DT, ctx.scenario.robot.base_pos)
     ik.reset(ctx.q)
     rot = rot_down(yaw)

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import mujoco
 import numpy as np
 
 if TYPE_CHECKING:
@@ -32,6 +31,8 @@ ANY_OBJECT = "*"
 def finger_forces(ctx: Context) -> dict[int, list[float]]:
     """Body id -> normal contact force [N] of the left and the right finger on it, for every
     body the fingers touch (the robot's own bodies left out)."""
+    import mujoco
+
     m, d, w = ctx.model, ctx.data, ctx.world
     left, right = w.finger_body_ids
     robot = w.robot_geoms

@@ -9,15 +9,17 @@ one tick). A feasible reference passes through unchanged.
 
 from __future__ import annotations
 
-import mink
-import mujoco
+from typing import TYPE_CHECKING
+
 import numpy as np
 from orchestrator.robots import Robot
 
-from .ik_qp import IKProblem
 from .joint_limiter import JointLimiter
-from .posture import NullspacePostureTask
-from .whole_body import apply_whole_body_costs
+
+if TYPE_CHECKING:
+    import mink
+
+    from .ik_qp import IKProblem
 
 __all__ = ["COMMAND_MARGIN", "POSTURE_COST", "POSTURE_TIME_CONSTANT_S", "IKSolver"]
 
@@ -68,6 +70,11 @@ class IKSolver:
         damping: float = 1e-2,
         posture: np.ndarray | None = None,
     ) -> None:
+        import mink
+
+        from .posture import NullspacePostureTask
+        from .whole_body import apply_whole_body_costs
+
         self.robot = robot
         self.dt = dt
         self.base_pos = np.asarray(base_pos, float).copy()
@@ -208,6 +215,11 @@ class IKSolver:
             The reference's arm joint velocity over the step [rad/s] (also in
             `reference_velocity`). Shape (n,).
         """
+        import mink
+        import mujoco
+
+        from .posture import NullspacePostureTask
+
         # the target written in place (what SE3.from_rotation_and_translation + set_target
         # would build and copy): the frame task holds this solver's own SE3
         target = self._target.wxyz_xyz
@@ -241,6 +253,8 @@ class IKSolver:
         # can be reused after its object is gone, and does not survive a snapshot's restore
         key = (tuple(self.tasks), tuple(self.limits), self.damping)
         if key != self._problem_key:
+            from .ik_qp import IKProblem
+
             self._problem_key = key
             self._problem = (
                 IKProblem(self.config, self.tasks, self.limits, self.damping)
@@ -249,6 +263,8 @@ class IKSolver:
             )
         if self._problem is not None:
             return self._problem.solve(dt)
+        import mink
+
         return mink.solve_ik(
             self.config, self.tasks, dt, "daqp", damping=self.damping, limits=self.limits
         )

@@ -11,9 +11,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from orchestrator.robots.controller import CartesianGains, ControlMode
 
 if TYPE_CHECKING:
+    from orchestrator.robots.controller import CartesianGains
+
     from orchestrator.engine.context import Context
 
 __all__ = [
@@ -53,6 +54,8 @@ def gains(
         frame: Rotation whose columns are the gains' axes in the world, shape (3, 3) (e.g. a
             surface's two tangents and its normal); None: the world axes.
     """
+    from orchestrator.robots.controller import CartesianGains
+
     k_t = np.broadcast_to(np.asarray(stiffness_n_per_m, dtype=float), (3,))
     k = np.concatenate([k_t, np.full(3, float(rotational_nm_per_rad))])
     m = np.array([APPARENT_MASS_KG] * 3 + [APPARENT_INERTIA] * 3)
@@ -82,6 +85,8 @@ def setpoint(ctx: Context, new: CartesianGains | None = None) -> tuple[np.ndarra
     Returns:
         Position [m] in the world, shape (3,), and rotation, shape (3, 3), both copies.
     """
+    from orchestrator.robots.controller import ControlMode
+
     ctrl = ctx.controller
     if ctrl.mode is not ControlMode.CARTESIAN:
         return measured_tcp(ctx)

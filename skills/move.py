@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
-import mink
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat
 
@@ -19,6 +18,8 @@ from .time_scaling import feasible_time_scale, fit_path_to_joints
 from .trajectory import CartesianLine
 
 if TYPE_CHECKING:
+    import mink
+
     from orchestrator.engine.context import Context
 
 __all__ = ["Move", "symmetric_yaws"]
@@ -57,7 +58,7 @@ _MAX_RETIMES = 6
 class Via(BaseModel):
     """A point the motion passes through without stopping."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(defer_build=True, extra="forbid")
 
     target: Any = Field(
         description="`[x, y, z]` in the world [m], an object or marker name, or a pose.",
@@ -299,6 +300,8 @@ class Move(Skill):
         measured error into the IK target removes that steady-state error, as a robot's own
         position loop would; it is bounded, and only runs once the line has ended.
         """
+        import mink
+
         dt = ctx.dt_control
         self.corr_pos += _SETTLE_GAIN * dt * (self.pos1 - ctx.tcp_pos)
         norm = float(np.linalg.norm(self.corr_pos))

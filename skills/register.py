@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal
 
-import mujoco
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, NonNegativeFloat, PositiveFloat, PositiveInt
 
@@ -54,7 +53,7 @@ class TouchPoint(BaseModel):
     a side face (`-y`: the side at y = -size/2), and where, in the phantom's surface frame [m]
     (a point of that face or edge)."""
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 
     on: Literal["top", "-x", "+x", "-y", "+y"]
     at: Vec3
@@ -395,6 +394,8 @@ def _top_sigma(fit: TouchFit, size: np.ndarray) -> float:
 
 def _quat(rot: np.ndarray) -> np.ndarray:
     """Quaternion (w, x, y, z) of a rotation matrix (shape (3, 3)), w >= 0."""
+    import mujoco
+
     q = np.zeros(4)
     mujoco.mju_mat2Quat(q, np.ascontiguousarray(rot).reshape(9))
     return q if q[0] >= 0 else -q

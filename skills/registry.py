@@ -27,7 +27,14 @@ __all__ = [
 SKILLS: dict[str, type[Skill]] = {}
 _PKG = __name__.rsplit(".", 1)[0]
 """This package's import name (`orchestrator.skills`)."""
-_NOT_SKILLS = {"base", "registry", "plugins", "ik", "joint_limiter", "trajectory"}
+_NOT_SKILLS = {
+    "base", "registry", "plugins", "ik", "ik_qp", "posture", "whole_body", "joint_limiter",
+    "trajectory",
+}  # fmt: skip
+"""Modules of this package that define no skill and that discovery does not import: the
+registry's own, and the IK's and the trajectories' machinery (mink, its QP, MuJoCo, Ruckig),
+which a skill imports in the functions that run it. Listing the skills (and validating a
+machine, which needs their `Params`) then loads no solver."""
 
 
 class UnknownSkillError(OrchestratorError):

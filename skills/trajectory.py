@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 from functools import cached_property
+from typing import TYPE_CHECKING
 
-import mink
-import mujoco
 import numpy as np
-import ruckig
+
+if TYPE_CHECKING:
+    import mink
+    import ruckig
 
 __all__ = ["JERK_PER_ACCEL", "CartesianLine", "Profile", "turned"]
 
@@ -44,6 +46,8 @@ class Profile:
         v0: float = 0.0,
         a0: float = 0.0,
     ) -> None:
+        import ruckig
+
         self._args = (distance, v_max, a_max, j_max, v0, a0)
         """What it was made from: a snapshot (engine/snapshot) pickles these and computes the
         same trajectory again (Ruckig's objects do not pickle; it never re-plans)."""
@@ -113,6 +117,8 @@ class CartesianLine:
         w_max: float,
         alpha_max: float,
     ) -> None:
+        import mink
+
         self.pos0, self.pos1 = np.asarray(pos0, float).copy(), np.asarray(pos1, float).copy()
         self.rot0 = mink.SO3.from_matrix(np.asarray(rot0, float))
         rot1_ = mink.SO3.from_matrix(np.asarray(rot1, float))
@@ -148,6 +154,9 @@ def turned(rot0: mink.SO3, frac: float, tangent: np.ndarray) -> mink.SO3:
         frac: Fraction of the turn.
         tangent: The whole turn as a rotation vector [rad]. Shape (3,).
     """
+    import mink
+    import mujoco
+
     axis = frac * tangent
     turn = np.empty(4)
     mujoco.mju_axisAngle2Quat(turn, axis, mujoco.mju_normalize3(axis))

@@ -19,7 +19,7 @@ __all__ = ["Envelope", "Guard", "GuardParams", "Violation"]
 class GuardParams(BaseModel):
     """Base of every guard's `Params`: unknown keys are an error."""
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 
 
 @dataclass(frozen=True)

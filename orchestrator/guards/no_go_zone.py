@@ -10,12 +10,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, ClassVar
 
-import mujoco
 import numpy as np
 from pydantic import Field, NonNegativeFloat
 
 from ..exceptions import OrchestratorError
-from ..world.world import as_index
+from ..world.indexing import as_index
 from .base import Guard, GuardParams, Violation
 
 if TYPE_CHECKING:
@@ -51,6 +50,9 @@ class NoGoZone(Guard):
     params: NoGoZoneParams
 
     def bind(self, ctx: Context) -> None:
+        import mujoco  # here, not at the top: validation reads the Params without MuJoCo
+
+        self._geom_distance = mujoco.mj_geomDistance
         m, d, w = ctx.model, ctx.data, ctx.world
         names = self.params.zones if self.params.zones is not None else list(w.zones)
         unknown = [n for n in names if n not in w.zones]
@@ -95,7 +97,7 @@ class NoGoZone(Guard):
             gap = np.linalg.norm(np.maximum(local, 0.0), axis=1)
             for g in self.geoms[near][gap < self.radius[near]]:
                 limit = self.params.margin_m + 0.01
-                dist = mujoco.mj_geomDistance(
+                dist = self._geom_distance(
                     ctx.model, ctx.data, int(g), self.zone_geoms[k], limit, self._fromto
                 )
                 if best is None or dist < best[0]:

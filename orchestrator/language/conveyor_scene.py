@@ -38,7 +38,7 @@ class Conveyor(BaseModel):
     `--set parcels=N` sets `parcels`.
     """
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 
     parcels: int = Field(
         default=20, ge=1, le=MAX_SHIFT, description="Parcels fed in one shift (one episode)."

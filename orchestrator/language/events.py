@@ -23,7 +23,7 @@ __all__ = ["ScheduledEvent", "check_events", "machine_events", "parse_event_spec
 class ScheduledEvent(BaseModel):
     """One event sent at a simulated time."""
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 
     at: NonNegativeFloat = Field(le=1e6, description="Simulated time the event arrives [s].")
     event: str = Field(

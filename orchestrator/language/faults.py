@@ -42,7 +42,7 @@ Vec3N = Annotated[list[Newtons], Field(min_length=3, max_length=3)]
 
 
 class _Fault(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 
     at: NonNegativeFloat | None = Field(
         default=None, le=1e6, description="Simulated time the fault starts [s]."

@@ -62,7 +62,9 @@ def guard_entries(refs: list[GuardRef] | dict[str, Any]) -> list[tuple[int | str
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", populate_by_name=True, allow_inf_nan=False)
+    model_config = ConfigDict(
+        defer_build=True, extra="forbid", populate_by_name=True, allow_inf_nan=False
+    )
 
 
 class BlackboardKey(_Strict):

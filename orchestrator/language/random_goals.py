@@ -37,7 +37,7 @@ Range = Annotated[
 class GoalBox(BaseModel):
     """A box a position is drawn from uniformly per seed, world frame."""
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 
     x: Range = Field(description="[low, high] [m].")
     y: Range = Field(description="[low, high] [m].")
@@ -68,7 +68,7 @@ class DrawnValues(BaseModel):
     anything moves: inside the `workspace` guard's box and within the arm's reach.
     """
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 
     blackboard: dict[str, GoalBox] = Field(
         default_factory=dict,

@@ -44,7 +44,7 @@ Six = Annotated[list[float], Field(min_length=6, max_length=6)]
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 
 
 class CartesianGainsSpec(_Strict):

@@ -23,7 +23,9 @@ _RGBA = Annotated[list[_Unit], Field(min_length=4, max_length=4)]
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", populate_by_name=True, allow_inf_nan=False)
+    model_config = ConfigDict(
+        defer_build=True, extra="forbid", populate_by_name=True, allow_inf_nan=False
+    )
 
 
 def _ordered(name: str, pair: list[float]) -> None:

@@ -1,12 +1,13 @@
-"""Perception: rendering backends (OpenGL, ray casting) and colour vision (detections)."""
+"""Perception: rendering backends (OpenGL, ray casting) and colour vision (detections).
 
-from .backends import BackendStatus, Renderer, backend_status, open_renderer
-from .colours import NAMED_COLOURS, classify_rgb, hsv_boxes
-from .detections import Detection, detect_objects
-from .exceptions import PerceptionError
-from .frame import Frame, Intrinsics
-from .rig import CameraRig
-from .truth import TrueObject, match_detections, true_objects
+Names are imported on first use: the language layer reads the named colours
+(`perception.colours`) to check a scenario without loading OpenCV and MuJoCo.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 __all__ = [
     "NAMED_COLOURS",
@@ -26,3 +27,18 @@ __all__ = [
     "open_renderer",
     "true_objects",
 ]
+
+_WHERE = {
+    "BackendStatus": "backends", "Renderer": "backends", "backend_status": "backends",
+    "open_renderer": "backends", "NAMED_COLOURS": "colours", "classify_rgb": "colours",
+    "hsv_boxes": "colours", "Detection": "detections", "detect_objects": "detections",
+    "PerceptionError": "exceptions", "Frame": "frame", "Intrinsics": "frame",
+    "CameraRig": "rig", "TrueObject": "truth", "match_detections": "truth",
+    "true_objects": "truth",
+}  # fmt: skip
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, ClassVar
 
-import mujoco
 import numpy as np
 from pydantic import Field
 
@@ -33,6 +32,8 @@ class GripperClear(SuccessCheck):
     params: GripperClearParams
 
     def evaluate(self, ctx: Context) -> Verdict:
+        import mujoco
+
         p = self.params
         handle = ctx.world.objects[p.object]
         need = 2.0 * float(max(handle.half_size)) + 2.0 * p.min_distance_m

@@ -24,6 +24,6 @@ class CheckParams(BaseModel):
     (checked against the scenario before the run), `SCENE_TARGET` an object or a marker (or
     `$key`, followed on the blackboard)."""
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 
     kind: str = Field(description="Which check: its registered `kind`.")

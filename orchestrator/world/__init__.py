@@ -23,7 +23,7 @@ __all__ = [
 
 _WHERE = {
     "PlannedPath": "path", "PhantomHandle": "phantom", "Pose": "pose", "quat_from_yaw": "pose",
-    "yaw_of": "pose", "ObjectHandle": "world", "World": "world", "as_index": "world",
+    "yaw_of": "pose", "ObjectHandle": "world", "World": "world", "as_index": "indexing",
     "robot_only_model": "world",
 }  # fmt: skip
 

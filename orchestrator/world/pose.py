@@ -54,7 +54,7 @@ def yaw_of(quat: np.ndarray) -> float:
 class Pose(BaseModel):
     """Position [m] and orientation (quaternion w, x, y, z) in the world frame."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, frozen=True, extra="forbid", allow_inf_nan=False)
 
     pos: list[float] = Field(min_length=3, max_length=3)
     quat: list[float] = Field(

@@ -16,6 +16,7 @@ from .cameras import add_cameras, randomize_appearance
 from .contacts import ContactSensor, add_contact_sensors, bind_contact_sensors
 from .conveyor import ConveyorBelt, add_conveyor
 from .faults import FaultEffects, add_fault_obstacles
+from .indexing import as_index
 from .phantom import (
     PhantomHandle,
     add_phantom_scene,
@@ -301,13 +302,6 @@ class World:
         # torques they would read it falling); the runner sets the torques before stepping.
         d.ctrl[self.arm_act] = d.qfrc_bias[self.arm_dof]
         mujoco.mj_forward(m, d)
-
-
-def as_index(idx: np.ndarray) -> slice | np.ndarray:
-    """A slice when the indices are contiguous (cheaper on the hot path)."""
-    if len(idx) and np.all(np.diff(idx) == 1):
-        return slice(int(idx[0]), int(idx[-1]) + 1)
-    return idx
 
 
 def _chassis(spec: mujoco.MjSpec, base_body: str | None) -> tuple[str, ...]:

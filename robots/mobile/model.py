@@ -20,13 +20,15 @@ import os
 import re
 import tempfile
 from pathlib import Path
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
-import mujoco
 import numpy as np
 
 from ..base import Gains
 from ..panda.model import ROBOT_CONAFFINITY, ROBOT_CONTYPE, Panda, panda_urdf_path
+
+if TYPE_CHECKING:
+    import mujoco
 
 __all__ = ["BASE", "BaseGeometry", "MobilePanda", "mobile_panda_urdf"]
 

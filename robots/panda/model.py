@@ -7,14 +7,16 @@ import importlib.metadata
 import math
 import os
 from pathlib import Path
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
-import mujoco
 import numpy as np
 
 from ..base import CONTACT_SOLIMP, CONTACT_TIMECONST_S, Gains, Robot
 from ..exceptions import RobotError
 from ..self_collision import add_self_collision_proxies
+
+if TYPE_CHECKING:
+    import mujoco
 
 __all__ = ["Panda", "panda_urdf_path"]
 
@@ -113,6 +115,8 @@ class Panda(Robot):
         return str(panda_urdf_path())
 
     def build_spec(self) -> mujoco.MjSpec:
+        import mujoco
+
         mesh_dir = panda_urdf_path().parent.parent / "meshes" / "collision"
         spec = mujoco.MjSpec.from_string(Path(self.urdf_path()).read_text())
         spec.modelname = self.name
@@ -146,6 +150,8 @@ class Panda(Robot):
         return self.armature
 
     def _add_actuators(self, spec: mujoco.MjSpec) -> None:
+        import mujoco
+
         for jname in self.arm_joints:
             joint = spec.joint(jname)
             effort = _urdf_efforts(self.urdf_path())[jname]
@@ -163,6 +169,8 @@ class Panda(Robot):
         # speed. Stalled (squeezing an object) it pushes with F, the hand's grip force; free,
         # it runs at v_max at most, whatever it is told: the hand's speed limit lives in the
         # plant, not in the software that drives it (engine/context.py, `advance_gripper`).
+        import mujoco
+
         # The back-EMF term is the fingers' viscous damping F / v_max: MuJoCo's implicit
         # integrators take joint damping implicitly, an actuator's velocity bias they did not
         # (the fingers rang between 0.048 and 0.052 m/s at full voltage).
@@ -198,6 +206,8 @@ class Panda(Robot):
         act.forcerange = [-stall, stall]
 
     def _add_sites_and_sensors(self, spec: mujoco.MjSpec) -> None:
+        import mujoco
+
         hand_tcp = spec.body(self.hand_tcp_frame)
         hand_tcp.add_site(name=self.hand_tcp_site, size=[0.005, 0.005, 0.005])
         spec.body(self.hand_body).add_site(name=self.wrist_site, size=[0.005, 0.005, 0.005])
