@@ -15,11 +15,10 @@ from .exceptions import RobotError
 from .mobile import MobilePanda
 from .panda import Panda
 
-ROBOTS: dict[str, type[Robot]] = {Panda.name: Panda, MobilePanda.name: MobilePanda}
-
-
 if TYPE_CHECKING:
     from .controller import Controller, ControlMode
+
+ROBOTS: dict[str, type[Robot]] = {Panda.name: Panda, MobilePanda.name: MobilePanda}
 
 
 def __getattr__(name: str) -> Any:

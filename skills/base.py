@@ -28,6 +28,7 @@ class SkillParams(BaseModel):
     `json_schema_extra` of `SCENE_OBJECT`, `GRIPPED_OBJECT` or `SCENE_TARGET` makes the
     validator check the name against the scenario before anything moves."""
 
+    # the validator is built on first use: a command loads every skill's Params and uses few
     model_config = ConfigDict(
         defer_build=True, extra="forbid", arbitrary_types_allowed=True, allow_inf_nan=False
     )

@@ -17,7 +17,8 @@ __all__ = ["Envelope", "Guard", "GuardParams", "Violation"]
 
 
 class GuardParams(BaseModel):
-    """Base of every guard's `Params`: unknown keys are an error."""
+    """Base of every guard's `Params`: unknown keys are an error. Its validator is built on
+    first use (`defer_build`): a command loads every guard's `Params` and uses few."""
 
     model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 

@@ -24,6 +24,7 @@ class CheckParams(BaseModel):
     (checked against the scenario before the run), `SCENE_TARGET` an object or a marker (or
     `$key`, followed on the blackboard)."""
 
+    # the validator is built on first use: a command loads every check's Params and uses few
     model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 
     kind: str = Field(description="Which check: its registered `kind`.")
