@@ -14,8 +14,9 @@ The commands:
 * `orchestrator --version`
 * `orchestrator validate scenarios/pick_place.yaml` (a bundled scenario: its machine, its
   includes, every check, and MuJoCo compiling its scene once)
-* `orchestrator validate small.yaml`, a user's machine of two states written to a temporary
-  directory (the language layer and the skills' declarations, no physics)
+* `orchestrator validate machines/reach.yaml` (a bundled machine: one `move`, a blackboard)
+* `orchestrator validate tests/machines/small_move.yaml` (a user's first machine: one `move`;
+  the language layer and the skills' declarations, no physics)
 
 Bytecode: an installed package carries its compiled `.pyc` files, so by default the children
 run with a bytecode cache of their own (`PYTHONPYCACHEPREFIX`, a temporary directory; one
@@ -42,17 +43,7 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-SMALL_MACHINE = """\
-name: small
-initial: REACH
-states:
-  REACH:
-    skill: move
-    with: {target: [0.5, 0.0, 0.4]}
-    transitions: {reached: DONE, unreachable: FAILED, timeout: FAILED}
-  DONE: {final: succeeded}
-  FAILED: {final: failed}
-"""
+SMALL_MACHINE = REPO / "tests" / "machines" / "small_move.yaml"
 """The small user file `validate` is timed on: one skill state, two final states."""
 
 
@@ -88,8 +79,6 @@ def main() -> None:
 
     cli = _console_script()
     with tempfile.TemporaryDirectory() as tmp:
-        small = Path(tmp) / "small.yaml"
-        small.write_text(SMALL_MACHINE)
         commands = {
             "python -c pass": [sys.executable, "-c", "pass"],
             "python -c 'import numpy'": [sys.executable, "-c", "import numpy"],
@@ -97,7 +86,12 @@ def main() -> None:
             "orchestrator validate scenarios/pick_place.yaml": [
                 cli, "validate", str(REPO / "scenarios" / "pick_place.yaml"),
             ],
-            "orchestrator validate small.yaml (a user's machine)": [cli, "validate", str(small)],
+            "orchestrator validate machines/reach.yaml": [
+                cli, "validate", str(REPO / "machines" / "reach.yaml"),
+            ],
+            "orchestrator validate small_move.yaml (a user's file)": [
+                cli, "validate", str(SMALL_MACHINE),
+            ],
         }  # fmt: skip
         env = dict(os.environ)
         if args.no_bytecode:

@@ -18,20 +18,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 HEAVY = ("mujoco", "pinocchio", "mink", "qpsolvers", "scipy", "cv2", "ruckig", "rerun", "zenoh")
 """Libraries a command that simulates nothing must not import."""
-SMALL_MACHINE = """\
-name: small
-initial: REACH
-states:
-  REACH:
-    skill: move
-    with: {target: [0.5, 0.0, 0.4]}
-    transitions: {reached: DONE, unreachable: FAILED, timeout: FAILED}
-  DONE: {final: succeeded}
-  FAILED: {final: failed}
-"""
 COMMANDS = [
     ["--version"],
-    ["validate", "small.yaml"],
+    ["validate", str(REPO / "tests" / "machines" / "small_move.yaml")],
     ["validate", str(REPO / "machines" / "pick_place.yaml")],
     ["show", "skill", "move"],
     ["list", "skills"],
@@ -57,7 +46,6 @@ print(json.dumps(out))
 
 
 def test_reading_commands_load_no_physics_ik_or_vision_library(tmp_path: Path):
-    (tmp_path / "small.yaml").write_text(SMALL_MACHINE)
     proc = subprocess.run(
         [sys.executable, "-c", PROBE, json.dumps(COMMANDS), json.dumps(HEAVY)],
         cwd=tmp_path,
