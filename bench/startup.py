@@ -24,6 +24,11 @@ untimed round fills it) even when this shell sets `PYTHONDONTWRITEBYTECODE`. `--
 runs them with this shell's environment unchanged: with `PYTHONDONTWRITEBYTECODE=1` and no
 `__pycache__` beside the sources, every run compiles every module it imports from source.
 
+Where `validate small_move.yaml`'s CPU time goes is measured in the same rounds: a fresh
+interpreter imports numpy, pydantic, the CLI (typer, rich), the language layer, discovers the
+skills and the success checks, then runs the command, reading `time.process_time` between
+stages (each stage pays only for what the ones before it did not load).
+
 Each command must exit 0; the bench stops with the command's output otherwise.
 
     python bench/startup.py [--runs 11] [--no-bytecode]
@@ -32,6 +37,7 @@ Each command must exit 0; the bench stops with the command's output otherwise.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import resource
 import shutil
@@ -45,6 +51,39 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 SMALL_MACHINE = REPO / "tests" / "machines" / "small_move.yaml"
 """The small user file `validate` is timed on: one skill state, two final states."""
+
+
+STAGES = """\
+import json, sys, time
+marks = [("interpreter", time.process_time())]
+def mark(name):
+    marks.append((name, time.process_time()))
+import numpy
+mark("numpy")
+import pydantic
+from pydantic import BaseModel
+mark("pydantic")
+import orchestrator.cli
+mark("the CLI: typer, rich")
+import orchestrator.language
+mark("the language layer")
+from orchestrator.skills import skill_names
+skill_names()
+mark("the skills' declarations")
+from orchestrator.success import check_kinds
+check_kinds()
+mark("the success checks' declarations")
+sys.argv = ["orchestrator", "validate", sys.argv[1]]
+try:
+    orchestrator.cli.main()
+except SystemExit as exc:
+    assert not exc.code, exc.code
+mark("validating the file")
+out = {marks[0][0]: marks[0][1]}
+out.update({b[0]: b[1] - a[1] for a, b in zip(marks, marks[1:])})
+print(json.dumps(out))
+"""
+"""The stages of `validate` in one interpreter: CPU seconds each added."""
 
 
 def _console_script() -> str:
@@ -67,6 +106,16 @@ def _timed(cmd: list[str], cwd: Path, env: dict[str, str]) -> tuple[float, float
         raise SystemExit(f"{' '.join(cmd)} exited {proc.returncode}:\n{proc.stdout}{proc.stderr}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return wall, cpu
+
+
+def _stages(cwd: Path, env: dict[str, str]) -> dict[str, float]:
+    """CPU seconds of each stage of `validate small_move.yaml` (`STAGES`), one run."""
+    cmd = [sys.executable, "-c", STAGES, str(SMALL_MACHINE)]
+    proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        raise SystemExit(f"the stages of validate failed:\n{proc.stdout}{proc.stderr}")
+    stages: dict[str, float] = json.loads(proc.stdout.splitlines()[-1])
+    return stages
 
 
 def main() -> None:
@@ -106,11 +155,14 @@ def main() -> None:
         load_before = os.getloadavg()
         walls: dict[str, list[float]] = {name: [] for name in commands}
         cpus: dict[str, list[float]] = {name: [] for name in commands}
+        stages: dict[str, list[float]] = {}
         for _ in range(args.runs):
             for name, cmd in commands.items():
                 wall, cpu = _timed(cmd, Path(tmp), env)
                 walls[name].append(wall)
                 cpus[name].append(cpu)
+            for stage, cpu in _stages(Path(tmp), env).items():
+                stages.setdefault(stage, []).append(cpu)
         load_after = os.getloadavg()
 
     print(f"load average (1, 5, 15 min): before {load_before}, after {load_after}")
@@ -120,6 +172,11 @@ def main() -> None:
     for name in commands:
         print(f"| `{name}` | {statistics.median(walls[name]):.3f} | "
               f"{statistics.median(cpus[name]):.3f} |")  # fmt: skip
+    print("\nwhere `validate small_move.yaml` spends its CPU, stage by stage (median)\n")
+    print("| stage | CPU [s] |")
+    print("|---|---|")
+    for stage, values in stages.items():
+        print(f"| {stage} | {statistics.median(values):.3f} |")
 
 
 if __name__ == "__main__":
