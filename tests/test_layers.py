@@ -131,7 +131,11 @@ def imports_of(module: str) -> Iterator[Import]:
                 yield Import(module, target, node.lineno in type_only, node.lineno)
 
 
-IMPORTS = [imp for module in sorted(MODULES) for imp in imports_of(module)]
+@pytest.fixture(scope="module")
+def imports() -> list[Import]:
+    """Every import of every module (read once, by the tests that use it: not at collection,
+    which every xdist worker repeats)."""
+    return [imp for module in sorted(MODULES) for imp in imports_of(module)]
 
 
 def _find_cycle(edges: dict[str, set[str]]) -> list[str] | None:
@@ -171,9 +175,9 @@ def test_no_module_outside_a_layer_folder():
     assert loose <= LOOSE_MODULES, f"not in a layer folder: {sorted(loose - LOOSE_MODULES)}"
 
 
-def test_run_time_imports_only_go_down():
+def test_run_time_imports_only_go_down(imports):
     upward = []
-    for imp in IMPORTS:
+    for imp in imports:
         if imp.type_only or imp.source in LOOSE_MODULES - {"orchestrator.exceptions"}:
             continue
         src, dst = layer_of(imp.source), layer_of(imp.target)
@@ -182,18 +186,18 @@ def test_run_time_imports_only_go_down():
     assert not upward, "imports that go up a layer:\n" + "\n".join(upward)
 
 
-def test_no_import_cycles_between_modules():
+def test_no_import_cycles_between_modules(imports):
     edges: dict[str, set[str]] = {}
-    for imp in IMPORTS:
+    for imp in imports:
         if imp.target != imp.source:
             edges.setdefault(imp.source, set()).add(imp.target)
     cycle = _find_cycle(edges)
     assert cycle is None, "import cycle (type-only imports count): " + " -> ".join(cycle or [])
 
 
-def test_no_run_time_import_cycles_through_packages():
+def test_no_run_time_import_cycles_through_packages(imports):
     edges: dict[str, set[str]] = {}
-    for imp in IMPORTS:
+    for imp in imports:
         if imp.type_only:
             continue
         # importing a.b.c first executes a/__init__ and a/b/__init__

@@ -230,6 +230,7 @@ def test_a_misregistered_phantom_fails_the_surgical_success_check(tmp_path):
     assert result.outcome == "failed"
 
 
+@pytest.mark.slow  # in the default run: tests/test_register.py (a 1.5 mm-off prior, touched)
 def test_touching_the_phantom_corrects_a_misregistered_camera():
     # the same 1.5 mm perception error, the bundled flow: the touches find the phantom
     result, _ = _run("surgical", 0, faults=["perception_offset:offset_m=[0,0.0015,0]@0"])
@@ -316,14 +317,61 @@ def test_a_reshaped_conveyor_parcel_falls_at_g():
     assert d.qvel[h.qvel_adr + 2] == pytest.approx(-9.81 * 20 * m.opt.timestep, rel=1e-6)
 
 
-def test_safe_hold_releases_the_nodule(tmp_path):
-    result, probe = _run("surgical_complication", 0)
+def _complication(seed: int) -> tuple:
+    """The complication's episode with the step probe and the nodule's contacts (neither reads
+    the noisy sensor, so the run is the one the CLI makes)."""
+    probe, nodule = StepProbe(), NoduleContacts()
+    result = run_episode(load_scenario("surgical_complication"), seed, [probe, nodule])
+    return result, probe, nodule
+
+
+@pytest.fixture(scope="module")
+def complication_run():
+    return _complication(0)
+
+
+def test_safe_hold_releases_the_nodule(complication_run):
+    result, probe, _ = complication_run
     assert result.outcome == "aborted"
     t_abort = result.metrics["abort_t"]
     after = [f for t, f in probe.forces if t >= t_abort + 0.3]
     assert after, "the run ended at the abort"
     # the hold stops pushing: the tip rests on the tissue below the 2 N it traced with
     assert max(after) < 2.5, f"still {max(after):.2f} N on the nodule 0.3 s after the abort"
+
+
+class NoduleContacts:
+    """Every physics step: which geoms touch the nodule, with what normal force [N]."""
+
+    def on_start(self, ctx, executor):
+        self.nodule = ctx.model.geom("nodule").id
+        self.touched: dict[str, float] = {}
+
+    def on_tick(self, ctx, executor):
+        pass
+
+    def on_step(self, ctx):
+        m, d = ctx.model, ctx.data
+        out = np.zeros(6)
+        for i in range(d.ncon):
+            c = d.contact[i]
+            if self.nodule in (c.geom1, c.geom2):
+                other = m.geom(int(c.geom2 if c.geom1 == self.nodule else c.geom1)).name
+                mujoco.mj_contactForce(m, d, i, out)
+                self.touched[other] = max(self.touched.get(other, 0.0), float(out[0]))
+
+    def on_end(self, ctx, executor, result):
+        pass
+
+
+@pytest.mark.parametrize("seed", [0, pytest.param(11, marks=pytest.mark.slow)])
+def test_only_the_tip_reaches_the_buried_nodule(complication_run, seed):
+    # the nodule is buried 0.5 mm under the surface (tests/test_tissue.py): the ball tip
+    # pressed ~2 mm in meets it, the shaft (which ends at the tip's centre) never does
+    result, _, probe = complication_run if seed == 0 else _complication(seed)
+    assert result.outcome == "aborted" and result.reason["guard"] == "contact_force"
+    assert set(probe.touched) == {"probe_tip"}, probe.touched
+    assert probe.touched["probe_tip"] > 1.0  # it ran into it, and that is what the guard saw
 
 
 def test_a_force_ceiling_watches_the_safety_response_itself():

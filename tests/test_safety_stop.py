@@ -74,7 +74,8 @@ def test_a_guard_abort_brakes_to_rest_within_150_ms_and_holds():
 
 
 def test_an_estop_outranks_the_machines_on_abort():
-    result = run_episode(load_scenario("surgical", faults=["estop@EXECUTE.TRACE+0.2"]), 0)
+    # the arm moving above the phantom, 1 s in: the root's on_abort (SAFE_HOLD) applies there too
+    result = run_episode(load_scenario("surgical", faults=["estop@SETUP.ABOVE+0.2"]), 0)
     assert result.outcome == "aborted" and result.reason["guard"] == "estop"
     assert result.final_state == "SAFE_STOP"  # not SAFE_HOLD: an e-stop cannot be remapped
     assert all(not t["to"].startswith("SAFE_HOLD") for t in result.transitions)

@@ -1,5 +1,7 @@
 """The tissue phantom: a stiffening, damped force law; the shaft collides with it; the buried
-nodule of the complication is met by the tip, never the shaft."""
+nodule of the complication lies under the surface (that the tip meets it, never the shaft, is
+checked at every physics step of the complication's episode in tests/test_physical_honesty.py,
+which shares that episode)."""
 
 from __future__ import annotations
 
@@ -99,39 +101,6 @@ def test_the_shaft_collides_with_tissue(world):
     forces = indent(world, 0.0035)
     assert set(forces) == {"probe_tip", "probe_shaft"}
     assert forces["probe_shaft"] > 1.0
-
-
-class NoduleContacts:
-    """Every physics step: which geoms touch the nodule, with what normal force [N]."""
-
-    def on_start(self, ctx, executor):
-        self.nodule = ctx.model.geom("nodule").id
-        self.touched: dict[str, float] = {}
-
-    def on_tick(self, ctx, executor):
-        pass
-
-    def on_step(self, ctx):
-        m, d = ctx.model, ctx.data
-        out = np.zeros(6)
-        for i in range(d.ncon):
-            c = d.contact[i]
-            if self.nodule in (c.geom1, c.geom2):
-                other = m.geom(int(c.geom2 if c.geom1 == self.nodule else c.geom1)).name
-                mujoco.mj_contactForce(m, d, i, out)
-                self.touched[other] = max(self.touched.get(other, 0.0), float(out[0]))
-
-    def on_end(self, ctx, executor, result):
-        pass
-
-
-@pytest.mark.parametrize("seed", [0, 11])
-def test_only_the_tip_reaches_the_buried_nodule(seed):
-    probe = NoduleContacts()
-    result = run_episode(load_scenario("surgical_complication"), seed, [probe])
-    assert result.outcome == "aborted" and result.reason["guard"] == "contact_force"
-    assert set(probe.touched) == {"probe_tip"}, probe.touched
-    assert probe.touched["probe_tip"] > 1.0  # it ran into it, and that is what the guard saw
 
 
 def test_the_nodule_lies_under_the_surface():
