@@ -202,6 +202,7 @@ class SolveCounter:
 
     def on_start(self, ctx, executor):
         self.ticks: list[tuple[bool, int]] = []  # (followed the dry run, solves in the tick)
+        self.rates: list[float] = []  # the skills' clock's rate in the tick (a pause's ramp)
         self.skill, self.before = None, 0
 
     def on_tick(self, ctx, executor):
@@ -209,6 +210,7 @@ class SolveCounter:
         skill = getattr(activity, "skill", None)
         if getattr(skill, "dry", None) is not None and skill is self.skill:
             self.ticks.append((skill.following, self.solves - self.before))
+            self.rates.append(ctx.clock_rate)
         self.skill, self.before = skill, self.solves
 
     def on_end(self, ctx, executor, result):
@@ -227,6 +229,25 @@ def test_a_moves_ticks_on_its_path_follow_its_dry_run_without_solving_the_ik(one
     assert len(followed) == path_ticks - 1 and path_ticks > 20
     assert followed == [0] * len(followed)
     assert live and live == [1] * len(live)
+
+
+def test_a_pause_on_the_path_hands_the_rest_of_the_move_to_the_live_ik(tmp_path, monkeypatch):
+    # the pause's ramp slows the skills' clock off the dry run's grid: from that tick on the
+    # move solves live, and still gets there
+    (tmp_path / "one_move.yaml").write_text(MACHINE)
+    (tmp_path / "scenario.yaml").write_text(SCENARIO)
+    loaded = load_scenario(str(tmp_path / "scenario.yaml"), events=["0.2:pause", "0.6:resume"])
+    counter, probe = SolveCounter(monkeypatch), DryRunProbe()
+    result = run_episode(loaded, 0, [counter, probe])
+    assert result.outcome == "succeeded", result.transitions
+    followed = [solves for following, solves in counter.ticks if following]
+    assert 10 < len(followed) < probe.dry.path_ticks // 2  # until the pause, at 0.2 s
+    assert followed == [0] * len(followed)
+    assert probe.skill.replayed == len(followed)
+    # the first tick the ramp slowed the clock solved live: a row replayed there would be
+    # the reference at the unslowed time
+    slowed = next(i for i, rate in enumerate(counter.rates) if rate < 1.0)
+    assert slowed == len(followed) and counter.ticks[slowed] == (False, 1)
 
 
 class HandPayload:
