@@ -25,6 +25,7 @@ import mujoco
 NESTED = {
     "skill starts",
     "IKSolver.reference_step",
+    "IKSolver.follow",
     "BaseMap.clearance",
     "BaseMap.reach_clear",
     "BaseMotion.command",
@@ -41,6 +42,7 @@ HOT: list[tuple[str, str, str]] = [
     ("orchestrator.engine.trace_truth", "TraceTruth", "on_step"),
     ("orchestrator.engine.executor", "Executor", "tick"),
     ("orchestrator.skills.ik", "IKSolver", "reference_step"),
+    ("orchestrator.skills.ik", "IKSolver", "follow"),
     ("orchestrator.skills.base_map", "BaseMap", "clearance"),
     ("orchestrator.skills.base_map", "BaseMap", "reach_clear"),
     ("orchestrator.skills.base_motion", "BaseMotion", "command"),

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     import mink
     import mujoco
 
-__all__ = ["DryRun", "dry_run"]
+__all__ = ["DryRun", "dry_run", "path_time"]
 
 _STALL_TICKS = 10
 """Ticks with the reference at rest short of the target that count as stuck."""
@@ -47,6 +47,9 @@ class DryRun:
     Attributes:
         q_path: The reference's joint angles at the end of each control tick [rad], shape
             (ticks, n): the path's ticks, then the ticks it took to converge at its end.
+        velocity: The reference's joint velocity over each of the path's ticks [rad/s],
+            shape (path_ticks, n): with `q_path`, what a move's ticks on the path replay
+            (`IKSolver.follow`) instead of solving the IK again.
         dt: Control period [s].
         path_ticks: Ticks on the path (the rest converge at its end).
         residual_m: Distance of the reference's TCP from the target at the end [m].
@@ -63,6 +66,7 @@ class DryRun:
     """
 
     q_path: np.ndarray
+    velocity: np.ndarray
     dt: float
     path_ticks: int
     residual_m: float
@@ -102,6 +106,7 @@ def dry_run(
     lag = 0.0
     rows = np.empty((path_ticks + settle_ticks, ik.n))
     commands = np.empty((path_ticks, ik.n))
+    velocity = np.empty((path_ticks, ik.n))
     end_pos, end_rot = path.sample_so3(path.duration)
     pos_tol, rot_tol = 0.5 * tolerance_m, 0.5 * tolerance_rad
     err_pos = err_rot = math.inf
@@ -109,7 +114,7 @@ def dry_run(
     count = 0
     for i in range(path_ticks + settle_ticks):
         if i < path_ticks:
-            pos, rot = path.sample_so3(min((i + 1) * dt / stretch, path.duration))
+            pos, rot = path.sample_so3(path_time(i, dt, stretch, path.duration))
         else:
             pos, rot = end_pos, end_rot
         q_ref = ik.q.copy()
@@ -117,6 +122,7 @@ def dry_run(
         rows[i] = ik.q
         count = i + 1
         if i < path_ticks:
+            velocity[i] = v
             limiter.step(q_ref, v)  # what `IKSolver.step` hands the controller
             commands[i] = limiter.position
             lag = max(lag, ik.lag)
@@ -139,6 +145,7 @@ def dry_run(
     )
     return DryRun(
         q_path=q_path,
+        velocity=velocity,
         dt=dt,
         path_ticks=path_ticks,
         residual_m=err_pos,
@@ -148,6 +155,14 @@ def dry_run(
         torque_ratio=torque,
         sigma_min=_sigma_min(ik, q_path[-1]),
     )
+
+
+def path_time(tick: int, dt: float, stretch: float, duration: float) -> float:
+    """Where on a path of `duration` [s], stretched in time by `stretch`, the control tick
+    `tick` (0: the first after the motion's start) of `dt` [s] samples it [s]: at the end of
+    the tick, on the grid of whole ticks (a move's ticks on the path sample the same times,
+    not the simulated clock, whose sum of physics steps drifts from it by ~1e-14 s)."""
+    return min((tick + 1) * dt / stretch, duration)
 
 
 _INVERSE: dict[int, mujoco.MjData] = {}

@@ -195,12 +195,50 @@ class IKSolver:
             tick (within the robot's limits, jerk-limited): what the controller integrates
             until the next tick, where it arrives at `command`.
         """
+        q_ref = self.config.q[: self.n].copy()
+        return self._command(q_ref, self.reference_step(pos, rot, self.dt))
+
+    def follow(self, q_next: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """One control tick along a reference solved beforehand, without solving: the IK's
+        reference moves to `q_next` [rad] at `v` [rad/s] (shape (n,) each: a dry run's row,
+        skills/dry_run.py) and the limited command follows it as on `step`.
+
+        A dry run from the same state, on the same targets, solved the same QPs: its row is
+        the reference `step` would compute, bit for bit (the IK integrates its reference open
+        loop, the measured joints never enter it). The joint limiter still runs here, from
+        the controller's setpoint as it is now (`restart_from`).
+
+        Returns:
+            As `step`: the joint angles [rad] the command starts the tick from (`velocity`
+            and `acceleration` hold the rest).
+        """
+        data = self.config.data
+        q_ref = data.qpos[: self.n].copy()
+        data.qpos[: self.n] = q_next
+        mujoco.mj_kinematics(self._model, data)
+        mujoco.mj_comPos(self._model, data)
+        self._since_reset += self.dt  # the posture's ramp, as `reference_step` advances it
+        self.reference_velocity = v
+        self._error = None
+        return self._command(q_ref, v)
+
+    def hold(self) -> np.ndarray:
+        """One control tick with the IK's reference at rest where it is (a motion's tick at
+        the very start of its path): the limited command comes to it as on `step`.
+
+        Returns:
+            As `step`.
+        """
+        self.reference_velocity = np.zeros(self.n)
+        return self._command(self.config.data.qpos[: self.n].copy(), self.reference_velocity)
+
+    def _command(self, q_ref: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """The limited command over a tick on which the reference moves from `q_ref` [rad]
+        at `v` [rad/s] (`step`'s return)."""
         if self._restart is not None:  # from the setpoint as it is now (see restart_from)
             q_arm, qd_arm = self._restart
             self._restart = None
             self.limiter.reset(q_arm, qd_arm)
-        q_ref = self.config.q[: self.n].copy()
-        v = self.reference_step(pos, rot, self.dt)
         lim = self.limiter
         lim.step(q_ref, v)  # the reference at the start of the tick and the velocity it moves on
         self.velocity[:] = lim.start_velocity

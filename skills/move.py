@@ -49,6 +49,10 @@ MIN_SIGMA = 0.05
 singularity (the arm stretched out), the IK's reference reaches the pose, but the settling
 correction that takes out the arm's sag turns into large joint motions (a grasp with 0.04
 there swung joint 2 by 0.17 rad and hit its torque limit). Poses the flows use: 0.06-0.2."""
+_ON_GRID_S = 1e-6
+"""A tick whose clock is within this of a whole number of control periods since the start is
+on the dry run's grid (`dry_run.path_time`) [s]: the simulated clock, a sum of physics steps,
+drifts from it by ~1e-14 s; a pause's ramp slows it by 4e-4 s in its first tick."""
 _RETIME = 1.3
 """Factor by which a move whose command would lag is slowed, per try."""
 _MAX_RETIMES = 6
@@ -226,6 +230,11 @@ class Move(Skill):
         self.corr_pos = np.zeros(3)
         self.corr_rot = np.zeros(3)
         self.ik_stalled_ticks = 0
+        self.following = self.dry is not None
+        """The ticks so far followed the dry run's reference (`_follow`); from the first
+        that solved the IK live on, none does."""
+        self.replayed = 0
+        """Rows of the dry run's reference followed so far."""
         self.last_tcp = ctx.tcp_pos.copy()
         ctx.ik_target = Pose(pos=pos1.tolist(), quat=_rot_to_quat(self.rot1).tolist())
 
@@ -262,10 +271,13 @@ class Move(Skill):
             return "unreachable"
         p = self.params
         elapsed = ctx.clock - self.t0
-        pos, rot = self.line.sample_so3(elapsed / self.stretch)
-        if elapsed >= self.duration:
-            pos, rot = self._corrected(ctx, pos, rot)
-        q = ctx.ik.step(pos, rot)
+        q = self._follow(ctx, elapsed) if self.following else None
+        if q is None:  # after the path (corrected), or the clock slowed by a pause
+            self.following = False
+            pos, rot = self.line.sample_so3(elapsed / self.stretch)
+            if elapsed >= self.duration:
+                pos, rot = self._corrected(ctx, pos, rot)
+            q = ctx.ik.step(pos, rot)
         ctx.controller.set_joint_target(q, ctx.ik.velocity, ctx.ik.acceleration)
         tcp = ctx.tcp_pos
         if elapsed < self.duration:
@@ -291,6 +303,30 @@ class Move(Skill):
         if elapsed > self.duration + p.settle_s:
             return "unreachable" if not ik_converged else "timeout"
         return None
+
+    def _follow(self, ctx: Context, elapsed: float) -> np.ndarray | None:
+        """This tick's command from the dry run's reference (`IKSolver.follow`), or None
+        where the IK must solve live.
+
+        On the path, at a whole number `k` of control periods since the start, the dry run
+        solved the IK already, from the same state for the same target (`dry_run.path_time`):
+        its row `k - 1` is what a solve would give, bit for bit. `k` = 0 (the state's first
+        tick in the one it started in) is the path's start, where the reference already is.
+        Not on the grid (a pause's ramp slowed the clock), or once the path has ended (the
+        target then moves by the measured error), the IK solves live from then on.
+        """
+        dry = self.dry
+        if dry is None or elapsed >= self.duration:
+            return None
+        k = round(elapsed / dry.dt)
+        if abs(elapsed - k * dry.dt) > _ON_GRID_S:
+            return None
+        if k == 0 and self.replayed == 0:
+            return ctx.ik.hold()
+        if k - 1 != self.replayed or k > dry.path_ticks:
+            return None
+        self.replayed = k
+        return ctx.ik.follow(dry.q_path[k - 1], dry.velocity[k - 1])
 
     def _corrected(self, ctx: Context, pos: np.ndarray, rot: mink.SO3) -> tuple:
         """The end of the line moved by the integral of the measured TCP error.
