@@ -212,6 +212,8 @@ class IKSolver:
             As `step`: the joint angles [rad] the command starts the tick from (`velocity`
             and `acceleration` hold the rest).
         """
+        import mujoco
+
         data = self.config.data
         q_ref = data.qpos[: self.n].copy()
         data.qpos[: self.n] = q_next
