@@ -26,7 +26,12 @@ RUNS = [
     ("sorting", 1),
     ("mobile_search", 1),
     ("mobile_search", 2),
+    ("pick_place_vision", 0),
+    ("stack", 0),
+    ("sorting_conveyor", 0),
+    ("reach_random", 0),
 ]
+"""One or more runs of every bundled scenario (orchestrator/scenarios/)."""
 MATRICES = ["pick_place", "surgical"]
 WALL_KEYS = {"wall_time", "wall_time_s", "rtf", "realtime_factor", "cpu_time_s"}
 

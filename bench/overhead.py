@@ -129,8 +129,9 @@ class HandWritten:
             self.n,
             np.random.default_rng([seed, 0xE2C0]),
             w.robot.encoder_resolution_rad if quantize else 0.0,
-            lambda: float(d.time),
+            w.step_clock,  # advanced with every mj_step below, as the framework's step does
         )
+        self.clock, self.dt = w.step_clock, float(w.model.opt.timestep)
         self.loop_views = (self.encoders.read, self.act)
         self.fingers_q = d.qpos[_span(w.finger_qpos)]
         self.fingers_qd = d.qvel[_span(w.robot_dof[self.n :])]
@@ -146,7 +147,7 @@ class HandWritten:
 
     @property
     def t(self) -> float:
-        return float(self.data.time)
+        return self.clock.t
 
     def read_q(self) -> np.ndarray:
         """The arm's joint angles as the encoders read them [rad] (the skills' `ctx.q`)."""
@@ -157,9 +158,11 @@ class HandWritten:
         """One control period: the fingers' setpoint, then controller and mj_step at 500 Hz."""
         self.advance_gripper()
         m, d, compute, (read, act) = self.model, self.data, self.ctrl.compute, self.loop_views
+        clock, dt = self.clock, self.dt
         for _ in range(self.n_sub):
             d.ctrl[act] = compute(*read())
             mujoco.mj_step(m, d)
+            clock.t += dt
 
     def advance_gripper(self) -> None:
         """The fingers travel at the gripper's speed; a closing finger that is blocked by the
@@ -400,12 +403,14 @@ class HandWritten:
         t0 = self.t
         settle_until = t0 + SETTLE_S
         m, compute, (read, act) = self.model, ctrl.compute, self.loop_views
+        clock, dt = self.clock, self.dt
         at_rest = False
         while not (at_rest and self.t >= settle_until - 1e-9) and self.t - t0 < cfg.max_stop_s:
             self.advance_gripper()
             for _ in range(self.n_sub):
                 d.ctrl[act] = compute(*read())
                 mujoco.mj_step(m, d)
+                clock.t += dt
                 if not at_rest and ctrl.brake_left_s <= 0.0:
                     at_rest = float(np.max(np.abs(self.arm_qd))) < cfg.rest_speed_rad_s
 

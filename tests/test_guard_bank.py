@@ -52,7 +52,7 @@ def _first(guards: list[Guard], ctx: Context):
 
 def _new_instant(ctx: Context) -> None:
     """A new physics step for the readings cached per instant (the wrist force)."""
-    ctx.data.time += ctx.dt_physics
+    ctx.world.step_clock.t += ctx.dt_physics
 
 
 # -- the exact step ---------------------------------------------------------------------------

@@ -23,7 +23,7 @@ from orchestrator.guards.base import Envelope, Guard, GuardParams
 from orchestrator.language.load import load_scenario
 from orchestrator.world import World
 from orchestrator.world import native as native_mod
-from orchestrator.world.native import PURE_PYTHON_ENV, compiled, time_address
+from orchestrator.world.native import PURE_PYTHON_ENV, compiled
 from orchestrator.world.realism import WristForceNoise
 from orchestrator.world.sensors import WristForceFault
 from tests.guard_set import carrying_guards
@@ -101,6 +101,7 @@ def test_the_wrist_force_is_the_same_in_c_and_in_python(monkeypatch: pytest.Monk
     for step in range(400):
         d.ctrl[c.world.arm_act] = c.controller.compute(*c.encoders.read())
         mujoco.mj_step(m, d)
+        c.world.step_clock.t += c.dt_physics  # as the step function advances it
         if step == 100:
             for ctx in (c, py):
                 ctx.ft_fault = WristForceFault("ft_bias", ctx.t, (0.0, 3.0, -40.0), math.inf)
@@ -110,7 +111,7 @@ def test_the_wrist_force_is_the_same_in_c_and_in_python(monkeypatch: pytest.Monk
                 c.world.wrist_bias_world[:] = bias
                 ctx.ft_fault = None
                 ctx.zero_wrist_force(np.array([0.5, -0.25, 1.0]))
-        assert c.t == py.t == d.time and c.clock == py.clock  # time read in place / bound
+        assert c.t == py.t == d.time and c.clock == py.clock  # the world's one StepClock
         assert c.gripper_width == py.gripper_width == float(d.qpos[c.world.finger_qpos].sum())
         assert c.true_wrist_force_norm_sq() == py.true_wrist_force_norm_sq()
         assert c.wrist_force_norm_sq() == py.wrist_force_norm_sq()
@@ -121,15 +122,18 @@ def test_the_wrist_force_is_the_same_in_c_and_in_python(monkeypatch: pytest.Monk
     assert c.ft_noise.bias == py.ft_noise.bias
 
 
-def test_time_is_read_in_place():
-    world = World.build(load_scenario("pick_place").scenario, seed=0)
-    address = time_address(world.data)
-    assert address != 0
-    import ctypes
-
-    for _ in range(3):
-        mujoco.mj_step(world.model, world.data)
-        assert ctypes.c_double.from_address(address).value == world.data.time
+def test_the_wrist_force_reads_a_new_instant_from_the_step_clock_only():
+    """The compiled reading is cached per instant of the world's StepClock (no C reads MjData's
+    time): a force that changes without the clock advancing is not read, one that changes
+    with it is — as on the Python path."""
+    ctx = _ctx()
+    assert ctx._wf is not None and ctx._wf.clock is ctx.world.step_clock
+    before = ctx.true_wrist_force_norm_sq()
+    ctx._f_site[2] += 10.0  # the raw reading changes in place, the instant does not
+    ctx.data.time += 1.0  # MjData's own time is not what keys the reading
+    assert ctx.true_wrist_force_norm_sq() == before
+    ctx.world.step_clock.t += ctx.dt_physics
+    assert ctx.true_wrist_force_norm_sq() != before
 
 
 def _guards(ctx: Context) -> list[Guard]:
@@ -145,13 +149,13 @@ def test_the_envelope_test_is_the_same_in_c_and_in_python(monkeypatch: pytest.Mo
         _pure(mp)
         py_bank = GuardBank(_guards(ctx), ctx)
     assert c_bank.compiled is not None and py_bank.compiled is None
-    d, w = ctx.data, ctx.world
+    d, w, clock = ctx.data, ctx.world, ctx.world.step_clock
     q0 = d.qpos[w.arm_qpos].copy()
     speed = np.asarray(next(g for g in _guards(ctx) if isinstance(g, JointVelocity))._lim)
     rng = np.random.default_rng(9)
     outcomes = set()
     for _ in range(600):
-        d.time += ctx.dt_physics
+        clock.t += ctx.dt_physics
         d.qpos[w.arm_qpos] = q0 + rng.normal(0.0, 0.3, 7) * (rng.random(7) < 0.3)
         d.qvel[w.arm_dof] = speed * rng.uniform(-1.01, 1.01, 7)
         d.actuator_force[w.arm_act] = ctx.controller.tau
@@ -181,7 +185,7 @@ def test_the_envelope_test_is_the_same_in_c_and_in_python(monkeypatch: pytest.Mo
     mujoco.mj_forward(ctx.model, d)
     d.actuator_force[w.arm_act] = ctx.controller.tau
     for value, inside in ((speed[1], True), (np.nextafter(speed[1], math.inf), False)):
-        d.time += ctx.dt_physics
+        clock.t += ctx.dt_physics
         d.qvel[w.arm_dof[1]] = value
         assert c_bank.inside() is py_bank.inside() is inside
 

@@ -160,11 +160,11 @@ def test_encoders_read_in_steps_of_their_resolution_and_difference_velocity():
     ctx = Context(world, Controller(world.robot), None, np.random.default_rng(0), 0.01)  # type: ignore[arg-type]
     res = world.robot.encoder_resolution_rad
     world.data.qpos[world.arm_qpos[0]] += 0.3 * res  # below one step: unseen
-    world.data.time = 0.002
+    world.step_clock.t = 0.002  # a new instant (the step function advances it)
     q, _ = ctx.encoders.read()
     np.testing.assert_allclose(np.round(q / res) * res, q)
     world.data.qpos[world.arm_qpos[0]] += 10 * res
-    world.data.time = 0.004
+    world.step_clock.t = 0.004
     q2, v2 = ctx.encoders.read()
     assert q2[0] - q[0] == pytest.approx(10 * res)
     assert 0.0 < v2[0] < 10 * res / 0.002  # differenced, then low-pass filtered
@@ -176,7 +176,7 @@ def test_wrist_sensor_is_noisy_and_drifts_but_deterministic():
         ctx = Context(world, Controller(world.robot), None, np.random.default_rng(0), 0.01)  # type: ignore[arg-type]
         out = []
         for k in range(2000):
-            world.data.time = k * 0.002
+            world.step_clock.t = k * 0.002
             out.append(ctx.wrist_force() - np.array(ctx.true_wrist_force()))
         return np.array(out)
 

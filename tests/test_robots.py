@@ -26,6 +26,34 @@ def test_robot_alone_compiles_with_actuators_sites_and_home(name):
     )
 
 
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_one_equality_couples_the_fingers_and_holds_them_together(name):
+    """The URDF's <mimic> is not kept beside `finger_mimic` (the same constraint twice, one row
+    more for every step's solver): one finger pushed shut with 5 N, the other follows it."""
+    robot = get_robot(name)
+    model = robot.build_spec().compile()
+    data = mujoco.MjData(model)
+    j1, j2 = (model.joint(j) for j in robot.finger_joints)
+    coupling = [
+        model.eq(i).name
+        for i in range(model.neq)
+        if model.eq_type[i] == mujoco.mjtEq.mjEQ_JOINT
+        and {int(model.eq_obj1id[i]), int(model.eq_obj2id[i])} == {j1.id, j2.id}
+    ]
+    assert coupling == ["finger_mimic"]
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    arm = [model.jnt_dofadr[model.joint(j).id] for j in robot.arm_joints]
+    q1, q2 = j1.qposadr[0], j2.qposadr[0]
+    gap = 0.0
+    for _ in range(500):  # 1 s
+        data.ctrl[: robot.n_arm] = data.qfrc_bias[arm]  # the arm held against gravity
+        data.qfrc_applied[j1.dofadr[0]] = -5.0
+        mujoco.mj_step(model, data)
+        gap = max(gap, abs(data.qpos[q1] - data.qpos[q2]))
+    assert robot.gripper_open_m - data.qpos[q2] > 0.005  # the other finger followed
+    assert gap < 0.0005  # within half a millimetre all the way (0.33 mm measured)
+
+
 @pytest.mark.parametrize("scenario", bundled_names("scenarios"))
 def test_scene_steps_one_second_with_noise_without_warnings(scenario):
     loaded = load_scenario(scenario)

@@ -162,9 +162,9 @@ def test_sensor_health_catches_a_stale_force_sensor_after_its_timeout():
     ctx = _ctx()
     guard = _guard(SensorHealth, ctx, ft_stale_ms=10.0)
     ctx.ft_fault = WristForceFault("ft_dropout", ctx.t, (0.0, 0.0, 0.0), math.inf)
-    ctx.data.time += 0.008
+    ctx.world.step_clock.t += 0.008
     assert guard.check(ctx) is None
-    ctx.data.time += 0.004
+    ctx.world.step_clock.t += 0.004
     violation = guard.check(ctx)
     assert violation is not None and "stale" in violation.message
 

@@ -14,6 +14,7 @@ import pinocchio as pin
 from orchestrator.robots import Controller, get_robot
 
 from orchestrator.world.sensors import JointEncoders
+from orchestrator.world.step_clock import StepClock
 
 DT = 0.002
 
@@ -21,13 +22,13 @@ DT = 0.002
 def test_quantized_encoders_are_the_rounded_positions_and_filtered_differences_exactly():
     rng = np.random.default_rng(7)
     qpos, qvel = rng.normal(size=30), rng.normal(size=30)
-    now = [0.0]
+    clock = StepClock()
     res = 1.1984224905356572e-05
-    enc = JointEncoders(qpos, qvel, slice(3, 15), slice(3, 15), 10, rng, res, lambda: now[0])
+    enc = JointEncoders(qpos, qvel, slice(3, 15), slice(3, 15), 10, rng, res, clock)
     omega = 2.0 * math.pi * 100.0
     readings, prev, prev_t = [], None, math.nan
     for k in range(500):
-        now[0] = k * DT
+        clock.t = k * DT
         qpos[:] += rng.normal(size=30) * 1e-3
         qvel[:] = rng.normal(size=30)
         q, v = enc.read()
@@ -35,14 +36,14 @@ def test_quantized_encoders_are_the_rounded_positions_and_filtered_differences_e
         if prev is None:
             want_v = np.round(qvel[3:15] / res) * res
         else:
-            dt = now[0] - prev_t
+            dt = clock.t - prev_t
             raw = (want_q - prev[0]) / dt
             want_v = prev[1] + (1.0 - math.exp(-omega * dt)) * (raw - prev[1])
         np.testing.assert_array_equal(q, want_q)
         np.testing.assert_array_equal(v, want_v)
         assert enc.read()[0] is q  # the same instant reads the same measurement
         readings.append((q, q.copy(), v, v.copy()))
-        prev, prev_t = (want_q, want_v), now[0]
+        prev, prev_t = (want_q, want_v), clock.t
     for q, q_then, v, v_then in readings:  # nothing handed out was overwritten later
         np.testing.assert_array_equal(q, q_then)
         np.testing.assert_array_equal(v, v_then)

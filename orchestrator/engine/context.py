@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -13,7 +12,7 @@ import numpy as np
 from ..exceptions import SkillError
 from ..perception.rig import CameraRig
 from ..world.actuators import ActuatorFault
-from ..world.native import native, time_address
+from ..world.native import native
 from ..world.pose import Pose
 from ..world.realism import WristForceNoise
 from ..world.sensors import JointEncoders, PerceptionFaults, WristForceFault
@@ -198,28 +197,17 @@ class Context:
             else None
         )
         """Noise and bias drift of the wrist force sensor (`physics.realism`), if on."""
+        self._time = world.step_clock
+        """Simulated time (`_time.t` [s]): `data.time` as the step function advances it,
+        without the bindings' property lookup (~0.5 us with cold caches, ~1,500 reads a second
+        of simulated time by the encoders, the wrist force, the skills and the runner)."""
         ext = native()
-        address = time_address(d) if ext is not None else 0
-        self._now: Callable[[], float] = (
-            ext.Clock(d, address).now
-            if ext is not None and address
-            else partial(getattr, d, "time")  # a float; not a lambda: a snapshot pickles it
-        )
-        """Simulated time [s]: `float(data.time)`, read in place where compiled (the bindings
-        build it through a property lookup: ~0.5 us with cold caches, ~2000 reads a second of
-        simulated time by the encoders, the skills and the runner)."""
         self._wf: Any = None
         """The wrist force computed in C (world/native.py), None on the pure-Python path."""
         if ext is not None and (self.ft_noise is None or self.ft_noise.compiled is not None):
             noise = None if self.ft_noise is None else self.ft_noise.compiled
             self._wf = ext.WristForce(
-                d,
-                self._f_site,
-                self._wrist_rot,
-                self._bias,
-                self._true_weight,
-                noise,
-                address,
+                self._time, self._f_site, self._wrist_rot, self._bias, self._true_weight, noise
             )
             # the two readings of every physics step, one C call each
             self.wrist_force_norm_sq = self._wf.norm_sq  # type: ignore[method-assign]
@@ -232,7 +220,7 @@ class Context:
             world.robot.n_arm,
             np.random.default_rng([world.seed, 0xE2C0]),
             world.robot.encoder_resolution_rad if quantize else 0.0,
-            self._now,
+            self._time,
             status=self.sensor_faults[1:],
         )
         """The joint encoders the controller, the skills and `sensor_health` read."""
@@ -265,7 +253,7 @@ class Context:
     @property
     def t(self) -> float:
         """Simulated time [s]."""
-        return self._now()
+        return self._time.t
 
     @property
     def clock(self) -> float:
@@ -274,7 +262,7 @@ class Context:
         Skills and state timeouts measure durations on it, so a `pause` freezes them and a
         `resume` continues where they were. Equal to `t` in a run without pauses.
         """
-        return self._now() - self.clock_offset
+        return self._time.t - self.clock_offset
 
     # -- proprioception -----------------------------------------------------------------
     @property
@@ -318,7 +306,7 @@ class Context:
     def wrist_force_norm_sq(self) -> float:
         """Squared norm of `wrist_force()` [N^2], cheap enough for every physics step (computed
         once per step: the guards and the runner that ask share it)."""
-        now = self.data.time
+        now = self._time.t
         if now == self._norm_sq_t:
             return self._norm_sq
         # `_wrist_force_xyz` written out: this runs every physics step, where every call and
@@ -339,7 +327,7 @@ class Context:
     def _faulted_norm_sq(self) -> float:
         """`wrist_force_norm_sq` on the compiled path while a sensor fault acts (the compiled
         reading calls it and caches the result for the instant)."""
-        now = self.data.time
+        now = self._time.t
         fx, fy, fz = self._wf.measured(now)
         if self._ft_fault is not None:
             fx, fy, fz = self._ft_fault.apply((fx, fy, fz), now)
@@ -350,7 +338,7 @@ class Context:
         with the true weight of the hand and its tool removed (a perfect zero). Ground truth
         for the run's metrics, read every physics step; never what a skill or guard sees.
         (The pure-Python path; where compiled, the context's `WristForce` answers it.)"""
-        rx, ry, rz = self._sensed_world(self.data.time)
+        rx, ry, rz = self._sensed_world(self._time.t)
         bx, by, bz = self._true_weight
         fx, fy, fz = bx - rx, by - ry, bz - rz
         return fx * fx + fy * fy + fz * fz
@@ -358,7 +346,7 @@ class Context:
     def true_wrist_force(self) -> tuple[float, float, float]:
         """The true external force on the wrist, world frame [N] (see
         `true_wrist_force_norm_sq`): ground truth, never what a skill or guard sees."""
-        rx, ry, rz = self._sensed_world(self.data.time)
+        rx, ry, rz = self._sensed_world(self._time.t)
         bx, by, bz = self._true_weight
         return (bx - rx, by - ry, bz - rz)
 
@@ -382,7 +370,7 @@ class Context:
 
     def _wrist_force_xyz(self, now: float | None = None) -> tuple[float, float, float]:
         if now is None:
-            now = self.data.time
+            now = self._time.t
         if self._wf is not None:
             f = self._wf.measured(now)
             return f if self._ft_fault is None else self._ft_fault.apply(f, now)
@@ -403,7 +391,7 @@ class Context:
 
     def wrist_force_age_s(self) -> float:
         """Time since the wrist force reading last updated [s] (its timestamp; 0 when live)."""
-        return 0.0 if self._ft_fault is None else self._ft_fault.age_s(self.data.time)
+        return 0.0 if self._ft_fault is None else self._ft_fault.age_s(self._time.t)
 
     def zero_wrist_force(self, offset: np.ndarray) -> None:
         """Zero the wrist sensor: `offset` [N] (world frame, shape (3,), e.g. the mean reading

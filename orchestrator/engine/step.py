@@ -5,7 +5,8 @@ a per-step feature (a conveyor belt, a fault, the ground-truth probe of a trace,
 per-step reading, the peak wrist force) is added here once and no caller can forget it.
 
 One control tick is `n_sub` physics steps. Each step: the controller turns the encoders'
-reading into joint torques (through an injected actuator fault, if any), `mj_step`, the true
+reading into joint torques (through an injected actuator fault, if any), `mj_step` and the
+world's `StepClock` advanced with it (the simulated time every reading keys on), the true
 wrist force's peak, the per-step observers (the conveyor, a recorder, a trace's probe), faults
 that fall due, the controlled stop (if one runs), then the active guards — a violation aborts
 the machine from whatever state is active and its controlled stop starts on the next step.
@@ -118,6 +119,7 @@ class StepLoop:
         data, model = ctx.data, ctx.model
         ctrl, act_idx = data.ctrl, self._act_idx
         compute, read_encoders, mj_step = ctx.controller.compute, ctx.encoders.read, mujoco.mj_step
+        clock, dt = ctx.world.step_clock, ctx.dt_physics
         true_force_sq = ctx.true_wrist_force_norm_sq
         max_force_sq = self.max_force_sq
         injector = self.injector
@@ -129,8 +131,7 @@ class StepLoop:
             stop = None
         # states change in tick() or abort(), never between: bind the checks once per tick
         checks = executor.active_checks if executor is not None else ()
-        # faults only schedule in tick(), fire_due() and abort(): read the due time there, and
-        # MjData's time (an attribute lookup through the bindings) only when one is due
+        # faults only schedule in tick(), fire_due() and abort(): read the due time there
         due = injector.next_t if injector is not None else inf
         # a trace (a contact skill) starts and ends in tick(): its ground-truth probe runs on
         # the steps of the ticks it is running, nothing is called on the others
@@ -143,14 +144,15 @@ class StepLoop:
                 tau = fault.apply(tau)
             ctrl[act_idx] = tau
             mj_step(model, data)
+            clock.t += dt  # as mj_step advances MjData.time: the same float, bit for bit
             force_sq = true_force_sq()
             if force_sq > max_force_sq:  # noqa: PLR1730 (cheaper than max() per step)
                 max_force_sq = force_sq
             for on_step in steppers:
                 on_step(ctx)
-            if due != inf and data.time >= due - 1e-9:
+            if due != inf and clock.t >= due - 1e-9:
                 assert injector is not None and executor is not None
-                injector.fire_due(data.time)
+                injector.fire_due(clock.t)
                 fault = ctx.actuator_fault
                 checks = executor.active_checks
                 stop = executor.stop if end_stop is None else end_stop

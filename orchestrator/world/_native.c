@@ -1,14 +1,14 @@
 /* The per-physics-step arithmetic of the framework in C: an optional speed-up.
 
-   Four types, each the exact twin of a pure-Python path (the fallback when this module is
+   Three types, each the exact twin of a pure-Python path (the fallback when this module is
    not built; tests hold both to the same results, bit for bit):
 
    * FtNoise    - world/realism.py `WristForceNoise.offset`: the wrist sensor's white noise
                   and random-walk bias drift, one reading per simulated instant.
    * WristForce - engine/context.py `Context.wrist_force_norm_sq` and
                   `true_wrist_force_norm_sq`: the raw sensor reading rotated into the world
-                  frame, the hand's weight and the sensor's bias removed, noise added.
-   * Clock      - `float(data.time)`: MjData's time read in place (Context.t, the encoders).
+                  frame, the hand's weight and the sensor's bias removed, noise added,
+                  one reading per simulated instant (world/step_clock.py `StepClock.t`).
    * Envelope   - guards/bank.py `GuardBank.inside`: every active guard's envelope (views that
                   must read zero, bounded views, pairs that must read equal, scalars) tested
                   in one call.
@@ -241,8 +241,7 @@ static int address_of(PyObject *array, Py_ssize_t min_len, double **out) {
 
 typedef struct {
     PyObject_HEAD
-    PyObject *data;      /* MjData: its `time` keys the readings */
-    const double *time;  /* where MjData keeps `time` (NULL: read through the bindings) */
+    PyObject *clock;     /* the world's StepClock: its `t` [s] keys the readings */
     PyObject *keep;      /* the arrays read below */
     const double *f_site; /* raw force in the sensor's site frame, shape (3,) */
     const double *rot;   /* the site's rotation, row-major 3x3 */
@@ -254,11 +253,11 @@ typedef struct {
     double norm_t, norm;
 } WristForce;
 
-static PyObject *time_str;
+static PyObject *t_str;
 
 /* 0 if `__init__` ran (the views are set), else -1 with an exception. */
 static int wf_ready(WristForce *self) {
-    if (self->data == NULL || self->f_site == NULL || self->rot == NULL) {
+    if (self->clock == NULL || self->f_site == NULL || self->rot == NULL) {
         PyErr_SetString(PyExc_RuntimeError, "WristForce is not initialised");
         return -1;
     }
@@ -267,11 +266,7 @@ static int wf_ready(WristForce *self) {
 
 static int wf_now(WristForce *self, double *now) {
     if (wf_ready(self) < 0) return -1;
-    if (self->time != NULL) {
-        *now = *self->time;
-        return 0;
-    }
-    PyObject *t = PyObject_GetAttr(self->data, time_str);
+    PyObject *t = PyObject_GetAttr(self->clock, t_str);
     if (t == NULL) return -1;
     *now = PyFloat_AsDouble(t);
     Py_DECREF(t);
@@ -345,13 +340,11 @@ static int read3(PyObject *seq, double out[3], const char *what) {
 }
 
 static int wf_init(WristForce *self, PyObject *args, PyObject *kwds) {
-    static char *kw[] = {"data", "f_site", "rot", "bias", "weight", "noise", "time_address", NULL};
-    PyObject *data, *f_site, *rot, *bias, *weight, *noise;
-    Py_ssize_t time_address = 0;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOO|n", kw, &data, &f_site, &rot, &bias,
-                                     &weight, &noise, &time_address))
+    static char *kw[] = {"clock", "f_site", "rot", "bias", "weight", "noise", NULL};
+    PyObject *clock, *f_site, *rot, *bias, *weight, *noise;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOO", kw, &clock, &f_site, &rot, &bias,
+                                     &weight, &noise))
         return -1;
-    self->time = (const double *)time_address;
     double *fp, *rp;
     if (address_of(f_site, 3, &fp) < 0 || address_of(rot, 9, &rp) < 0) return -1;
     if (read3(bias, self->bias, "bias") < 0 || read3(weight, self->weight, "weight") < 0)
@@ -363,8 +356,7 @@ static int wf_init(WristForce *self, PyObject *args, PyObject *kwds) {
     PyObject *keep = PyTuple_Pack(2, f_site, rot);
     if (keep == NULL) return -1;
     Py_XSETREF(self->keep, keep);
-    Py_INCREF(data);
-    Py_XSETREF(self->data, data);
+    Py_XSETREF(self->clock, Py_NewRef(clock));
     Py_XSETREF(self->noise, noise == Py_None ? NULL : (FtNoise *)Py_NewRef(noise));
     Py_CLEAR(self->fallback);
     self->f_site = fp;
@@ -376,7 +368,7 @@ static int wf_init(WristForce *self, PyObject *args, PyObject *kwds) {
 /* Garbage-collector support: `fallback` is a bound method of the Context that owns this
    object (a reference cycle while a sensor fault is in effect), `noise` an FtNoise. */
 static int wf_traverse(WristForce *self, visitproc visit, void *arg) {
-    Py_VISIT(self->data);
+    Py_VISIT(self->clock);
     Py_VISIT(self->keep);
     Py_VISIT(self->noise);
     Py_VISIT(self->fallback);
@@ -384,14 +376,14 @@ static int wf_traverse(WristForce *self, visitproc visit, void *arg) {
 }
 
 static int wf_clear(WristForce *self) {
-    Py_CLEAR(self->fallback); /* `data` and `keep` stay: the views point into them */
+    Py_CLEAR(self->fallback); /* `clock` and `keep` stay: read until the object goes */
     Py_CLEAR(self->noise);
     return 0;
 }
 
 static void wf_dealloc(WristForce *self) {
     PyObject_GC_UnTrack(self);
-    Py_XDECREF(self->data);
+    Py_XDECREF(self->clock);
     Py_XDECREF(self->keep);
     Py_XDECREF(self->noise);
     Py_XDECREF(self->fallback);
@@ -469,7 +461,7 @@ static PyGetSetDef wf_getset[] = {
     {NULL}};
 
 static PyMemberDef wf_members[] = {
-    {"data", T_OBJECT, offsetof(WristForce, data), READONLY, "The MjData read."},
+    {"clock", T_OBJECT, offsetof(WristForce, clock), READONLY, "The StepClock read."},
     {"views", T_OBJECT, offsetof(WristForce, keep), READONLY, "(f_site, rot): the views read."},
     {"noise", T_OBJECT, offsetof(WristForce, noise), READONLY, "The FtNoise, or None."},
     {"fallback", T_OBJECT, offsetof(WristForce, fallback), READONLY,
@@ -498,68 +490,13 @@ static PyTypeObject WristForceType = {
     .tp_traverse = (traverseproc)wf_traverse,
     .tp_clear = (inquiry)wf_clear,
     .tp_free = PyObject_GC_Del,
-    .tp_doc = "WristForce(data, f_site, rot, bias, weight, noise): the wrist force in C.",
+    .tp_doc = "WristForce(clock, f_site, rot, bias, weight, noise): the wrist force in C.",
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)wf_init,
     .tp_dealloc = (destructor)wf_dealloc,
     .tp_methods = wf_methods,
     .tp_members = wf_members,
     .tp_getset = wf_getset,
-};
-
-/* ---------------------------------------------------------------- Clock ------------ */
-
-typedef struct {
-    PyObject_HEAD
-    PyObject *data;
-    const double *time;
-} Clock;
-
-static int clock_init(Clock *self, PyObject *args, PyObject *kwds) {
-    static char *kw[] = {"data", "time_address", NULL};
-    PyObject *data;
-    Py_ssize_t address;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "On", kw, &data, &address)) return -1;
-    if (address == 0) {
-        PyErr_SetString(PyExc_ValueError, "Clock needs the address of MjData's time");
-        return -1;
-    }
-    Py_XSETREF(self->data, Py_NewRef(data)); /* keeps the memory alive */
-    self->time = (const double *)address;
-    return 0;
-}
-
-static void clock_dealloc(Clock *self) {
-    Py_XDECREF(self->data);
-    Py_TYPE(self)->tp_free((PyObject *)self);
-}
-
-static PyObject *clock_now(Clock *self, PyObject *unused) {
-    if (self->time == NULL) {
-        PyErr_SetString(PyExc_RuntimeError, "Clock is not initialised");
-        return NULL;
-    }
-    return PyFloat_FromDouble(*self->time);
-}
-
-static PyMemberDef clock_members[] = {
-    {"data", T_OBJECT, offsetof(Clock, data), READONLY, "The MjData whose time it reads."},
-    {NULL}};
-
-static PyMethodDef clock_methods[] = {
-    {"now", (PyCFunction)clock_now, METH_NOARGS, "MjData's simulated time [s], read in place."},
-    {NULL}};
-
-static PyTypeObject ClockType = {
-    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "orchestrator.world._native.Clock",
-    .tp_basicsize = sizeof(Clock),
-    .tp_flags = Py_TPFLAGS_DEFAULT,
-    .tp_doc = "Clock(data, time_address): `float(data.time)` without the bindings.",
-    .tp_new = PyType_GenericNew,
-    .tp_init = (initproc)clock_init,
-    .tp_dealloc = (destructor)clock_dealloc,
-    .tp_methods = clock_methods,
-    .tp_members = clock_members,
 };
 
 /* ---------------------------------------------------------------- Envelope --------- */
@@ -827,17 +764,15 @@ static struct PyModuleDef module = {
     NULL};
 
 PyMODINIT_FUNC PyInit__native(void) {
-    time_str = PyUnicode_InternFromString("time");
-    if (time_str == NULL || PyType_Ready(&FtNoiseType) < 0 ||
-        PyType_Ready(&WristForceType) < 0 || PyType_Ready(&EnvelopeType) < 0 ||
-        PyType_Ready(&ClockType) < 0)
+    t_str = PyUnicode_InternFromString("t");
+    if (t_str == NULL || PyType_Ready(&FtNoiseType) < 0 ||
+        PyType_Ready(&WristForceType) < 0 || PyType_Ready(&EnvelopeType) < 0)
         return NULL;
     PyObject *m = PyModule_Create(&module);
     if (m == NULL) return NULL;
     if (PyModule_AddObjectRef(m, "FtNoise", (PyObject *)&FtNoiseType) < 0 ||
         PyModule_AddObjectRef(m, "WristForce", (PyObject *)&WristForceType) < 0 ||
-        PyModule_AddObjectRef(m, "Envelope", (PyObject *)&EnvelopeType) < 0 ||
-        PyModule_AddObjectRef(m, "Clock", (PyObject *)&ClockType) < 0) {
+        PyModule_AddObjectRef(m, "Envelope", (PyObject *)&EnvelopeType) < 0) {
         Py_DECREF(m);
         return NULL;
     }

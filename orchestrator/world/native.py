@@ -9,15 +9,17 @@ the environment variable `ORCHESTRATOR_PURE_PYTHON=1`, the pure-Python path runs
 
 Objects choose their path when they are built (`native()`), so a test can build one of each.
 
+The simulated time that keys their per-instant readings is the world's `StepClock`
+(world/step_clock.py), an attribute both paths read: no C reads MjData's `time`.
+
 Snapshots (engine/snapshot) pickle the compiled objects too: an `FtNoise` pickles itself (its
-stream's position included); a `Clock` and a `WristForce` read MjData in place, so `REDUCERS`
-rebuilds them on the restored MjData (`time_address` found again); an `Envelope` holds raw
-addresses and is rebuilt by its owner (guards/bank.py).
+stream's position included); a `WristForce` reads MjData's views through their addresses, so
+`REDUCERS` rebuilds it on the restored views; an `Envelope` holds raw addresses and is rebuilt
+by its owner (guards/bank.py).
 """
 
 from __future__ import annotations
 
-import ctypes
 import importlib
 import os
 from collections.abc import Callable
@@ -25,9 +27,9 @@ from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    import mujoco
+    from .step_clock import StepClock
 
-__all__ = ["PURE_PYTHON_ENV", "REDUCERS", "compiled", "native", "time_address"]
+__all__ = ["PURE_PYTHON_ENV", "REDUCERS", "compiled", "native"]
 
 PURE_PYTHON_ENV = "ORCHESTRATOR_PURE_PYTHON"
 """Set to 1 to run the pure-Python path although the compiled one is built."""
@@ -51,72 +53,33 @@ def native() -> ModuleType | None:
     return compiled
 
 
-_MARK = 1234.5678125
-"""A value written to `time` once, to check that the address found is `time`'s."""
-
-
-def time_address(data: mujoco.MjData) -> int:
-    """The address of `data.time` in memory, 0 if it cannot be confirmed.
-
-    The bindings return `time` as a new Python float on every read (~0.2 us, more with cold
-    caches); the compiled code reads the double in place instead. mjData declares
-    `mjtNum time; mjtNum energy[2];` back to back (every `mjdata.h` from MuJoCo 2 to 4), and
-    numpy exposes the address of `energy`: `time` is the double just before it, inside the
-    struct. That is checked by writing a marker value to `time` through the bindings and
-    reading it there; the original value is restored. Any other layout gives 0, and the
-    bindings are used.
-    """
-    address = int(data.energy.__array_interface__["data"][0]) - 8
-    cell = ctypes.c_double.from_address(address)
-    before = data.time
-    try:
-        data.time = _MARK
-        found = cell.value == _MARK
-    finally:
-        data.time = before
-    return address if found and cell.value == before else 0
-
-
-def _rebuild_clock(data: mujoco.MjData) -> Any:
-    """A `Clock` reading `data`'s time in place (a snapshot's restored MjData)."""
-    assert compiled is not None
-    return compiled.Clock(data, _address_of_time(data))
-
-
 def _rebuild_wrist_force(
-    data: mujoco.MjData,
+    clock: StepClock,
     views: tuple[Any, Any],
     bias: tuple[float, float, float],
     weight: tuple[float, float, float],
     noise: Any,
     fallback: Callable[[], float] | None,
 ) -> Any:
-    """A `WristForce` on `data` (a snapshot's restored MjData): its readings are cached per
+    """A `WristForce` on a snapshot's restored views of MjData: its readings are cached per
     simulated instant only, so the rebuilt one reads what the original would have."""
     assert compiled is not None
     f_site, rot = views
-    wf = compiled.WristForce(data, f_site, rot, bias, weight, noise, _address_of_time(data))
+    wf = compiled.WristForce(clock, f_site, rot, bias, weight, noise)
     if fallback is not None:
         wf.set_fallback(fallback)
     return wf
 
 
-def _address_of_time(data: mujoco.MjData) -> int:
-    address = time_address(data)
-    if not address:  # it was found where the snapshot was taken: same MuJoCo, same layout
-        raise RuntimeError("cannot find MjData's time in memory to rebuild a compiled reader")
-    return address
-
-
 REDUCERS: dict[type, Callable[[Any], tuple]] = (
     {
-        compiled.Clock: lambda c: (_rebuild_clock, (c.data,)),
         compiled.WristForce: lambda w: (
             _rebuild_wrist_force,
-            (w.data, w.views, w.bias, w.weight, w.noise, w.fallback),
+            (w.clock, w.views, w.bias, w.weight, w.noise, w.fallback),
         ),
     }
     if compiled is not None
     else {}
 )
-"""How a snapshot pickles the compiled readers of MjData (a `pickle` dispatch table's entries)."""
+"""How a snapshot pickles the compiled reader of MjData's views (a `pickle` dispatch table's
+entries): it holds their raw addresses, so it is rebuilt on the restored views."""

@@ -13,11 +13,14 @@ brakes on its safety encoders when its primary ones are suspect.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .pose import Pose
+
+if TYPE_CHECKING:
+    from .step_clock import StepClock
 
 __all__ = ["JointEncoders", "PerceptionFaults", "WristForceFault"]
 
@@ -37,7 +40,8 @@ class JointEncoders:
             rounded to it and velocities are the difference of the last two readings over
             the time between them, low-pass filtered (as a drive estimates them), once per
             simulated instant.
-        clock: Simulated time [s] (needed when `resolution_rad` > 0).
+        clock: The world's simulated time (`StepClock`, read as `clock.t` [s]; needed when
+            `resolution_rad` > 0).
         velocity_filter_hz: Cut-off of the first-order filter on the differenced velocity.
         status: Where to flag a fault (shape (1,), written in place): 1.0 while a fault is
             injected and the safety channel has not taken over, else 0.0 — a reading a
@@ -53,7 +57,7 @@ class JointEncoders:
         n_arm: int,
         rng: np.random.Generator,
         resolution_rad: float = 0.0,
-        clock: Callable[[], float] | None = None,
+        clock: StepClock | None = None,
         velocity_filter_hz: float = 100.0,
         status: np.ndarray | None = None,
     ) -> None:
@@ -110,7 +114,7 @@ class JointEncoders:
 
     def _quantized(self) -> tuple[np.ndarray, np.ndarray]:
         assert self._clock is not None
-        now = self._clock()
+        now = self._clock.t
         if now == self._read_t:
             return self._measured
         # Each numpy call on a 12-vector costs ~1 us (a Python float operand ~0.5 us more):

@@ -27,6 +27,7 @@ from .phantom import (
 from .randomization import object_poses
 from .realism import apply_joint_friction
 from .scene import add_scene, harden_contacts
+from .step_clock import StepClock
 
 if TYPE_CHECKING:
     from ..language.scenario import Scenario
@@ -175,6 +176,9 @@ class World:
             self.finger_geoms,
         )
         """Changes faults make to the running world (an obstacle appears, a grip slips)."""
+        self.step_clock = StepClock()
+        """Simulated time [s], advanced by the step function (engine/step.py) with every
+        `mj_step`: `MjData.time` without the bindings' property lookup."""
         self.reset()
 
     @classmethod
@@ -290,6 +294,7 @@ class World:
         """Robot at home with the gripper open, objects at their seeded poses, at rest."""
         m, d = self.model, self.data
         mujoco.mj_resetData(m, d)
+        self.step_clock.t = d.time
         d.qpos[self.arm_qpos] = self.home
         d.qpos[self.finger_qpos] = self.robot.gripper_open_m
         d.ctrl[self.gripper_act] = 0.0  # the hand's motor off (engine/context.py drives it)

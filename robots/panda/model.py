@@ -186,8 +186,14 @@ class Panda(Robot):
                 geom.solref = [CONTACT_TIMECONST_S, 1.0]
                 geom.solimp = list(CONTACT_SOLIMP)
         # one motor drives both fingers through a rack and pinion: as stiff a coupling as
-        # the step allows
-        eq = spec.add_equality(name="finger_mimic", type=mujoco.mjtEq.mjEQ_JOINT)
+        # the step allows. The URDF's <mimic> comes in as a second, softer equality on the
+        # same two joints (MuJoCo's default time constant, 0.02 s): one constraint row more
+        # for every step's solver, nothing the one below does not hold, so it goes.
+        mimic = mujoco.mjtEq.mjEQ_JOINT
+        for imported in list(spec.equalities):
+            if imported.type == mimic and {imported.name1, imported.name2} == {j1, j2}:
+                spec.delete(imported)
+        eq = spec.add_equality(name="finger_mimic", type=mimic)
         eq.name1, eq.name2 = j1, j2
         eq.data[0:5] = [0, 1, 0, 0, 0]
         eq.solref = [CONTACT_TIMECONST_S, 1.0]
