@@ -1,8 +1,9 @@
 """The low-level controller (the cerebellum): setpoint -> joint torques, every physics step.
 
-It uses its own pinocchio model of the arm, loaded from the same URDF as the MuJoCo plant,
-never MuJoCo's ground truth: model mismatch (rotor inertia, a held object, a mounted tool)
-is real, and this is where it shows.
+It uses its own pinocchio model of the arm, loaded from the same URDF as the MuJoCo plant
+with the drives' rotor inertia (`Robot.joint_armature`) configured in, never MuJoCo's ground
+truth: model mismatch (link masses identified only so well, a held object, a mounted tool's
+payload, joint friction) is real, and this is where it shows.
 """
 
 from __future__ import annotations
