@@ -247,6 +247,17 @@ def test_a_move_starts_its_command_where_the_setpoint_is_when_it_first_steps():
     assert probe.accel <= 1.0, f"joint acceleration {probe.accel:.2f}x limit at {probe.accel_at}"
 
 
+@pytest.mark.slow
+def test_a_parcel_grazing_its_neighbour_leaves_the_arm_within_its_limits():
+    # sorting, seed 3, PICK.LIFT at 10.194 s: the lifted parcel grazes its neighbour (9.9 N for
+    # one step) and knocks joint 2 by 0.26 of its limit above the command; with the commands at
+    # 85 % of the acceleration limits that step measured 1.01x (1.16x on joint 6 before the
+    # controller's model had the rotor inertia), at 70 % (`ACCELERATION_MARGIN`) 0.90x
+    result, probe = _run("sorting", 3)
+    assert result.outcome == "succeeded"
+    assert probe.accel <= 1.0, f"joint acceleration {probe.accel:.3f}x limit at {probe.accel_at}"
+
+
 def _drop(world: World, body: str, height_m: float, tilt: tuple[float, float]) -> tuple:
     """Drop a free object `height_m` onto the table; the deepest contact [m] in the step its
     contact is found, after that step, and at rest 1 s later."""
