@@ -70,6 +70,8 @@ RUNS = {
     "sorting_conveyor": 4,
     "surgical": 20,
     "surgical_complication": 20,
+    "stack": 10,
+    "reach_random": 20,
 }
 """Every bundled scenario and its default number of seeds (0..N-1)."""
 LIMITS = {

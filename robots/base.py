@@ -181,13 +181,32 @@ class Robot(abc.ABC):
         """Speed limit of each arm joint [rad/s] (the URDF's `velocity`). Shape (n_arm,)."""
         return np.asarray(_pinocchio_model(self.urdf_path()).velocityLimit[: self.n_arm], float)
 
+    def joint_armature(self, joint: str) -> float:
+        """Rotor inertia of arm joint `joint` seen at the joint [kg m^2]: the motor's and
+        gearbox's inertia times the gear ratio squared. The plant has it (MuJoCo's
+        `armature`), and so does the controller's model (pinocchio's `armature`), as the
+        same configured figure: a value of the drive's datasheet, not a reading of the
+        plant. 0 unless the robot gives one."""
+        del joint
+        return 0.0
+
     def pinocchio_model(self) -> pin.Model:
-        """The controller's own model of the robot, loaded from the same URDF (cached)."""
-        return _pinocchio_model(self.urdf_path())
+        """The controller's own model of the robot (cached): loaded from the same URDF, with
+        each arm joint's rotor inertia (`joint_armature`) in pinocchio's `armature`, which
+        its mass matrix and inverse dynamics (CRBA, RNEA) add on the diagonal."""
+        armature = tuple((j, self.joint_armature(j)) for j in self.arm_joints)
+        return _pinocchio_model(self.urdf_path(), armature)
 
 
 @functools.cache
-def _pinocchio_model(urdf: str) -> pin.Model:
+def _pinocchio_model(urdf: str, armature: tuple[tuple[str, float], ...] = ()) -> pin.Model:
+    """The URDF's model, each named joint's velocity coordinates given the rotor inertia
+    paired with it [kg m^2]."""
     import pinocchio as pin
 
-    return pin.buildModelFromUrdf(urdf)
+    model = pin.buildModelFromUrdf(urdf)
+    for name, inertia in armature:
+        joint = model.getJointId(name)
+        start = model.idx_vs[joint]
+        model.armature[start : start + model.nvs[joint]] = inertia
+    return model

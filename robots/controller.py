@@ -1,8 +1,9 @@
 """The low-level controller (the cerebellum): setpoint -> joint torques, every physics step.
 
-It uses its own pinocchio model of the arm, loaded from the same URDF as the MuJoCo plant,
-never MuJoCo's ground truth: model mismatch (rotor inertia, a held object, a mounted tool)
-is real, and this is where it shows.
+It uses its own pinocchio model of the arm, loaded from the same URDF as the MuJoCo plant
+with the drives' rotor inertia (`Robot.joint_armature`) configured in, never MuJoCo's ground
+truth: model mismatch (link masses identified only so well, a held object, a mounted tool's
+payload, joint friction) is real, and this is where it shows.
 """
 
 from __future__ import annotations
@@ -333,8 +334,13 @@ class Controller:
 
         Each joint's speed is brought down along its profile (`_v_ref`, shrinking by `_decel`
         every step), but never pushed: a joint already slower than its profile, or stopped
-        by an obstacle, is only asked to keep its own speed, so the stop never drives the arm
-        further into what it hit. No position spring during the stop; at its end, HOLD.
+        by an obstacle, is asked for no more than its own speed, so the stop never drives the
+        arm further into what it hit. Every joint still moving in its profile's direction is
+        given the profile's deceleration as feed-forward, slower than the profile or not:
+        given it only while faster, a joint tracking its profile crossed it every step or
+        two and its torque chattered between decelerating and coasting (joint 3 at 1.05x its
+        acceleration limit under a profile at half of it, the end-of-run stop of pick_place
+        seed 53). No position spring during the stop; at its end, HOLD.
         """
         n = self.n
         v = qd[:n]
@@ -342,8 +348,7 @@ class Controller:
         same = np.sign(v) == np.sign(ref)
         mag = np.minimum(np.abs(v), np.abs(ref))
         self.qd_d[:] = np.where(same, np.sign(ref) * mag, 0.0)
-        slowing = same & (np.abs(v) > np.abs(ref))
-        self.qdd_d[:] = np.where(slowing, -np.sign(ref) * self._decel, 0.0)
+        self.qdd_d[:] = np.where(same, -np.sign(ref) * self._decel, 0.0)
         ff = pin.rnea(self.model, self.data, q, qd, self._qdd_full)[:n]
         tau = self.kd * (self.qd_d - v) + ff
         self.q_d[:] = q[:n]

@@ -44,20 +44,36 @@ class MoveJoints(Skill):
             raise SkillError(
                 f"move_joints: `to` needs {ctx.robot.n_arm} joint angles, got {goal.size}"
             )
+        self.goal = goal
+        self.profile: Profile | None = None
+        # The profile starts from rest: a setpoint still moving (a move before that ended
+        # without waiting to be still) is first brought to rest, as the arm can follow. Started
+        # from where it was, at rest, the setpoint's velocity stepped by what it still had:
+        # joint 3 at 2.1x its acceleration limit for a step (stack, seed 2, HOME).
+        ctx.controller.hold_setpoint()
+
+    def _plan(self, ctx: Context) -> None:
+        p = self.params
         self.q0 = ctx.controller.q_d.copy()
         if p.to == "home" and ctx.robot.mobile:  # the arm's home: the base stays where it is
-            goal = goal.copy()
-            goal[: len(ctx.robot.base_joints)] = self.q0[: len(ctx.robot.base_joints)]
-        self.delta = goal - self.q0
+            self.goal = self.goal.copy()
+            self.goal[: len(ctx.robot.base_joints)] = self.q0[: len(ctx.robot.base_joints)]
+        self.delta = self.goal - self.q0
         dist = float(np.max(np.abs(self.delta)))
         self.profile = Profile(dist, p.max_speed, p.max_accel)
-        self.goal = goal
         self.t0 = ctx.clock
 
     def step(self, ctx: Context) -> str | None:
+        if self.profile is None:
+            if np.any(ctx.controller.qd_d):
+                return None  # still coming to rest
+            self._plan(ctx)
+        assert self.profile is not None
         elapsed = ctx.clock - self.t0
-        s, sd = self.profile.progress(elapsed)
-        ctx.controller.set_joint_target(self.q0 + s * self.delta, sd * self.delta)
+        # the profile's acceleration too: the controller integrates the setpoint along it
+        # until the next tick (without it the velocity rose in a staircase, one step a tick)
+        s, sd, sdd = self.profile.state(elapsed)
+        ctx.controller.set_joint_target(self.q0 + s * self.delta, sd * self.delta, sdd * self.delta)
         if elapsed < self.profile.duration:
             return None
         if float(np.max(np.abs(ctx.q - self.goal))) <= self.params.tolerance_rad:

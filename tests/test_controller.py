@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from orchestrator.robots import Controller, Panda
 from orchestrator.robots.controller import CartesianGains
+from orchestrator.skills.ik import ACCELERATION_MARGIN
 
 from orchestrator.language.scenario import Scenario
 from orchestrator.world import World
@@ -114,3 +115,32 @@ def test_cartesian_impedance_brings_a_displaced_elbow_back_to_its_posture():
     _run(world, ctrl, 3.0)
     q = d.qpos[world.robot_qpos]
     assert np.max(np.abs(q[:7] - q0[:7])) < 0.05, np.round(q[:7] - q0[:7], 3)
+
+
+def _acceleration_tracking(ctrl: Controller, world: World, fraction: float) -> np.ndarray:
+    """Each joint's largest measured acceleration over a 0.1 s setpoint accelerating at
+    `fraction` of the Panda's limits from rest at home, per physics step, as a fraction of
+    the commanded acceleration. Shape (7,)."""
+    m, d = world.model, world.data
+    alim = np.asarray(world.robot.acceleration_limits, float)
+    ctrl.set_joint_target(world.home, np.zeros(7), fraction * alim)
+    worst = np.zeros(7)
+    prev = d.qvel[world.robot_dof][:7].copy()
+    for _ in range(round(0.1 / m.opt.timestep)):
+        _run(world, ctrl, m.opt.timestep)
+        v = d.qvel[world.robot_dof][:7].copy()
+        np.maximum(worst, (v - prev) / m.opt.timestep / (fraction * alim), out=worst)
+        prev = v
+    return worst
+
+
+def test_joint_tracking_follows_an_acceleration_step_without_overshoot():
+    """The setpoint steps from rest to 70 % of every joint's acceleration limit (what the
+    IK's limiter commands at most, `ACCELERATION_MARGIN`): the arm, its rotor inertia in the
+    controller's model, follows with at most 3 % overshoot on any joint (0.4 % measured;
+    without it in the model, 2-4 % on joints 2-6 and 12 % on joint 7, whose link is 6 % of
+    its inertia: 1.16x its limit in sorting, seed 3)."""
+    world = _world()
+    ctrl = Controller(world.robot, world.model.opt.timestep)
+    worst = _acceleration_tracking(ctrl, world, ACCELERATION_MARGIN)
+    assert worst.max() <= 1.03, f"acceleration overshoot per joint {worst.round(3)}"

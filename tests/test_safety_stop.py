@@ -142,8 +142,8 @@ def test_the_brakes_hold_the_stopped_arm_with_a_failed_motor(fault):
 
 
 def test_the_stop_reports_the_profiles_own_distance_and_stays_near_it():
-    # an e-stop at 0.98 m/s (carrying the cube) and one at 0.25 m/s (lifting it)
-    fast = run_episode(load_scenario("pick_place", faults=["estop@TRANSPORT+0.3"]), 0)
+    # an e-stop at 0.93 m/s (carrying the cube) and one at 0.25 m/s (lifting it)
+    fast = run_episode(load_scenario("pick_place", faults=["estop@TRANSPORT+0.4"]), 0)
     slow = run_episode(load_scenario("pick_place", faults=["estop@PICK.GRASP.LIFT+0.1"]), 0)
     for result in (fast, slow):
         m = result.metrics

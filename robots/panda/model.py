@@ -109,7 +109,8 @@ class Panda(Robot):
     )
     """Links that get a self-collision proxy capsule (robots/self_collision.py)."""
     armature: ClassVar[float] = 0.1
-    """Rotor inertia added to each arm joint in [kg m^2]; the pinocchio model has none."""
+    """Rotor inertia of each arm joint [kg m^2] (`joint_armature`): in the plant and in the
+    controller's model alike."""
 
     def urdf_path(self) -> str:
         return str(panda_urdf_path())
@@ -145,7 +146,6 @@ class Panda(Robot):
         return spec
 
     def joint_armature(self, joint: str) -> float:
-        """Rotor inertia of arm joint `joint` in the plant [kg m^2] (the controller has none)."""
         del joint
         return self.armature
 
