@@ -15,11 +15,11 @@ from typer.testing import CliRunner
 if TYPE_CHECKING:
     from orchestrator.language.load import LoadedScenario
 
-# Write the bytecode caches even where PYTHONDONTWRITEBYTECODE is set (as in the sandboxes the
-# suite's time is measured in): otherwise each xdist worker compiles the package and rewrites
-# the tests anew (collection 10-11 s CPU -> 6), and every CLI subprocess compiles what it
-# imports (`validate`: ~0.4 s more). Set before the package's modules are imported: this
-# module imports none of them (its fixtures do).
+# The suite writes bytecode caches (`__pycache__/`, gitignored) even where
+# PYTHONDONTWRITEBYTECODE is set: otherwise each xdist worker compiles the package and the
+# tests anew (collection 10-11 s CPU -> 6), and every CLI subprocess compiles what it imports
+# (`validate`: ~0.4 s more). Set before the package's modules are imported: this module
+# imports none of them (its fixtures do).
 sys.dont_write_bytecode = False
 
 DATA = Path(__file__).parent / "data"
