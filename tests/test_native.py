@@ -65,9 +65,9 @@ def test_the_compiled_module_is_built_and_chosen_unless_switched_off(
 
 def test_the_noise_stream_is_the_same_in_c_and_in_python(monkeypatch: pytest.MonkeyPatch):
     """Readings at repeated, new, backwards and uneven instants, across block refills."""
-    c = WristForceNoise(0.3, 0.05, seed=11)
+    c = WristForceNoise(0.3, 0.05, seed=11, dt=0.002)
     _pure(monkeypatch)
-    py = WristForceNoise(0.3, 0.05, seed=11)
+    py = WristForceNoise(0.3, 0.05, seed=11, dt=0.002)
     assert c.compiled is not None and py.compiled is None
     rng = np.random.default_rng(3)
     t = 0.0

@@ -88,7 +88,7 @@ def test_a_restored_world_with_sleeping_bodies_steps_as_the_original():
 
 
 def test_the_wrist_sensors_noise_stream_goes_on_where_it_was():
-    noise = WristForceNoise(0.3, 0.05, 7)
+    noise = WristForceNoise(0.3, 0.05, 7, 0.002)
     for i in range(700):  # past a block of draws
         noise.offset(i * 0.002)
     again = pickle.loads(pickle.dumps(noise))

@@ -192,7 +192,9 @@ class Context:
         realism = world.scenario.physics.realism
         quantize = realism.enabled and realism.encoder_quantization
         self.ft_noise: WristForceNoise | None = (
-            WristForceNoise(realism.ft_noise_n, realism.ft_drift_n_per_sqrt_s, world.seed)
+            WristForceNoise(
+                realism.ft_noise_n, realism.ft_drift_n_per_sqrt_s, world.seed, self.dt_physics
+            )
             if realism.enabled and (realism.ft_noise_n > 0 or realism.ft_drift_n_per_sqrt_s > 0)
             else None
         )

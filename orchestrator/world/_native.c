@@ -4,7 +4,7 @@
    not built; tests hold both to the same results, bit for bit):
 
    * FtNoise    - world/realism.py `WristForceNoise.offset`: the wrist sensor's white noise
-                  and random-walk bias drift, one reading per simulated instant.
+                  and random-walk bias drift, a function of the physics step read at.
    * WristForce - engine/context.py `Context.wrist_force_norm_sq` and
                   `true_wrist_force_norm_sq`: the raw sensor reading rotated into the world
                   frame, the hand's weight and the sensor's bias removed, noise added,
@@ -29,8 +29,10 @@
 
 typedef struct {
     PyObject_HEAD
-    double std, drift;
+    double std, drift, dt; /* [N], [N/sqrt(s)], the physics timestep [s] */
     double bias[3];
+    double k;          /* the physics step the bias has walked to (0: none drawn yet) */
+    double tau;        /* simulated time of step k, summed as the step function sums it [s] */
     double t;          /* simulated time of the last reading [s] (NaN: none yet) */
     double offset[3];  /* what noise and drift added to that reading [N] */
     PyObject *refill;  /* () -> float64 array of 6 * block normal samples */
@@ -55,7 +57,7 @@ static int ftnoise_refill(FtNoise *self) {
         view.len < 48) {
         PyBuffer_Release(&view);
         Py_DECREF(arr);
-        PyErr_SetString(PyExc_ValueError, "FtNoise refill must return float64 samples, 6 a reading");
+        PyErr_SetString(PyExc_ValueError, "FtNoise refill must return float64 samples, 6 a step");
         return -1;
     }
     self->draws = (const double *)view.buf;
@@ -68,34 +70,44 @@ static int ftnoise_refill(FtNoise *self) {
 
 /* `WristForceNoise.offset(t)`, written as its Python is evaluated. */
 static int ftnoise_offset(FtNoise *self, double t, double out[3]) {
-    if (t == self->t) {
-        memcpy(out, self->offset, sizeof self->offset);
-        return 0;
+    if (t != self->t) {
+        self->t = t;
+        double k = floor(t / self->dt + 0.5);
+        if (!(k >= 1.0)) k = 1.0;
+        const double *n = NULL;
+        double *b = self->bias;
+        for (; self->k < k; self->k += 1.0) {
+            if (self->next == self->n && ftnoise_refill(self) < 0) return -1;
+            n = self->draws + 6 * self->next;
+            self->next += 1;
+            double tau = self->tau + self->dt;
+            double walk = self->drift * sqrt(self->k != 0.0 ? tau - self->tau : 0.0);
+            b[0] = b[0] + walk * n[3];
+            b[1] = b[1] + walk * n[4];
+            b[2] = b[2] + walk * n[5];
+            self->tau = tau;
+        }
+        if (n != NULL) {
+            double s = self->std;
+            self->offset[0] = b[0] + s * n[0];
+            self->offset[1] = b[1] + s * n[1];
+            self->offset[2] = b[2] + s * n[2];
+        }
     }
-    double dt = isnan(self->t) ? 0.0 : t - self->t;
-    if (dt < 0.0) dt = 0.0;
-    if (self->next == self->n && ftnoise_refill(self) < 0) return -1;
-    const double *n = self->draws + 6 * self->next;
-    self->next += 1;
-    double walk = self->drift * sqrt(dt);
-    double *b = self->bias;
-    b[0] = b[0] + walk * n[3];
-    b[1] = b[1] + walk * n[4];
-    b[2] = b[2] + walk * n[5];
-    double s = self->std;
-    self->offset[0] = b[0] + s * n[0];
-    self->offset[1] = b[1] + s * n[1];
-    self->offset[2] = b[2] + s * n[2];
-    self->t = t;
     memcpy(out, self->offset, sizeof self->offset);
     return 0;
 }
 
 static int ftnoise_init(FtNoise *self, PyObject *args, PyObject *kwds) {
-    static char *kw[] = {"std_n", "drift_n_per_sqrt_s", "refill", NULL};
+    static char *kw[] = {"std_n", "drift_n_per_sqrt_s", "dt", "refill", NULL};
     PyObject *refill;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "ddO", kw, &self->std, &self->drift, &refill))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "dddO", kw, &self->std, &self->drift,
+                                     &self->dt, &refill))
         return -1;
+    if (!(self->dt > 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "dt must be > 0");
+        return -1;
+    }
     if (!PyCallable_Check(refill)) {
         PyErr_SetString(PyExc_TypeError, "refill must be callable");
         return -1;
@@ -105,6 +117,7 @@ static int ftnoise_init(FtNoise *self, PyObject *args, PyObject *kwds) {
     Py_CLEAR(self->block);
     self->bias[0] = self->bias[1] = self->bias[2] = 0.0;
     self->offset[0] = self->offset[1] = self->offset[2] = 0.0;
+    self->k = self->tau = 0.0;
     self->t = NAN;
     self->draws = NULL;
     self->next = self->n = 0;
@@ -144,8 +157,9 @@ static PyObject *ftnoise_get_bias(FtNoise *self, void *closure) {
 }
 
 /* Snapshots (engine/snapshot): the stream's position travels with the object. `__reduce__`
-   gives the constructor's arguments and a state of plain values (the drift walked, the last
-   reading's time and offset, the block drawn ahead and the next reading's index in it);
+   gives the constructor's arguments and a state of plain values (the drift walked, the step
+   it is at and that step's time, the last reading's time and offset, the block drawn ahead
+   and the next step's index in it);
    `__setstate__` puts them back. */
 static PyObject *ftnoise_reduce(FtNoise *self, PyObject *unused) {
     if (self->refill == NULL) {
@@ -153,18 +167,18 @@ static PyObject *ftnoise_reduce(FtNoise *self, PyObject *unused) {
         return NULL;
     }
     PyObject *block = self->block != NULL ? self->block : Py_None;
-    return Py_BuildValue("O(ddO)((ddd)d(ddd)On)", (PyObject *)Py_TYPE(self), self->std,
-                         self->drift, self->refill, self->bias[0], self->bias[1], self->bias[2],
-                         self->t, self->offset[0], self->offset[1], self->offset[2], block,
-                         self->next);
+    return Py_BuildValue("O(dddO)((ddd)ddd(ddd)On)", (PyObject *)Py_TYPE(self), self->std,
+                         self->drift, self->dt, self->refill, self->bias[0], self->bias[1],
+                         self->bias[2], self->k, self->tau, self->t, self->offset[0],
+                         self->offset[1], self->offset[2], block, self->next);
 }
 
 static PyObject *ftnoise_setstate(FtNoise *self, PyObject *state) {
-    double bias[3], t, offset[3];
+    double bias[3], k, tau, t, offset[3];
     PyObject *block;
     Py_ssize_t next;
-    if (!PyArg_ParseTuple(state, "(ddd)d(ddd)On", &bias[0], &bias[1], &bias[2], &t, &offset[0],
-                          &offset[1], &offset[2], &block, &next))
+    if (!PyArg_ParseTuple(state, "(ddd)ddd(ddd)On", &bias[0], &bias[1], &bias[2], &k, &tau, &t,
+                          &offset[0], &offset[1], &offset[2], &block, &next))
         return NULL;
     const double *draws = NULL;
     Py_ssize_t n = 0;
@@ -177,17 +191,19 @@ static PyObject *ftnoise_setstate(FtNoise *self, PyObject *state) {
         n = view.len / 48;
         PyBuffer_Release(&view); /* the array is kept below: its memory stays */
         if (!ok) {
-            PyErr_SetString(PyExc_ValueError, "FtNoise block must be float64, 6 a reading");
+            PyErr_SetString(PyExc_ValueError, "FtNoise block must be float64, 6 a step");
             return NULL;
         }
     }
     if (next < 0 || next > n) {
-        PyErr_SetString(PyExc_ValueError, "FtNoise state: next reading outside the block");
+        PyErr_SetString(PyExc_ValueError, "FtNoise state: next step outside the block");
         return NULL;
     }
     Py_XSETREF(self->block, block == Py_None ? NULL : Py_NewRef(block));
     memcpy(self->bias, bias, sizeof bias);
     memcpy(self->offset, offset, sizeof offset);
+    self->k = k;
+    self->tau = tau;
     self->t = t;
     self->draws = draws;
     self->n = n;
@@ -213,7 +229,7 @@ static PyTypeObject FtNoiseType = {
     .tp_traverse = (traverseproc)ftnoise_traverse,
     .tp_clear = (inquiry)ftnoise_clear,
     .tp_free = PyObject_GC_Del,
-    .tp_doc = "FtNoise(std_n, drift_n_per_sqrt_s, refill): WristForceNoise's stream in C.",
+    .tp_doc = "FtNoise(std_n, drift_n_per_sqrt_s, dt, refill): WristForceNoise's stream in C.",
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)ftnoise_init,
     .tp_dealloc = (destructor)ftnoise_dealloc,

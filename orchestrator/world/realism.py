@@ -68,34 +68,47 @@ _BLOCK = 512
 class WristForceNoise:
     """Noise and bias drift of the wrist force sensor, per axis, in the world frame [N].
 
-    A new sample is drawn when the simulated time moves on (every physics step a reading is
-    taken); readings within one step agree. The bias is a random walk of
-    `drift_n_per_sqrt_s * sqrt(dt)` per step: zeroing the sensor removes what it has drifted
-    to, not what it will drift to.
+    The noise a reading gets is a function of the physics step it is taken at, never of the
+    readings before it: step k (k = 1, 2, ... since the episode started; `t / dt` rounded)
+    gets the k-th of the seeded samples, and the bias is a random walk of
+    `drift_n_per_sqrt_s * sqrt(dt)` per step elapsed (the first step walks none). Readings
+    within one step agree; readings that skip steps walk the skipped steps' draws, so whoever
+    reads the sensor, and when, the reading at a step is the one a guard reading every step
+    sees (a reading at t = 0, before the first step, gets the first step's). Zeroing the
+    sensor removes what it has drifted to, not what it will drift to.
 
     Args:
         std_n: White noise, standard deviation per axis per reading [N].
         drift_n_per_sqrt_s: Bias random walk [N/sqrt(s)].
         seed: Episode seed.
+        dt: The physics timestep [s] (`MjModel.opt.timestep`): the world's `StepClock` is
+            the sum of it, step by step, from 0.
     """
 
-    def __init__(self, std_n: float, drift_n_per_sqrt_s: float, seed: int) -> None:
+    def __init__(self, std_n: float, drift_n_per_sqrt_s: float, seed: int, dt: float) -> None:
         self.std = float(std_n)
         self.drift = float(drift_n_per_sqrt_s)
+        self.dt = float(dt)
         self.rng = np.random.default_rng([seed, FT_SEED])
         self._draws: list[tuple[float, ...]] = []
-        """Normal samples drawn ahead, six per reading (white noise x, y, z, then the drift's
-        steps x, y, z), in blocks of `_BLOCK` readings: the stream is the same as drawing six
-        per reading (a Generator fills an array one sample after another), at a fraction of
+        """Normal samples drawn ahead, six per physics step (white noise x, y, z, then the
+        drift's steps x, y, z), in blocks of `_BLOCK` steps: the stream is the same as drawing
+        six per step (a Generator fills an array one sample after another), at a fraction of
         the cost of a numpy call every physics step."""
         self._next = 0
+        self._k = 0
+        """The physics step the bias has walked to (0: none drawn yet)."""
+        self._tau = 0.0
+        """Simulated time of step `_k` [s], summed as the step function sums it."""
         self._bias = [0.0, 0.0, 0.0]
         self._t = math.nan
         self._offset = (0.0, 0.0, 0.0)
         ext = native()
         self.compiled = (
             # the refill reads the generator, not this object: no reference cycle to collect
-            ext.FtNoise(self.std, self.drift, partial(self.rng.standard_normal, _BLOCK * 6))
+            ext.FtNoise(
+                self.std, self.drift, self.dt, partial(self.rng.standard_normal, _BLOCK * 6)
+            )
             if ext is not None
             else None
         )
@@ -118,24 +131,34 @@ class WristForceNoise:
         """What noise and drift add to a reading at simulated time `t` [s], per axis [N]."""
         if t == self._t:
             return self._offset
-        # runs every physics step while a guard reads the wrist force: no list is built here
-        dt = 0.0 if math.isnan(self._t) else t - self._t  # the first reading walks no drift
-        if dt < 0.0:  # noqa: PLR1730 (cheaper than max() per step)
-            dt = 0.0
-        k = self._next
-        draws = self._draws
-        if k == len(draws):
-            flat = self.rng.standard_normal(_BLOCK * 6).tolist()
-            draws = self._draws = list(zip(*[iter(flat)] * 6, strict=True))
-            k = 0
-        n0, n1, n2, n3, n4, n5 = draws[k]
-        self._next = k + 1
-        walk = self.drift * math.sqrt(dt)
-        b = self._bias
-        bx = b[0] = b[0] + walk * n3
-        by = b[1] = b[1] + walk * n4
-        bz = b[2] = b[2] + walk * n5
-        s = self.std
-        offset = self._offset = (bx + s * n0, by + s * n1, bz + s * n2)
         self._t = t
+        # the step t is at: a sum of k timesteps strays from k * dt by far less than half one
+        k = math.floor(t / self.dt + 0.5)
+        if k < 1:  # noqa: PLR1730 (cheaper than max() per step)
+            # before the first step: the first step's sample
+            k = 1
+        j = self._k
+        if j >= k:  # this step's sample, or a step back (the stream never runs backwards)
+            return self._offset
+        # runs every physics step while a guard reads the wrist force: no list is built here
+        draws, i = self._draws, self._next
+        b, tau, dt, drift = self._bias, self._tau, self.dt, self.drift
+        n0 = n1 = n2 = 0.0
+        while j < k:  # every step since the last sample, its six draws in order
+            if i == len(draws):
+                flat = self.rng.standard_normal(_BLOCK * 6).tolist()
+                draws = self._draws = list(zip(*[iter(flat)] * 6, strict=True))
+                i = 0
+            n0, n1, n2, n3, n4, n5 = draws[i]
+            i += 1
+            nxt = tau + dt  # step j + 1's time, as the step function sums it
+            walk = drift * math.sqrt(nxt - tau if j else 0.0)  # the first step walks none
+            b[0] = b[0] + walk * n3
+            b[1] = b[1] + walk * n4
+            b[2] = b[2] + walk * n5
+            tau = nxt
+            j += 1
+        self._next, self._k, self._tau = i, j, tau
+        s = self.std
+        offset = self._offset = (b[0] + s * n0, b[1] + s * n1, b[2] + s * n2)
         return offset
