@@ -4,6 +4,7 @@ only to shrink (guards/easing.py)."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 
 import numpy as np
@@ -143,11 +144,13 @@ def _stuck(session: Session, case: str) -> None:
 
 
 CASES = [
-    ("hand on the cube", "collision", "robot contact with panda_hand ~ cube_geom"),
+    ("hand on the cube", "collision", re.escape("robot contact with panda_hand ~ cube_geom")),
     pytest.param(
         "TCP outside the workspace",
         "workspace",
-        "TCP y = 0.6200 m is outside the workspace",
+        # the move ends within its tolerance of y = 0.62 (0.6198 since the controller's model
+        # knows the rotor inertia): the message names a y within a millimetre of it
+        r"TCP y = 0\.(619|620|621)\d m is outside the workspace",
         marks=pytest.mark.slow,
     ),
 ]
@@ -160,11 +163,11 @@ def test_a_stuck_arm_is_blocked_and_recovers_with_every_guard_active(case, guard
     _stuck(session, case)
     status = session.status()
     assert status["state"] == "BLOCKED"
-    assert status["blocked"]["guard"] == guard and status["blocked"]["message"].startswith(message)
+    assert status["blocked"]["guard"] == guard and re.match(message, status["blocked"]["message"])
     assert status["blocked"]["recoverable"] is True
     refused = session.submit(Command(op="run", machine="home"))
-    assert not refused.accepted and refused.reason.startswith(
-        f"the robot is BLOCKED: {guard}: {message}"
+    assert not refused.accepted and re.match(
+        f"the robot is BLOCKED: {guard}: {message}", refused.reason
     )
     assert refused.reason.endswith(
         "send `recover` first (it backs the arm out, every guard active)"
