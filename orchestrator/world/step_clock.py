@@ -33,10 +33,5 @@ class StepClock:
     def __init__(self, t: float = 0.0) -> None:
         self.t = float(t)
 
-    def advance(self, dt: float) -> None:
-        """One physics step of `dt` [s], as `mj_step` advances `MjData.time` (the step
-        function adds it in place, without this call)."""
-        self.t += dt
-
     def __repr__(self) -> str:
         return f"StepClock(t={self.t!r})"
