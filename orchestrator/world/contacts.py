@@ -7,10 +7,14 @@ reads a few numbers per physics step instead of walking the contact list in Pyth
   one sensor counting its contacts with anything: each is a collision (with the scene, or —
   through the self-collision proxies — with another link).
 * The end effector's contact elements (each finger; a tool's geoms) get one sensor per scene
-  body: the guard decides which of those partners they may touch (free objects for the
-  fingers, the phantom for a tool, plus the guard's `allow` list).
-* A mobile base's chassis gets one sensor per scene body too: a free object pushed against it
-  (a block someone kicks) is not a collision; a wall, furniture or a fixed obstacle is.
+  body they may not touch by default: the free objects and the phantom, which they always may,
+  get none; the guard's `allow` list decides about the rest.
+* A mobile base's chassis gets one sensor per scene body but the free objects: a free object
+  pushed against it (a block someone kicks) is not a collision; a wall, furniture or a fixed
+  obstacle is.
+
+The contact list read in Python instead (a lookup of each contact's geom pair in a table)
+costs more than these sensors cost `mj_step` (bench/contact_read.py, docs/performance.md).
 """
 
 from __future__ import annotations
@@ -62,8 +66,14 @@ def add_contact_sensors(
     tool_tip: str | None,
     touchable: set[str],
     chassis: tuple[str, ...] = (),
+    pushable: set[str] | None = None,
 ) -> list[ContactSensor]:
     """Add the contact sensors (after the whole scene is in `spec`).
+
+    A pair the guard allows whatever its parameters gets no sensor: the end effector with
+    what it touches by default, a chassis with a free object. Each contact sensor walks the
+    step's whole contact list in `mj_step`; those 16 of sorting's 29 sensors only counted
+    contacts nobody read (bench/contact_read.py).
 
     Args:
         spec: The whole model.
@@ -71,9 +81,12 @@ def add_contact_sensors(
         finger_bodies: The gripper's fingers.
         tool_tip: The tip geom of a mounted tool (its body's geoms are the tool), or None.
         touchable: Scene bodies the end effector touches by default (free objects, a
-            phantom): their sensors come last.
+            phantom): no sensor.
         chassis: Bodies of a mobile base's chassis (one sensor per scene body each).
+        pushable: Scene bodies a chassis may touch (the free objects): no sensor. None:
+            `touchable`.
     """
+    pushable = touchable if pushable is None else pushable
     robot: set[str] = set()
     stack = [spec.body(robot_root)]
     while stack:
@@ -81,18 +94,13 @@ def add_contact_sensors(
         robot.add(body.name)
         stack.extend(body.bodies)
     scene = ["world"] + [b.name for b in spec.bodies if b.name not in robot and b.name != "world"]
-    # what the end effector touches by default goes last, so that the sensors of forbidden
-    # contacts form one block the guard reads in one go
-    scene.sort(key=lambda name: name in touchable)
     out: list[ContactSensor] = []
-    late: list[tuple[str, str, bool, bool]] = []
 
     def sensor(
         robot_side: str, partner: str | None, ee: bool, geom: bool, base: bool = False
     ) -> None:
-        if partner in touchable and (robot_side, partner, geom, base) not in late:
-            late.append((robot_side, partner, geom, base))  # added after every forbidden one
-            return
+        if (ee and partner in touchable) or (base and partner in pushable):
+            return  # always allowed: the guard would never read it
         name = f"contact__{robot_side}__{partner or 'any'}"
         objtype = mujoco.mjtObj.mjOBJ_GEOM if geom else mujoco.mjtObj.mjOBJ_BODY
         _add(spec, name, objtype, robot_side, partner)
@@ -115,9 +123,6 @@ def add_contact_sensors(
                     sensor(g.name, partner, True, geom=True)
             continue
         sensor(body.name, None, False, geom=False)
-    touchable = set()  # every forbidden sensor is in: now the late ones, in order
-    for robot_side, partner, geom, base in late:
-        sensor(robot_side, partner, True, geom, base)
     return out
 
 

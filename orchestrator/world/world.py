@@ -230,6 +230,7 @@ class World:
             f"{tool.name}_tip" if tool else None,
             touchable,
             _chassis(spec, robot.base_body),
+            pushable={o.name for o in scenario.scene.objects},
         )
         model = spec.compile()
         tissue = {model.geom(scenario.scene.phantom.name).id} if scenario.scene.phantom else set()
