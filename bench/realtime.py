@@ -126,6 +126,21 @@ def main() -> None:
         print(ref_runs.line())
     load1 = os.getloadavg()
     _table([*runs.values()], ref_runs)
+    if ref_runs is not None and "pick_place" in runs:  # the same task, seed by seed
+        pairs = [
+            (c / s) / (rc / rs)
+            for s, c, rs, rc in zip(
+                runs["pick_place"].sim,
+                runs["pick_place"].cpu,
+                ref_runs.sim,
+                ref_runs.cpu,
+                strict=True,
+            )
+        ]
+        print(
+            f"pick_place / hand-written pick_place, CPU per simulated second, paired by seed: "
+            f"median {statistics.median(pairs):.2f} (min {min(pairs):.2f}, max {max(pairs):.2f})"
+        )
     print(f"load average {_load(load0)} at the start, {_load(load1)} at the end (1, 5, 15 min)")
 
 

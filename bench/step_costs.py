@@ -7,6 +7,7 @@ into those inside a skill's start (a move's dry runs and time fitting, a grasp p
 and the live ones of the ticks.
 
     python bench/step_costs.py --scenario sorting --seed 1
+    python bench/step_costs.py --hand-written --seed 0   # bench/overhead.py's loop, for scale
 
 The wrappers cost time of their own: `thread_time` is a system call (~1.9 us on this host),
 two per wrapped call, about half of each inside the interval it measures. The bench measures
@@ -22,8 +23,11 @@ from __future__ import annotations
 import argparse
 import importlib
 import math
+import sys
 import time
 from collections.abc import Callable
+from functools import partial
+from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -131,13 +135,27 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenario", default="mobile_search", help="bundled name or path")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument(
+        "--hand-written",
+        action="store_true",
+        help="time bench/overhead.py's hand-written pick_place loop instead (the same plant, "
+        "controller and motion generator, no framework; its moves' path fitting in the "
+        "skill-starts rows)",
+    )
     args = parser.parse_args()
+    if args.hand_written:
+        args.scenario = "pick_place"
 
     from orchestrator.engine import runner
     from orchestrator.language.load import load_scenario
 
     loaded = load_scenario(args.scenario)
     runner.run_episode(loaded, args.seed + 10_000)  # warm caches, as a batch worker would
+    if args.hand_written:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        import overhead  # bench/overhead.py
+
+        overhead.HandWritten(loaded.scenario, args.seed + 10_000).run()
     per_call, inside_call = _calibrate()
     acc: dict[str, list[float]] = {}
     depth = [0]  # > 0 inside a skill's start
@@ -151,6 +169,16 @@ def main() -> None:
     for mod, name, key in MODULE_HOT:
         module = importlib.import_module(mod)
         setattr(module, name, _timed(_nesting(getattr(module, name), depth), acc, key))
+    episode = partial(_framework, runner.run_episode, loaded, args.seed)
+    nested, prefix = NESTED, "in tick"
+    if args.hand_written:
+        for name in ("fit_path_to_joints", "feasible_time_scale"):  # a move's start
+            fn = _nesting(getattr(overhead, name), depth)
+            setattr(overhead, name, _timed(fn, acc, "skill starts"))
+        # no executor: the IK's rows are not inside a tick; the solves of a move's start are
+        # inside its row
+        nested, prefix = {"IKSolver.reference_step, skill starts"}, "in starts"
+        episode = partial(_hand_written, overhead.HandWritten, loaded.scenario, args.seed)
     # on the compiled path (orchestrator/world/native.py) the context's wrist-force readings
     # are C methods bound per instance: time the true force there; the measured one is read
     # inside the bank's compiled check (its row includes it)
@@ -168,7 +196,7 @@ def main() -> None:
     mujoco.mj_step = _timed(step, acc, "mj_step")
     try:
         cpu0 = time.process_time()
-        result = runner.run_episode(loaded, args.seed)
+        outcome, sim_time = episode()
         cpu = time.process_time() - cpu0
     finally:
         mujoco.mj_step = step
@@ -176,9 +204,10 @@ def main() -> None:
     per_step = cpu / steps * 1e6
     wrapped = sum(calls for _, calls in acc.values())
     added = wrapped * per_call / steps * 1e6
+    name = "hand-written pick_place" if args.hand_written else args.scenario
     print(
-        f"{args.scenario} seed {args.seed}: {result.outcome}, {steps:.0f} steps, "
-        f"{per_step:.0f} us CPU per step ({result.sim_time / cpu:.1f}x real time on CPU)"
+        f"{name} seed {args.seed}: {outcome}, {steps:.0f} steps, "
+        f"{per_step:.0f} us CPU per step ({sim_time / cpu:.1f}x real time on CPU)"
     )
     print(
         f"  the wrappers: {wrapped / steps:.1f} timed calls per step at {per_call * 1e6:.2f} us "
@@ -190,12 +219,24 @@ def main() -> None:
     for key, (total, calls) in sorted(acc.items(), key=lambda kv: -kv[1][0]):
         if calls:
             us = total / steps * 1e6
-            listed += 0.0 if key in NESTED else us
-            label = f"  in tick: {key}" if key in NESTED else key
+            listed += 0.0 if key in nested else us
+            label = f"  {prefix}: {key}" if key in nested else key
             each = total / calls * 1e6
             own = (total - calls * inside_call) / steps * 1e6
             print(f"  {label:48s} {us:7.1f}  {calls:7.0f} {each:9.1f} {own:11.1f}")
     print(f"  {'other (loop, skills, wrappers)':48s} {per_step - listed:7.1f}")
+
+
+def _framework(run: Callable[..., Any], loaded: Any, seed: int) -> tuple[str, float]:
+    """The framework's episode of `seed`: its outcome and simulated time [s]."""
+    result = run(loaded, seed)
+    return result.outcome, result.sim_time
+
+
+def _hand_written(loop: Callable[..., Any], scenario: Any, seed: int) -> tuple[str, float]:
+    """bench/overhead.py's loop on `seed`: its outcome and simulated time [s]."""
+    run = loop(scenario, seed)
+    return ("succeeded" if run.run() else "failed"), run.t
 
 
 if __name__ == "__main__":
