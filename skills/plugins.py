@@ -20,7 +20,6 @@ an import that fails is reported as its exception type and line only.
 from __future__ import annotations
 
 import functools
-import hashlib
 import importlib.metadata
 import importlib.util
 import sys
@@ -218,6 +217,8 @@ def load_skill_path(
 
 
 def _import(file: Path) -> ModuleType:
+    import hashlib  # here: only a local skill folder needs it (~3 ms of every command)
+
     digest = hashlib.sha1(str(file).encode()).hexdigest()[:8]
     mod_name = f"{LOCAL_PREFIX}{file.stem}_{digest}"
     spec = importlib.util.spec_from_file_location(mod_name, file)
