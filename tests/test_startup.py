@@ -101,3 +101,18 @@ def test_reading_commands_load_no_physics_ik_or_vision_library(tmp_path: Path):
         )
     # `--version` reads none; `validate` reads them once for the skills and the checks both
     assert [s["entry point reads"] for s in steps] == [0, 1, 1, 1, 1]
+
+
+def test_the_commands_annotations_are_objects_not_strings():
+    """typer reads every command's parameter annotations at each start; written as strings
+    (`from __future__ import annotations` in cli.py) each is compiled and evaluated again."""
+    from orchestrator.cli import app
+
+    commands = [*app.registered_commands]
+    for group in app.registered_groups:  # `snapshot show|list`
+        commands += group.typer_instance.registered_commands
+    callbacks = [c.callback for c in commands if c.callback is not None]
+    assert len(callbacks) == len(commands) > 10
+    for callback in callbacks:
+        strings = {k: v for k, v in callback.__annotations__.items() if isinstance(v, str)}
+        assert strings == {}, f"{callback.__name__}: annotations as strings {strings}"
