@@ -25,9 +25,10 @@ runs them with this shell's environment unchanged: with `PYTHONDONTWRITEBYTECODE
 `__pycache__` beside the sources, every run compiles every module it imports from source.
 
 Where `validate small_move.yaml`'s CPU time goes is measured in the same rounds: a fresh
-interpreter imports numpy, pydantic, the CLI (typer, rich), the language layer, discovers the
-skills and the success checks, then runs the command, reading `time.process_time` between
-stages (each stage pays only for what the ones before it did not load).
+interpreter imports numpy, pydantic, the CLI (typer, rich), the language layer's modules that
+validating a machine imports (with the guards' declarations), discovers the skills and the
+success checks, then runs the command, reading `time.process_time` between stages (each stage
+pays only for what the ones before it did not load).
 
 Each command must exit 0; the bench stops with the command's output otherwise.
 
@@ -65,8 +66,8 @@ from pydantic import BaseModel
 mark("pydantic")
 import orchestrator.cli
 mark("the CLI: typer, rich")
-import orchestrator.language
-mark("the language layer")
+import orchestrator.language.validate_paths
+mark("the language layer (a machine's modules) and the guards' declarations")
 from orchestrator.skills import skill_names
 skill_names()
 mark("the skills' declarations")

@@ -19,7 +19,7 @@ an import that fails is reported as its exception type and line only.
 
 from __future__ import annotations
 
-import hashlib
+import functools
 import importlib.metadata
 import importlib.util
 import sys
@@ -66,12 +66,20 @@ class SkillOutsideError(SkillLoadError):
     """A skill folder (or a module in it) lies outside the directories it may come from."""
 
 
+@functools.cache
+def _entry_points() -> importlib.metadata.EntryPoints | importlib.metadata.SelectableGroups:
+    """Every installed entry point, read once per process: reading them opens the metadata of
+    every installed distribution (~10 ms CPU with ~200 installed), and the skills and the
+    success checks each look up their group (`validate` does both)."""
+    return importlib.metadata.entry_points()
+
+
 def entry_point_classes(group: str, base: type[T], what: str) -> list[type[T]]:
     """The `base` subclasses every installed entry point of `group` names (`wait =
     my_pkg.wait:Wait`). One that fails to import, or names something else, is skipped with a
     one-line warning in `PLUGIN_WARNINGS` naming it as a plugin `what` (`skill`)."""
     classes: list[type[T]] = []
-    for ep in importlib.metadata.entry_points(group=group):
+    for ep in _entry_points().select(group=group):
         where = f"plugin {what} {ep.name!r} ({ep.value}"
         dist = getattr(ep, "dist", None)
         where += f", from {dist.name})" if dist is not None else ")"
@@ -209,6 +217,8 @@ def load_skill_path(
 
 
 def _import(file: Path) -> ModuleType:
+    import hashlib  # here: only a local skill folder needs it (~3 ms of every command)
+
     digest = hashlib.sha1(str(file).encode()).hexdigest()[:8]
     mod_name = f"{LOCAL_PREFIX}{file.stem}_{digest}"
     spec = importlib.util.spec_from_file_location(mod_name, file)

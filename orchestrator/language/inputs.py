@@ -22,9 +22,9 @@ from pydantic import BaseModel
 
 from ..skills import SKILLS, skill_names
 from .diagnostics import Diagnostic
+from .goals import goal_keys, item_model
 from .loading import MachineNode
 from .refs import parse_ref
-from .scenario_checks import _item_model, goal_keys
 from .validation import blackboard_types, skill_writes
 
 __all__ = ["PoseUse", "check_inputs", "hint_keys", "machine_inputs", "pose_uses", "writers"]
@@ -76,7 +76,7 @@ def _scan(model: type[BaseModel], params: dict, where: str) -> list[PoseUse]:
     for name, info in fields.items():
         key = info.alias or name
         value = params.get(key)
-        nested = _item_model(info.annotation)
+        nested = item_model(info.annotation)
         if nested is not None:  # `move`'s via points
             for i, item in enumerate(value if isinstance(value, list) else []):
                 if isinstance(item, dict):

@@ -14,7 +14,6 @@ from pydantic import ValidationError
 
 from ..exceptions import ConfigError
 from .blackboard_types import all_finite, check_type
-from .bundled import bundled_names, resolve_file
 from .default_scene import is_machine_data, scenario_for_machine
 from .diagnostics import Diagnostic
 from .entries import entry_file, unknown_entry
@@ -24,6 +23,7 @@ from .includes import resolve_include
 from .inputs import check_inputs
 from .limits import current_limits
 from .loading import MachineNode, load_machine_file
+from .machines import load_machine  # re-exported: the entry points live here
 from .overrides import Override, apply_override, parcels_alias, parse_override
 from .pydantic_errors import diagnostics_from_validation
 from .random_goal_checks import check_random_goals
@@ -194,42 +194,6 @@ def load_scenario(
         raise ConfigError([_attribute(d, overridden, doc.source.file) for d in problems])
     assert scenario is not None and node is not None
     return LoadedScenario(scenario, node, path, doc.source)
-
-
-def load_machine(
-    ref: str, base_dir: Path | None = None, allow_paths: Sequence[Path | str] = ()
-) -> MachineNode:
-    """Load and statically validate a machine by path or bundled name.
-
-    Args:
-        ref: A machine file or a bundled name.
-        base_dir: Directory `ref` is relative to (default: the working directory).
-        allow_paths: Directories outside the machine's own tree that its includes may name.
-
-    Raises:
-        ConfigError: With every problem found, each located in its file.
-    """
-    path = resolve_file(ref, "machines", base_dir)
-    if path is None:
-        raise ConfigError(
-            [
-                Diagnostic(
-                    ref,
-                    0,
-                    0,
-                    "<machine>",
-                    "no such machine file or bundled machine",
-                    tuple(bundled_names("machines")),
-                )
-            ]
-        )
-    node, problems = load_machine_file(path, tuple(Path(a) for a in allow_paths))
-    if node is not None:
-        problems += validate_machine(node) + check_inputs(node)
-    if problems:
-        raise ConfigError(problems)
-    assert node is not None
-    return node
 
 
 def _append_options(

@@ -62,6 +62,9 @@ def guard_entries(refs: list[GuardRef] | dict[str, Any]) -> list[tuple[int | str
 
 
 class _Strict(BaseModel):
+    # `StateSpec` names itself, and `BranchSpec` names it before it is defined: pydantic
+    # resolves both when `MachineSpec` first validates (no `model_rebuild()` at import, which
+    # would build two more validators that loading a machine never uses)
     model_config = ConfigDict(
         defer_build=True, extra="forbid", populate_by_name=True, allow_inf_nan=False
     )
@@ -226,7 +229,3 @@ class MachineSpec(_Strict):
         "(the bundled `recover`).",
     )
     states: dict[str, StateSpec] = Field(min_length=1)
-
-
-BranchSpec.model_rebuild()
-StateSpec.model_rebuild()

@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-import typing
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel
 
 from ..guards import GUARDS
 from ..robots import ROBOTS
 from ..skills import SKILLS, skill_names
 from .diagnostics import Diagnostic
 from .faults import HELD
+from .goals import goal_keys, item_model  # goal_keys: re-exported
 from .loading import MachineNode, initial_values
 from .machine import guard_entries
 from .param_values import check_values
@@ -73,7 +72,7 @@ def check_scene_names(
     def check(src: SourceMap, at: tuple, model, params: dict) -> list[Diagnostic]:
         found = []
         for field, info in model.model_fields.items():
-            sub = _item_model(info.annotation)
+            sub = item_model(info.annotation)
             if sub is not None and isinstance(params.get(field), list):
                 for i, item in enumerate(params[field]):  # e.g. `move`'s via points
                     if isinstance(item, dict):
@@ -152,42 +151,6 @@ def workspace_box(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
     return None
 
 
-def goal_keys(machine: MachineNode) -> set[str]:
-    """Blackboard keys the machine moves to: those a skill's target parameter (a `target`,
-    e.g. `move`'s, or a `via` point's) reads as `$key` anywhere in the tree. Offsets and
-    heights are not goals."""
-    skill_names()  # discover the skills
-    keys: set[str] = set()
-
-    def scan(model, params: dict) -> None:
-        for field, info in model.model_fields.items():
-            value = params.get(field)
-            nested = _item_model(info.annotation)
-            if nested is not None:  # a list of parameter models: `move`'s `via` points
-                for item in value if isinstance(value, list) else []:
-                    if isinstance(item, dict):
-                        scan(nested, item)
-                continue
-            extra = info.json_schema_extra
-            if not isinstance(extra, dict) or extra.get("scene_ref") != "target":
-                continue
-            for item in value if isinstance(value, list) else [value]:
-                ref = parse_ref(item)
-                if ref is not None and not ref[1]:
-                    keys.add(ref[0])
-
-    for node in machine.nodes():
-        for st in node.states.values():
-            cls = SKILLS.get(st.skill or "")
-            if cls is not None:
-                scan(cls.Params, st.with_)
-        for _, _, br in node.skill_branches():
-            cls = SKILLS.get(br.skill or "")
-            if cls is not None:
-                scan(cls.Params, br.with_)
-    return keys
-
-
 def check_scenario_refs(
     scenario: Scenario, src: SourceMap, keys: set[str] | None = None
 ) -> list[Diagnostic]:
@@ -238,12 +201,3 @@ def check_faults(
                 )
             )
     return out
-
-
-def _item_model(annotation: Any) -> type[BaseModel] | None:
-    """The model of a `list[Model]` parameter's items (None for any other annotation)."""
-    if typing.get_origin(annotation) is list:
-        (item,) = typing.get_args(annotation) or (None,)
-        if isinstance(item, type) and issubclass(item, BaseModel):
-            return item
-    return None

@@ -9,7 +9,7 @@ from pathlib import Path
 from ..exceptions import ConfigError
 from .diagnostics import Diagnostic
 from .entries import file_kind
-from .load import load_machine, load_scenario
+from .machines import load_machine
 
 __all__ = ["file_kind", "validate_paths"]
 
@@ -57,6 +57,8 @@ def validate_paths(
             if kind[0] == "machine":
                 load_machine(kind[1], allow_paths=allow_paths)
             else:
+                from .load import load_scenario  # the scenario's models: only for a scenario
+
                 load_scenario(kind[1], allow_paths=allow_paths, import_skills=False)
         except ConfigError as exc:
             problems += exc.diagnostics
