@@ -174,9 +174,9 @@ def test_wrist_sensor_is_noisy_and_drifts_but_deterministic():
     def readings(seed: int) -> np.ndarray:
         world = World.build(load_scenario("surgical").scenario, seed)
         ctx = Context(world, Controller(world.robot), None, np.random.default_rng(0), 0.01)  # type: ignore[arg-type]
-        out = []
+        out, dt = [], float(world.model.opt.timestep)
         for k in range(2000):
-            world.step_clock.t = k * 0.002
+            world.step_clock.t = k * dt
             out.append(ctx.wrist_force() - np.array(ctx.true_wrist_force()))
         return np.array(out)
 

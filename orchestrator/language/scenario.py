@@ -447,7 +447,8 @@ class Physics(_Strict):
         default=100.0,
         ge=1.0,
         le=1000.0,
-        description="Control rate [Hz] (1 to 1000, at most one tick per physics step).",
+        description="Control rate [Hz] (1 to 1000): a tick every whole number of physics"
+        " steps, at most one per step.",
     )
     time_limit_s: PositiveFloat = Field(
         default=30.0,
@@ -476,6 +477,15 @@ class Physics(_Strict):
             raise ValueError(
                 f"control_hz {self.control_hz} ticks faster than the physics steps "
                 f"(timestep_s {self.timestep_s}: at most {1.0 / self.timestep_s:g} Hz)"
+            )
+        steps = 1.0 / (self.control_hz * self.timestep_s)
+        if abs(steps - round(steps)) > 1e-6 * steps:
+            # the runner ticks every round(steps) steps: 100 Hz at 4 ms would run at 125 Hz
+            lo, hi = math.floor(steps), math.ceil(steps)
+            rates = ", ".join(f"{1.0 / (n * self.timestep_s):g} Hz ({n} steps)" for n in (lo, hi))
+            raise ValueError(
+                f"control_hz {self.control_hz} ticks every {steps:g} physics steps of "
+                f"{self.timestep_s} s: a tick must be a whole number of steps (valid: {rates})"
             )
         return self
 
