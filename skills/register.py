@@ -125,10 +125,10 @@ class Register(Skill):
     to `stiffness_into`), `not_found` (no such phantom, a fiducial unseen, a touch that met
     nothing), `out_of_tolerance` (fiducial error above `tolerance_m`, the pose farther than
     `max_offset_m` from the plan, a touch above its force limit, touches that leave the pose
-    undetermined, or the touched pose's uncertainty above `max_sigma_m`). Metrics: `registration_fre_mm`, `registration_offset_mm`
-    and, by touch, `registration_sigma_mm` (1-sigma lateral error on the top surface, worst
-    corner), `registration_sigma_deg`, `registration_law_rms_n`, `registration_stiffness_scale`,
-    `registration_touch_s`.
+    undetermined, or the touched pose's uncertainty above `max_sigma_m`). Metrics:
+    `registration_fre_mm`, `registration_offset_mm` and, by touch, `registration_sigma_mm`
+    (1-sigma lateral error on the top surface, worst corner), `registration_sigma_deg`,
+    `registration_law_rms_n`, `registration_stiffness_scale`, `registration_touch_s`.
     """
 
     name: ClassVar[str] = "register"
