@@ -16,6 +16,10 @@ the contacts from an observer, so its figure includes an observer call (~1 us) t
 guard's compiled check does not pay.
 
     python bench/contact_read.py [--scenario sorting pick_place] [--seed 1] [--rounds 3]
+
+Timing is noisy on a shared machine; instructions are not. For those, run one variant per
+process under callgrind (`--variant`, counting inside `mj_step` only) and the contact-list
+lookup alone (`--lookups N`, the difference of two whole-process counts): docs/performance.md.
 """
 
 from __future__ import annotations
@@ -26,6 +30,8 @@ import time
 
 import mujoco
 import numpy as np
+
+VARIANTS = ("every pair", "forbidden pairs", "contact list")
 
 
 def _patched_build(variant: str):
@@ -104,16 +110,66 @@ def main() -> None:
     parser.add_argument("--scenario", nargs="+", default=["sorting", "pick_place"])
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument(
+        "--variant",
+        choices=VARIANTS,
+        help="run one episode of this variant only and print its outcome (for an instruction "
+        "count: valgrind --tool=callgrind --toggle-collect=mj_step python bench/contact_read.py "
+        "--variant ...)",
+    )
+    parser.add_argument("--set", nargs="*", default=[], help="scenario overrides, as `run --set`")
+    parser.add_argument(
+        "--lookups",
+        type=int,
+        help="step the scene (sleeping off, so resting objects keep their contacts) 200 "
+        "times, then look the contact list up in the forbidden-pair table this many times "
+        "(for an instruction count: the difference of two counts, e.g. 5000 and 0, divided by "
+        "5000 is one lookup)",
+    )
     args = parser.parse_args()
 
     import os
 
+    if args.lookups is not None:
+        _lookups(args.scenario[0], args.seed, args.lookups)
+        return
+
+    if args.variant is not None:
+        from orchestrator.engine.runner import run_episode
+        from orchestrator.language.load import load_scenario
+        from orchestrator.world import world as world_module
+
+        for name in args.scenario:
+            loaded = load_scenario(name, args.set or None)
+            world_module.add_contact_sensors = _patched_build(args.variant)
+            r = run_episode(loaded, args.seed)
+            print(f"{name} seed {args.seed} {args.variant}: {r.outcome} at {r.sim_time:.3f} s")
+        return
     print(f"load {os.getloadavg()[0]:.2f} (1-minute average)")
     for name in args.scenario:
-        _measure(name, args.seed, args.rounds)
+        _measure(name, args.seed, args.rounds, args.set)
 
 
-def _measure(name: str, seed: int, rounds: int) -> None:
+def _lookups(name: str, seed: int, n: int) -> None:
+    """`n` contact-list lookups on `name`'s scene after 200 steps (see `--lookups`)."""
+    from orchestrator.language.load import load_scenario
+    from orchestrator.world import world as world_module
+
+    world_module.add_contact_sensors = _patched_build("every pair")
+    w = world_module.World.build(load_scenario(name).scenario, seed)
+    table, _ = _forbidden_pairs(w)
+    w.model.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+    d = w.data
+    for _ in range(200):
+        mujoco.mj_step(w.model, d)
+    for _ in range(n):
+        if d.ncon:
+            g = d.contact.geom
+            bool(table[g[:, 0], g[:, 1]].any())
+    print(f"{name}: {d.ncon} contacts in the list, {n} lookups")
+
+
+def _measure(name: str, seed: int, rounds: int, overrides: list[str]) -> None:
     """Run `name`'s episode `seed` in every variant, `rounds` times, and print the table."""
     from orchestrator.engine import step as step_module
     from orchestrator.engine.runner import run_episode
@@ -130,8 +186,8 @@ def _measure(name: str, seed: int, rounds: int) -> None:
         spent[1] += 1
 
     add = world_module.add_contact_sensors
-    loaded = load_scenario(name)
-    variants = ("every pair", "forbidden pairs", "contact list")
+    loaded = load_scenario(name, overrides or None)
+    variants = VARIANTS
     world_module.add_contact_sensors = _patched_build("every pair")
     try:
         every = world_module.World.build(loaded.scenario, seed)

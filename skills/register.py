@@ -124,11 +124,11 @@ class Register(Skill):
     Outcomes: `registered` (within every tolerance; the pose goes to `into`, the stiffness
     to `stiffness_into`), `not_found` (no such phantom, a fiducial unseen, a touch that met
     nothing), `out_of_tolerance` (fiducial error above `tolerance_m`, the pose farther than
-    `max_offset_m` from the plan, a touch above its force limit, or the touched pose's
-    uncertainty above `max_sigma_m`). Metrics: `registration_fre_mm`, `registration_offset_mm`
-    and, by touch, `registration_sigma_mm` (1-sigma lateral error on the top surface, worst
-    corner), `registration_sigma_deg`, `registration_law_rms_n`, `registration_stiffness_scale`,
-    `registration_touch_s`.
+    `max_offset_m` from the plan, a touch above its force limit, touches that leave the pose
+    undetermined, or the touched pose's uncertainty above `max_sigma_m`). Metrics:
+    `registration_fre_mm`, `registration_offset_mm` and, by touch, `registration_sigma_mm`
+    (1-sigma lateral error on the top surface, worst corner), `registration_sigma_deg`,
+    `registration_law_rms_n`, `registration_stiffness_scale`, `registration_touch_s`.
     """
 
     name: ClassVar[str] = "register"
@@ -288,7 +288,11 @@ class Register(Skill):
         ]
         size = ctx.world.phantom.size
         t, rot = self.pose
-        fit = fit_touches(touches, size, radius, _law(spec).force, rot, t)
+        try:
+            fit = fit_touches(touches, size, radius, _law(spec).force, rot, t)
+        except ValueError as exc:  # the touches do not pin the pose down: not registered
+            ctx.log("skill", f"register: {exc}", level="ERROR")
+            return "out_of_tolerance"
         sigma = _top_sigma(fit, size)
         sigma_deg = math.degrees(float(np.sqrt(np.max(np.diag(fit.covariance)[3:6]))))
         ctx.metrics.update(

@@ -182,3 +182,25 @@ def test_touching_finds_a_turned_and_tilted_phantom(tmp_path: Path):
     assert m["registration_stiffness_scale"] == pytest.approx(
         ph.stiffness_n_per_m / 500.0, rel=0.05
     )
+
+
+@pytest.mark.slow
+def test_touches_that_leave_the_pose_free_end_the_skill_out_of_tolerance(tmp_path: Path):
+    # six touches on the top face say nothing of the phantom's x, y and yaw: the fit
+    # cannot register it, and the skill says so by its outcome (the run does not end `error`)
+    tops = ", ".join(
+        f"{{'on': top, at: [{x}, {y}, 0.0]}}"
+        for x, y in ((-0.04, -0.03), (0.0, -0.03), (0.04, -0.03), (-0.04, 0.03), (0.0, 0.03),
+                     (0.04, 0.03))
+    )  # fmt: skip
+    machine = MACHINE.replace(
+        "with: {method: touch, prior: $phantom_pose, at_force_n: 2.0}",
+        f"with: {{method: touch, prior: $phantom_pose, at_force_n: 2.0, touches: [{tops}]}}",
+    )
+    assert machine != MACHINE
+    (tmp_path / "register_only.yaml").write_text(machine)
+    (tmp_path / "scenario.yaml").write_text(SCENARIO)
+    result = run_episode(load_scenario(str(tmp_path / "scenario.yaml")), 2)
+    assert result.outcome == "failed", result.error
+    assert [t["from"] for t in result.transitions][-1] == "TOUCH"
+    assert result.transitions[-1]["trigger"] == "out_of_tolerance"
