@@ -201,20 +201,22 @@ class IKProblem:
                 frame_jacobian = jacobian
             else:  # _NULLSPACE: its frame task comes first (`supports`)
                 task.projector_from(frame_jacobian, out=jacobian)
-                error = np.matmul(jacobian, task.raw_error_view(config), out=self._posture_term)
+                error = np.dot(jacobian, task.raw_error_view(config), out=self._posture_term)
             if unit:
                 np.multiply(-task.gain, error, out=e_rows)
             else:
                 np.multiply(task.cost, -task.gain * error, out=e_rows)
                 np.multiply(task.cost[:, None], jacobian, out=w_rows)
             if task.lm_damping != 0.0:  # (0 x e·e adds nothing to mu)
-                mu_total += task.lm_damping * float(e_rows @ e_rows)
+                mu_total += task.lm_damping * float(np.dot(e_rows, e_rows))
         # H = WᵀW and c = -(eW) into arrays kept here (the same products), H's diagonal a
         # strided view of it: one ufunc call, where `H.flat[...] +=` goes through numpy's
-        # flat iterator (the same additions)
+        # flat iterator (the same additions). `np.dot`, not `@`: the same BLAS call on 2-D
+        # arrays (the same bits, tests/test_ik_qp.py) without the generalized ufunc's
+        # set-up, ~0.5 us a call
         H, c = self._H, self._c
-        np.matmul(W.T, W, out=H)
-        np.matmul(e, W, out=c)
+        np.dot(W.T, W, out=H)
+        np.dot(e, W, out=c)
         np.negative(c, out=c)
         self._H_diagonal += self.damping + mu_total
         return H, c
@@ -298,13 +300,13 @@ class _FrameRows:
         self.jac_function(model, data, world[:3], world[3:], self.id)
         xmat = getattr(data, self.xmat_field)[self.id]
         # Configuration.get_frame_jacobian: the world-aligned Jacobian rotated into the frame
-        np.matmul(native.se3_rotation_adjoint_from_xmat(xmat), world, out=self.body)
+        np.dot(native.se3_rotation_adjoint_from_xmat(xmat), world, out=self.body)
         frame = native.xmat_xpos_to_wxyz_xyz(xmat, getattr(data, self.pos_field)[self.id])
         target = task.transform_target_to_world.wxyz_xyz
         error = native.se3_rminus(target, frame)
         jlog = native.se3_jlog(native.se3_inverse_multiply(target, frame))
         np.negative(jlog, out=jlog)  # -jlog @ jac, as mink: the negation first
-        np.matmul(jlog, self.body, out=out)
+        np.dot(jlog, self.body, out=out)
         return error
 
 
