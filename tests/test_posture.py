@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 from orchestrator.robots import get_robot
-from scipy.linalg.lapack import dpotrf, dtrtri
 from orchestrator.skills.ik import IKSolver
 from orchestrator.skills.posture import NullspacePostureTask
+from scipy.linalg.lapack import dpotrf, dtrtri
 
 from orchestrator.world.world import robot_only_model
 
