@@ -1,9 +1,10 @@
 """Instructions the IK costs, counted by valgrind: a figure the machine's load cannot move.
 
 CPU times on a shared 2-core host move by ±15 % between two runs of the same code; the
-instructions a piece of code executes do not. This runs a child process twice under
-`valgrind --tool=callgrind`, with the same set-up (imports, model, warm-up) and without then
-with the measured work, and reports the difference:
+instructions a piece of code executes do not. This runs a child process under `valgrind
+--tool=callgrind`, which zeroes its counts where the measured work starts and writes them
+out where it ends (the child calls `zlib.crc32` and `zlib.adler32` there, functions nothing
+else in the work calls: `--zero-before`, `--dump-before`), and reports them:
 
 * `--ik N`: N steps of `IKSolver.reference_step` of the Panda along a fixed motion (a 40 cm
   line there and back with a 60 deg turn of the hand, 10 ms steps, after 20 warm-up steps):
@@ -13,11 +14,10 @@ with the measured work, and reports the difference:
 
 Instructions are not time (a cache miss costs more than an add), but two checkouts running
 the same work compare to ~0.1 %: run this in each and compare the counts. Needs valgrind
-(`apt-get install valgrind`); valgrind runs the code ~50x slower (an `--ik 200` count took
-2-4 min on the shared host; an episode's count runs the warm-up twice and the episode once
-under valgrind: tens of minutes for sorting).
+(`apt-get install valgrind`); valgrind runs the code ~50x slower (an `--ik 1000` count takes
+a few minutes, a sorting episode's tens of minutes).
 
-    python bench/ik_instructions.py --ik 200
+    python bench/ik_instructions.py --ik 1000
     python bench/ik_instructions.py --scenario sorting --seed 1
 """
 
@@ -32,7 +32,18 @@ import tempfile
 
 
 def _child(args: argparse.Namespace) -> None:
-    """The set-up, then the measured work unless `--skip`: prints how many units it ran."""
+    """The set-up, then the measured work between the two markers: prints how many units
+    it ran."""
+    import gc
+    import zlib
+
+    def start() -> None:
+        # the set-up's objects out of the collector's reach: a full collection over the
+        # imported heap (~5e7 instructions) would otherwise land in the work at random
+        gc.collect()
+        gc.freeze()
+        zlib.crc32(b"")  # callgrind: zero the counts
+
     if args.ik:
         import mink
         import numpy as np
@@ -54,9 +65,10 @@ def _child(args: argparse.Namespace) -> None:
         for pos, rot in targets[:20]:
             ik.reference_step(pos, rot, 0.01)
         ik.reset(np.array(robot.home))
-        if not args.skip:
-            for pos, rot in targets:
-                ik.reference_step(pos, rot, 0.01)
+        start()
+        for pos, rot in targets:
+            ik.reference_step(pos, rot, 0.01)
+        zlib.adler32(b"")  # callgrind: write them out
         print(f"units {len(targets)}")
         return
     from orchestrator.engine.runner import run_episode
@@ -65,26 +77,26 @@ def _child(args: argparse.Namespace) -> None:
     loaded = load_scenario(args.scenario)
     dt = loaded.scenario.physics.timestep_s
     run_episode(loaded, 10_000)  # warm the caches, as a batch worker would
-    if not args.skip:
-        result = run_episode(loaded, args.seed)
-        print(f"units {round(result.sim_time / dt)}")
-    else:
-        print("units 0")
+    start()
+    result = run_episode(loaded, args.seed)
+    zlib.adler32(b"")
+    print(f"units {round(result.sim_time / dt)}")
 
 
-def _count(skip: bool) -> tuple[int, int]:
-    """(units, instructions) of one child run under callgrind, with or without the work."""
+def _count() -> tuple[int, int]:
+    """(units, instructions) of the child's measured work under callgrind."""
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "callgrind.out")
         run = subprocess.run(
             [
                 "valgrind",
                 "--tool=callgrind",
+                "--zero-before=zlib_crc32",
+                "--dump-before=zlib_adler32",
                 f"--callgrind-out-file={out}",
                 sys.executable,
                 __file__,
                 "--child",
-                *(["--skip"] if skip else []),
                 *sys.argv[1:],
             ],
             capture_output=True,
@@ -92,12 +104,12 @@ def _count(skip: bool) -> tuple[int, int]:
             check=False,  # a failure is reported below, with valgrind's output
         )
         units = re.search(r"^units (\d+)$", run.stdout, re.MULTILINE)
-        if run.returncode != 0 or units is None:
+        if run.returncode != 0 or units is None or not os.path.exists(out + ".1"):
             raise SystemExit(f"valgrind run failed:\n{run.stdout}\n{run.stderr[-2000:]}")
-        with open(out) as f:
+        with open(out + ".1") as f:  # the dump at the end marker
             total = re.search(r"^(?:summary|totals): (\d+)", f.read(), re.MULTILINE)
         if total is None:
-            raise SystemExit(f"no instruction total in {out}")
+            raise SystemExit(f"no instruction total in {out}.1")
     return int(units.group(1)), int(total.group(1))
 
 
@@ -107,13 +119,11 @@ def main() -> None:
     parser.add_argument("--scenario", default="sorting")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
-    parser.add_argument("--skip", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         _child(args)
         return
-    counts = {skip: _count(skip) for skip in (True, False)}
-    n, instructions = counts[False][0], counts[False][1] - counts[True][1]
+    n, instructions = _count()
     what = "reference_step" if args.ik else f"physics step ({args.scenario} seed {args.seed})"
     print(f"{instructions:,} instructions over {n} units: {instructions / n:,.0f} per {what}")
 
