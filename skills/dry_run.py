@@ -103,29 +103,30 @@ def dry_run(
     if command is not None:
         ik.restart_from(*command)
     limiter = ik.limiter
-    lag = 0.0
-    rows = np.empty((path_ticks + settle_ticks, ik.n))
-    commands = np.empty((path_ticks, ik.n))
-    velocity = np.empty((path_ticks, ik.n))
+    n = ik.n
+    qpos = ik.config.data.qpos  # the IK's reference (`ik.q` is a copy of it)
+    rows = np.empty((path_ticks + settle_ticks, n))
+    commands = np.empty((path_ticks, n))
+    velocity = np.empty((path_ticks, n))
     end_pos, end_rot = path.sample_so3(path.duration)
     pos_tol, rot_tol = 0.5 * tolerance_m, 0.5 * tolerance_rad
     err_pos = err_rot = math.inf
     still = 0
     count = 0
+    q_ref = qpos[:n].copy()  # the reference where the tick starts: q0, then the last row
     for i in range(path_ticks + settle_ticks):
         if i < path_ticks:
             pos, rot = path.sample_so3(path_time(i, dt, stretch, path.duration))
         else:
             pos, rot = end_pos, end_rot
-        q_ref = ik.q.copy()
         v = ik.reference_step(pos, rot, dt)
-        rows[i] = ik.q
+        rows[i] = qpos[:n]
         count = i + 1
         if i < path_ticks:
             velocity[i] = v
             limiter.step(q_ref, v)  # what `IKSolver.step` hands the controller
             commands[i] = limiter.position
-            lag = max(lag, ik.lag)
+        q_ref = rows[i]
         if i + 1 < path_ticks:
             continue
         err = ik.error
@@ -138,10 +139,14 @@ def dry_run(
             break  # stuck short of the target: a joint limit, the edge of the reach
     ik.reset(q0)
     q_path = rows[:count].copy()
+    on_path = min(count, path_ticks)
+    # the largest lag of the command behind the reference over the path's ticks (what
+    # `ik.lag` reads after each of them), in one pass
+    lag = float(np.max(np.abs(rows[:on_path] - commands[:on_path])))
     torque = (
         (0.0, 0)
         if effort_limit is None
-        else _torque_ratio(ik, commands[: min(count, path_ticks)], q0, dt, effort_limit)
+        else _torque_ratio(ik, commands[:on_path], q0, dt, effort_limit)
     )
     return DryRun(
         q_path=q_path,
@@ -151,7 +156,7 @@ def dry_run(
         residual_m=err_pos,
         residual_rad=err_rot,
         reached=err_pos <= pos_tol and err_rot <= rot_tol,
-        lag_rad=lag,
+        lag_rad=max(0.0, lag),
         torque_ratio=torque,
         sigma_min=_sigma_min(ik, q_path[-1]),
     )
@@ -206,12 +211,13 @@ def _torque_ratio(
     q = np.vstack([q0[None, :n], q_path[:, :n]])
     qd = np.gradient(q, dt, axis=0)
     qdd = np.gradient(qd, dt, axis=0)
-    best, joint = 0.0, 0
+    torque = np.empty((len(q) - 1, n))
     for i in range(1, len(q)):
         data.qpos[:n], data.qvel[:n], data.qacc[:n] = q[i], qd[i], qdd[i]
         mujoco.mj_inverse(model, data)
-        ratio = np.abs(data.qfrc_inverse[:n]) / limit
-        j = int(np.argmax(ratio))
-        if ratio[j] > best:
-            best, joint = float(ratio[j]), j
-    return best, joint
+        torque[i - 1] = data.qfrc_inverse[:n]
+    # the first largest ratio, row by row (the earliest tick, then the lowest joint)
+    ratio = np.abs(torque) / limit
+    at = int(np.argmax(ratio))
+    best = float(ratio.flat[at])
+    return (best, at % n) if best > 0.0 else (0.0, 0)

@@ -90,6 +90,12 @@ class IKSolver:
         from .posture import NullspacePostureTask
         from .whole_body import apply_whole_body_costs
 
+        # the classes `reference_step` tests for on every call, looked up once (a relative
+        # import in the step cost more than the test; mink is imported here, not at this
+        # module's import: start-up, docs/performance.md)
+        self._so3 = mink.SO3
+        self._nullspace = NullspacePostureTask
+
         self.robot = robot
         self.dt = dt
         self.base_pos = np.asarray(base_pos, float).copy()
@@ -270,15 +276,12 @@ class IKSolver:
             The reference's arm joint velocity over the step [rad/s] (also in
             `reference_velocity`). Shape (n,).
         """
-        import mink
         import mujoco
-
-        from .posture import NullspacePostureTask
 
         # the target written in place (what SE3.from_rotation_and_translation + set_target
         # would build and copy): the frame task holds this solver's own SE3
         target = self._target.wxyz_xyz
-        if isinstance(rot, mink.SO3):
+        if isinstance(rot, self._so3):
             target[:4] = rot.wxyz
         else:
             mujoco.mju_mat2Quat(target[:4], np.ascontiguousarray(rot, dtype=float).ravel())
@@ -288,15 +291,15 @@ class IKSolver:
         self._since_reset += dt
         ramp = min(1.0, self._since_reset / POSTURE_RAMP_S)
         smooth = ramp * ramp * (3.0 - 2.0 * ramp)
-        if isinstance(self.posture_task, NullspacePostureTask):
+        if isinstance(self.posture_task, self._nullspace):
             self.posture_task.gain = min(1.0, dt / POSTURE_TIME_CONSTANT_S) * smooth
         v = self._solve(dt)
         # the IK's own reference, open loop (integrate_inplace without the constraint
         # assembly of `Configuration.update`: no task here reads the equality constraints)
-        data = self.config.data
-        mujoco.mj_integratePos(self._model, data.qpos, v, dt)
-        mujoco.mj_kinematics(self._model, data)
-        mujoco.mj_comPos(self._model, data)
+        model, data = self._model, self.config.data
+        mujoco.mj_integratePos(model, data.qpos, v, dt)
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
         self.reference_velocity = v[: self.n]
         self._error = None
         return self.reference_velocity

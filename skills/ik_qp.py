@@ -25,6 +25,8 @@ import daqp
 import mink
 import mujoco
 import numpy as np
+from mink import constants as mink_constants
+from mink.tasks import frame_task as mink_frame_task
 
 from .posture import NullspacePostureTask
 
@@ -88,7 +90,17 @@ class IKProblem:
         """Per damping task: its (constant) e·e of the last write."""
         self._velocity_h: list[tuple[float, bytes] | None] = [None] * len(self.limits)
         """Per velocity limit: the (dt, limit bits) its rows of h were last written for."""
+        self._ones = [np.ones_like(task.cost).tobytes() for task in self.tasks]
+        """Per task: the bits of a cost of all ones (its rows are then not multiplied)."""
+        self._jacobian = [np.empty((rows.stop - rows.start, nv)) for rows in self.rows]
+        """Per task: its Jacobian before the cost (used where the cost is not all ones)."""
+        self._H = np.empty((nv, nv))
+        self._c = np.empty(nv)
+        self._H_diagonal = self._H.reshape(-1)[:: nv + 1]
+        """A view of H's diagonal."""
         self._diff = np.empty(nv)
+        self._posture_term = np.empty(nv)
+        self._frame = _FrameRows(configuration, self.tasks)
         self._dq_max = np.empty(nv)
         self._dq_min = np.empty(nv)
         self._eye = np.eye(nv)
@@ -97,6 +109,13 @@ class IKProblem:
         """The limits' inequality matrix (constant: the limits are boxes). Shape (m, nv)."""
         m = 0 if self.G is None else self.G.shape[0]
         self._h = np.empty(m)
+        self._h_rows: list[tuple[np.ndarray, np.ndarray]] = []
+        """Per limit: its views of h's upper and lower rows."""
+        at = 0
+        for limit in self.limits:
+            n = len(limit.indices)
+            self._h_rows.append((self._h[at : at + n], self._h[at + n : at + 2 * n]))
+            at += 2 * n
         self._lower = np.full(m, _NO_LOWER)
         self._sense = np.zeros(m, dtype=c_int)
 
@@ -172,20 +191,34 @@ class IKProblem:
                 np.multiply(task.cost, -task.gain * error, out=e_rows)
                 mu_total += task.lm_damping * float(e_rows @ e_rows)
                 continue
+            # a cost of exactly 1 (the frame task's, the nullspace posture's) multiplies by 1:
+            # the Jacobian is then written straight into its rows of W, and cost x (-gain e)
+            # is -gain e (the same numbers, two numpy calls fewer)
+            unit = task.cost.tobytes() == self._ones[i]
+            jacobian = w_rows if unit else self._jacobian[i]
             if kind == _FRAME:
-                error, jacobian = task._error_and_jacobian(config)
+                error = self._frame.error_and_jacobian(task, jacobian)
                 frame_jacobian = jacobian
             else:  # _NULLSPACE: its frame task comes first (`supports`)
-                jacobian = task.projector_from(frame_jacobian)
-                error = jacobian @ task.raw_error(config)
-            np.multiply(task.cost, -task.gain * error, out=e_rows)
-            np.multiply(task.cost[:, None], jacobian, out=w_rows)
-            mu_total += task.lm_damping * float(e_rows @ e_rows)
-        H = W.T @ W
-        c = -(e @ W)
-        # H's diagonal as a strided view of the fresh (contiguous) product: one ufunc call,
-        # where `H.flat[...] +=` goes through numpy's flat iterator (the same additions)
-        H.reshape(-1)[:: self.model.nv + 1] += self.damping + mu_total
+                task.projector_from(frame_jacobian, out=jacobian)
+                error = np.dot(jacobian, task.raw_error_view(config), out=self._posture_term)
+            if unit:
+                np.multiply(-task.gain, error, out=e_rows)
+            else:
+                np.multiply(task.cost, -task.gain * error, out=e_rows)
+                np.multiply(task.cost[:, None], jacobian, out=w_rows)
+            if task.lm_damping != 0.0:  # (0 x e·e adds nothing to mu)
+                mu_total += task.lm_damping * float(np.dot(e_rows, e_rows))
+        # H = WᵀW and c = -(eW) into arrays kept here (the same products), H's diagonal a
+        # strided view of it: one ufunc call, where `H.flat[...] +=` goes through numpy's
+        # flat iterator (the same additions). `np.dot`, not `@`: the same BLAS call on 2-D
+        # arrays (the same bits, tests/test_ik_qp.py) without the generalized ufunc's
+        # set-up, ~0.5 us a call
+        H, c = self._H, self._c
+        np.dot(W.T, W, out=H)
+        np.dot(e, W, out=c)
+        np.negative(c, out=c)
+        self._H_diagonal += self.damping + mu_total
         return H, c
 
     def _zero_error(self) -> np.ndarray:
@@ -207,12 +240,9 @@ class IKProblem:
 
         A velocity limit's rows depend on `dt` only: written again when `dt` or the limit
         changed (the dry runs of time_scaling.py step at another dt than the control tick)."""
-        h = self._h
         qpos = self.configuration.data.qpos
-        at = 0
         for i, limit in enumerate(self.limits):
-            n = len(limit.indices)
-            upper, lower = h[at : at + n], h[at + n : at + 2 * n]
+            upper, lower = self._h_rows[i]
             if type(limit) is mink.ConfigurationLimit:  # gain (q_max - q), gain (q - q_min)
                 mujoco.mj_differentiatePos(self.model, self._dq_max, 1.0, qpos, limit.upper)
                 mujoco.mj_differentiatePos(self.model, self._dq_min, 1.0, limit.lower, qpos)
@@ -226,8 +256,58 @@ class IKProblem:
                     self._velocity_h[i] = key
                     np.multiply(dt, limit.limit, out=upper)
                     lower[:] = upper
-            at += 2 * n
-        return h
+        return self._h
+
+
+class _FrameRows:
+    """A frame task's error and Jacobian, what `FrameTask._error_and_jacobian` computes with
+    mink's compiled Lie-group operations, into arrays kept here: the frame's id and MuJoCo's
+    Jacobian function looked up once, the Jacobian's two rotations written in place (the same
+    products, so the same bits: tests/test_ik_qp.py).
+
+    Without mink's compiled operations (`MINK_DISABLE_NATIVE`), mink's own method does it."""
+
+    def __init__(self, configuration: mink.Configuration, tasks: Sequence[mink.Task]) -> None:
+        self.configuration = configuration
+        frames = [t for t in tasks if isinstance(t, mink.FrameTask)]
+        self.key: tuple | None = None
+        if frames and mink_frame_task._native is not None:
+            task = frames[0]
+            kind = task.frame_type
+            self.key = (task.frame_name, kind)
+            self.id = configuration._resolve_frame_id(task.frame_name, kind)
+            self.jac_function = mink_constants.FRAME_TO_JAC_FUNC[kind]
+            self.pos_field = mink_constants.FRAME_TO_POS_ATTR[kind]
+            self.xmat_field = mink_constants.FRAME_TO_XMAT_ATTR[kind]
+        nv = configuration.model.nv
+        self.world = np.empty((6, nv))
+        """MuJoCo's frame Jacobian (world-aligned). Shape (6, nv)."""
+        self.body = np.empty((6, nv))
+        """The same, in the frame. Shape (6, nv)."""
+
+    def error_and_jacobian(self, task: mink.FrameTask, out: np.ndarray) -> np.ndarray:
+        """`task._error_and_jacobian(configuration)`: returns the frame error (shape (6,)),
+        writes the task Jacobian into `out` (shape (6, nv))."""
+        native = mink_frame_task._native
+        if self.key != (task.frame_name, task.frame_type) or native is None:
+            error, out[:] = task._error_and_jacobian(self.configuration)
+            return error
+        if task.transform_target_to_world is None:
+            raise mink.TargetNotSet(type(task).__name__)
+        config = self.configuration
+        model, data = config.model, config.data
+        world = self.world
+        self.jac_function(model, data, world[:3], world[3:], self.id)
+        xmat = getattr(data, self.xmat_field)[self.id]
+        # Configuration.get_frame_jacobian: the world-aligned Jacobian rotated into the frame
+        np.dot(native.se3_rotation_adjoint_from_xmat(xmat), world, out=self.body)
+        frame = native.xmat_xpos_to_wxyz_xyz(xmat, getattr(data, self.pos_field)[self.id])
+        target = task.transform_target_to_world.wxyz_xyz
+        error = native.se3_rminus(target, frame)
+        jlog = native.se3_jlog(native.se3_inverse_multiply(target, frame))
+        np.negative(jlog, out=jlog)  # -jlog @ jac, as mink: the negation first
+        np.dot(jlog, self.body, out=out)
+        return error
 
 
 _FRAME, _NULLSPACE, _POSTURE = "frame", "nullspace", "posture"

@@ -318,6 +318,57 @@ def test_following_a_dry_run_commands_what_solving_live_commands_bit_for_bit():
         assert np.array_equal(a, b) and np.array_equal(replayed.error, live.error)
 
 
+def test_a_dry_runs_lag_and_torque_are_its_ticks_one_by_one_bit_for_bit():
+    """The dry run takes the lag's and the torque's maxima over all its rows at once: the same
+    numbers as reading `ik.lag` after every tick and running `mj_inverse` tick by tick (the
+    first largest ratio, in tick then joint order)."""
+    import mujoco
+    from orchestrator.robots import get_robot
+    from orchestrator.skills.dry_run import dry_run, path_time
+    from orchestrator.skills.ik import IKSolver
+    from orchestrator.skills.targets import rot_down
+    from orchestrator.skills.trajectory import CartesianLine
+
+    from orchestrator.world.world import robot_only_model
+
+    robot = get_robot("panda")
+    model = robot_only_model(robot)
+    ik = IKSolver(robot, model, 0.01, np.zeros(3))
+    q0 = np.array(robot.home) + 0.05
+    command = (np.array(robot.home), np.full(7, 0.2))
+    ik.reset(q0)
+    start = ik.tcp_pose()[0]
+    # brisk (lagging) and gentle: the lag and the torque peak at different ticks
+    for max_speed, max_accel in ((1.5, 12.0), (0.3, 1.0)):
+        line = CartesianLine(
+            start, rot_down(0.0), [0.35, 0.3, 0.3], rot_down(0.9), max_speed, max_accel, 4.0, 30.0
+        )
+        limit = np.array([87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0])
+        run = dry_run(ik, line, 1.0, q0, 1.0, 0.001, 0.01, command, limit)
+        ik.reset(q0)
+        ik.restart_from(*command)
+        lag, commands = 0.0, []
+        for k in range(run.path_ticks):
+            ik.step(*line.sample_so3(path_time(k, 0.01, 1.0, line.duration)))
+            lag = max(lag, ik.lag)
+            commands.append(ik.command.copy())
+        assert run.lag_rad == lag
+        data = mujoco.MjData(model)
+        q = np.vstack([q0[None], commands])
+        qd = np.gradient(q, 0.01, axis=0)
+        qdd = np.gradient(qd, 0.01, axis=0)
+        best, joint = 0.0, 0
+        for i in range(1, len(q)):
+            data.qpos[:7], data.qvel[:7], data.qacc[:7] = q[i], qd[i], qdd[i]
+            mujoco.mj_inverse(model, data)
+            ratio = np.abs(data.qfrc_inverse[:7]) / limit
+            j = int(np.argmax(ratio))
+            if ratio[j] > best:
+                best, joint = float(ratio[j]), j
+        assert run.torque_ratio == (best, joint)
+        assert lag > 0.0 and best > 0.0
+
+
 def test_the_time_limit_says_what_the_running_move_was_waiting_for(one_move):
     result = run_episode(one_move("physics.time_limit_s=0.3"), 0)
     assert result.outcome == "failed" and result.metrics["time_limit_reached"]

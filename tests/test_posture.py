@@ -6,6 +6,7 @@ import numpy as np
 from orchestrator.robots import get_robot
 from orchestrator.skills.ik import IKSolver
 from orchestrator.skills.posture import NullspacePostureTask
+from scipy.linalg.lapack import dpotrf, dtrtri
 
 from orchestrator.world.world import robot_only_model
 
@@ -35,6 +36,48 @@ def test_projector_equals_the_pseudo_inverse_one_on_random_configurations():
         )
     assert worst < 1e-9, f"max |N - N_pinv| = {worst:.2e}"
     assert fast > 1900  # the inverse, not the SVD, did nearly all of them
+
+
+def _plain_projector(task: NullspacePostureTask, jac: np.ndarray) -> np.ndarray:
+    """`projector_from` as plain expressions (`@`, `.sum()`, fresh arrays)."""
+    gram = jac @ jac.T
+    factor, info = dpotrf(gram, lower=1, clean=1)
+    if info == 0:
+        inverse, info = dtrtri(factor, lower=1)
+        if info == 0 and (inverse * inverse).sum() * gram.trace() * 1e-6 <= 1.0:
+            y = inverse @ jac
+            return np.eye(jac.shape[1]) - y.T @ y
+    return np.eye(jac.shape[1]) - np.linalg.pinv(jac, rcond=1e-3) @ jac
+
+
+def test_projector_is_its_plain_expressions_bit_for_bit():
+    """`projector_from` (np.dot into a kept array, np.add.reduce) computes what the plain
+    expressions compute, to the last bit, with and without `out`: scaled Jacobians of random
+    configurations, well inside and near the cut (both forms used)."""
+    ik = _panda_ik()
+    task = ik.posture_task
+    assert isinstance(task, NullspacePostureTask)
+    model = ik.config.model
+    rng = np.random.default_rng(11)
+    out = np.empty((model.nv, model.nv))
+    calls = {"pinv": 0}
+    pinv = task.pinv_projector
+
+    def counting(jac, out=None):
+        calls["pinv"] += 1
+        return pinv(jac, out)
+
+    task.pinv_projector = counting  # type: ignore[method-assign]
+    for trial in range(1500):
+        ik.config.update(rng.uniform(model.jnt_range[:, 0], model.jnt_range[:, 1]))
+        jac = ik.frame_task.compute_jacobian(ik.config) * 10 ** rng.uniform(-2, 1)
+        if trial % 3 == 0:  # the last joint column scaled towards 0: near the cut
+            jac[:, 6] *= 10 ** rng.uniform(-5, 0)
+        plain = _plain_projector(task, jac)
+        assert np.array_equal(task.projector_from(jac), plain), trial
+        assert task.projector_from(jac, out=out) is out
+        assert np.array_equal(out, plain), trial
+    assert 0 < calls["pinv"] < 1000  # both forms
 
 
 def test_projector_near_and_at_a_singularity_stays_a_projector():
@@ -72,9 +115,9 @@ def test_ik_along_a_stretch_to_the_edge_of_reach_stays_smooth():
     calls = {"pinv": 0}
     pinv = task.pinv_projector
 
-    def counting(jac):
+    def counting(jac, out=None):
         calls["pinv"] += 1
-        return pinv(jac)
+        return pinv(jac, out)
 
     task.pinv_projector = counting
     p0, rot = ik.tcp_pose()
