@@ -25,8 +25,6 @@ import daqp
 import mink
 import mujoco
 import numpy as np
-from mink import constants as mink_constants
-from mink.tasks import frame_task as mink_frame_task
 
 from .posture import NullspacePostureTask
 
@@ -100,7 +98,6 @@ class IKProblem:
         """A view of H's diagonal."""
         self._diff = np.empty(nv)
         self._posture_term = np.empty(nv)
-        self._frame = _FrameRows(configuration, self.tasks)
         self._dq_max = np.empty(nv)
         self._dq_min = np.empty(nv)
         self._eye = np.eye(nv)
@@ -197,7 +194,8 @@ class IKProblem:
             unit = task.cost.tobytes() == self._ones[i]
             jacobian = w_rows if unit else self._jacobian[i]
             if kind == _FRAME:
-                error = self._frame.error_and_jacobian(task, jacobian)
+                error, frame = task._error_and_jacobian(config)
+                jacobian[:] = frame
                 frame_jacobian = jacobian
             else:  # _NULLSPACE: its frame task comes first (`supports`)
                 task.projector_from(frame_jacobian, out=jacobian)
@@ -257,57 +255,6 @@ class IKProblem:
                     np.multiply(dt, limit.limit, out=upper)
                     lower[:] = upper
         return self._h
-
-
-class _FrameRows:
-    """A frame task's error and Jacobian, what `FrameTask._error_and_jacobian` computes with
-    mink's compiled Lie-group operations, into arrays kept here: the frame's id and MuJoCo's
-    Jacobian function looked up once, the Jacobian's two rotations written in place (the same
-    products, so the same bits: tests/test_ik_qp.py).
-
-    Without mink's compiled operations (`MINK_DISABLE_NATIVE`), mink's own method does it."""
-
-    def __init__(self, configuration: mink.Configuration, tasks: Sequence[mink.Task]) -> None:
-        self.configuration = configuration
-        frames = [t for t in tasks if isinstance(t, mink.FrameTask)]
-        self.key: tuple | None = None
-        if frames and mink_frame_task._native is not None:
-            task = frames[0]
-            kind = task.frame_type
-            self.key = (task.frame_name, kind)
-            self.id = configuration._resolve_frame_id(task.frame_name, kind)
-            self.jac_function = mink_constants.FRAME_TO_JAC_FUNC[kind]
-            self.pos_field = mink_constants.FRAME_TO_POS_ATTR[kind]
-            self.xmat_field = mink_constants.FRAME_TO_XMAT_ATTR[kind]
-        nv = configuration.model.nv
-        self.world = np.empty((6, nv))
-        """MuJoCo's frame Jacobian (world-aligned). Shape (6, nv)."""
-        self.body = np.empty((6, nv))
-        """The same, in the frame. Shape (6, nv)."""
-
-    def error_and_jacobian(self, task: mink.FrameTask, out: np.ndarray) -> np.ndarray:
-        """`task._error_and_jacobian(configuration)`: returns the frame error (shape (6,)),
-        writes the task Jacobian into `out` (shape (6, nv))."""
-        native = mink_frame_task._native
-        if self.key != (task.frame_name, task.frame_type) or native is None:
-            error, out[:] = task._error_and_jacobian(self.configuration)
-            return error
-        if task.transform_target_to_world is None:
-            raise mink.TargetNotSet(type(task).__name__)
-        config = self.configuration
-        model, data = config.model, config.data
-        world = self.world
-        self.jac_function(model, data, world[:3], world[3:], self.id)
-        xmat = getattr(data, self.xmat_field)[self.id]
-        # Configuration.get_frame_jacobian: the world-aligned Jacobian rotated into the frame
-        np.dot(native.se3_rotation_adjoint_from_xmat(xmat), world, out=self.body)
-        frame = native.xmat_xpos_to_wxyz_xyz(xmat, getattr(data, self.pos_field)[self.id])
-        target = task.transform_target_to_world.wxyz_xyz
-        error = native.se3_rminus(target, frame)
-        jlog = native.se3_jlog(native.se3_inverse_multiply(target, frame))
-        np.negative(jlog, out=jlog)  # -jlog @ jac, as mink: the negation first
-        np.dot(jlog, self.body, out=out)
-        return error
 
 
 _FRAME, _NULLSPACE, _POSTURE = "frame", "nullspace", "posture"
