@@ -92,9 +92,7 @@ def test_collision_allows_the_fingers_on_free_objects():
     mujoco.mj_forward(ctx.model, ctx.data)
     m, d = ctx.model, ctx.data
     bodies = {m.body(f).id for f in ctx.world.robot.finger_bodies}
-    pairs = {
-        frozenset(int(m.geom_bodyid[g]) for g in d.contact.geom[i]) for i in range(d.ncon)
-    }
+    pairs = {frozenset(int(m.geom_bodyid[g]) for g in d.contact.geom[i]) for i in range(d.ncon)}
     assert any(frozenset((f, m.body("cube").id)) in pairs for f in bodies)  # the contact...
     # ...always allowed, so no sensor counts it (each would cost mj_step a walk of the list)
     assert not [s for s in ctx.world.contact_sensors if s.partner == "cube"]
