@@ -266,33 +266,45 @@ def run(name: str, seeds: range, overrides: list[str]) -> list[dict[str, Any]]:
     return rows
 
 
+FIGURES = [
+    "max_speed_ratio",
+    "max_accel_ratio",
+    "max_accel_ratio_outside_contact",
+    "accel_steps",
+    "accel_steps_outside_contact",
+    "max_torque_ratio",
+    "saturated_steps",
+    "saturated_steps_outside_contact",
+    "finger_speed_mps",
+    "finger_penetration_mm",
+    "penetration_rest_mm",
+    "penetration_mm",
+    "penetration_after_contact_mm",
+    "max_wrist_force_n",
+]
+"""The probe's figures of a row, in the order the tables print them."""
+
+
+def metric_keys(rows: list[dict[str, Any]]) -> list[str]:
+    """The numeric run metrics of `rows` (not flags, not the tick count or abort time)."""
+    return sorted(
+        {
+            k
+            for r in rows
+            for k, v in r["metrics"].items()
+            if isinstance(v, int | float) and not isinstance(v, bool)
+        }
+        - {"control_ticks", "abort_t"}
+    )
+
+
 def summarize(rows: list[dict[str, Any]]) -> None:
     name = rows[0]["scenario"]
     ok = sum(r["outcome"] == "succeeded" for r in rows)
     aborted = sum(r["outcome"] == "aborted" for r in rows)
     print(f"\n## {name}: {len(rows)} seeds, {ok} succeeded, {aborted} aborted")
     print("| figure | worst | p99 | p50 | limit |\n|---|---|---|---|---|")
-    keys = [
-        "max_speed_ratio",
-        "max_accel_ratio",
-        "max_accel_ratio_outside_contact",
-        "accel_steps",
-        "accel_steps_outside_contact",
-        "max_torque_ratio",
-        "saturated_steps",
-        "saturated_steps_outside_contact",
-        "finger_speed_mps",
-        "finger_penetration_mm",
-        "penetration_rest_mm",
-        "penetration_mm",
-        "penetration_after_contact_mm",
-        "max_wrist_force_n",
-    ]
-    metric_keys = sorted(
-        {k for r in rows for k, v in r["metrics"].items() if isinstance(v, int | float)}
-        - {"control_ticks", "abort_t"}
-    )
-    for k in keys:
+    for k in FIGURES:
         vals = np.array([r[k] for r in rows], float)
         limit = LIMITS.get(k)
         over = limit is not None and vals.max() > limit * (1.0 + 1e-9)
@@ -301,7 +313,7 @@ def summarize(rows: list[dict[str, Any]]) -> None:
             f"| {k} | {vals.max():.4g} | {np.percentile(vals, 99):.4g} | {np.median(vals):.4g}"
             f" | {mark} |"
         )
-    for k in metric_keys:
+    for k in metric_keys(rows):
         vals = np.array([r["metrics"][k] for r in rows if r["metrics"].get(k) is not None], float)
         if len(vals):
             print(

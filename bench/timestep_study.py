@@ -30,7 +30,7 @@ import time
 from typing import Any
 
 import numpy as np
-from physical_honesty import LIMITS, run
+from physical_honesty import FIGURES, LIMITS, metric_keys, run
 
 from orchestrator.engine.runner import run_episode
 from orchestrator.language.load import load_scenario
@@ -47,22 +47,6 @@ STUDY = {
     "surgical_complication": (5, 1000),
 }
 """Scenario -> (seeds, first seed) studied by default (surgical's seeds as its docs use)."""
-FIGURES = [
-    "max_accel_ratio",
-    "max_accel_ratio_outside_contact",
-    "accel_steps",
-    "max_speed_ratio",
-    "max_torque_ratio",
-    "saturated_steps",
-    "saturated_steps_outside_contact",
-    "finger_speed_mps",
-    "finger_penetration_mm",
-    "penetration_rest_mm",
-    "penetration_mm",
-    "penetration_after_contact_mm",
-    "max_wrist_force_n",
-]
-"""The probe's figures compared (bench/physical_honesty.py's rows)."""
 
 
 def _control_hz(name: str, dt: float, extra: list[str]) -> float:
@@ -124,16 +108,7 @@ def table(
             cells.append(f"{v.max():.4g} / {np.median(v):.4g}")
         limit = LIMITS.get(k)
         line(f"{k} (worst / p50)", cells, "" if limit is None else f"{limit:g}")
-    keys = sorted(
-        {
-            k
-            for dt in dts
-            for r in rows[dt]
-            for k, v in r["metrics"].items()
-            if isinstance(v, int | float) and not isinstance(v, bool)
-        }
-        - {"control_ticks", "abort_t"}
-    )
+    keys = metric_keys([r for dt in dts for r in rows[dt]])
     for k in keys:
         cells = []
         for dt in dts:
