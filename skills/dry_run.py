@@ -156,7 +156,7 @@ def dry_run(
         residual_m=err_pos,
         residual_rad=err_rot,
         reached=err_pos <= pos_tol and err_rot <= rot_tol,
-        lag_rad=max(0.0, lag),
+        lag_rad=lag,
         torque_ratio=torque,
         sigma_min=_sigma_min(ik, q_path[-1]),
     )
