@@ -3,15 +3,14 @@
 # No `from __future__ import annotations` in this module: typer reads the parameter annotations
 # of every command each time the CLI starts (even for `--version`); as strings, each would be
 # compiled and evaluated: 15 % of `--version`'s instructions, 5 % of `validate`'s.
+import functools
 import math
 import os
 import sys
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal, cast
 
 import typer
-from rich.console import Console
-from rich.markup import escape
 
 from .exceptions import ConfigError, OrchestratorError
 
@@ -24,15 +23,54 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
+if TYPE_CHECKING:
+    from rich.console import Console
+
 # Whatever a user file holds can reach these consoles (state names, messages, paths): no
 # emoji codes (`:100:` in `file:100:7` would print as an emoji), no highlighting, and every
 # user string passes `markup=False` or `escape()`.
 _WIDE = 1000
 """Console width when the output is not a terminal: a pipe or a file gets unwrapped lines."""
-err = Console(
-    stderr=True, highlight=False, emoji=False, width=None if sys.stderr.isatty() else _WIDE
-)
-out = Console(highlight=False, emoji=False, width=None if sys.stdout.isatty() else _WIDE)
+
+
+class _LazyConsole:
+    """A rich `Console`, made when first used: `--version` and a clean `validate` print plain
+    lines (`_plain`) and do not import rich (its console and markup are ~8 % of `validate`'s
+    instructions)."""
+
+    def __init__(self, stderr: bool) -> None:
+        self._stderr = stderr
+
+    @functools.cached_property
+    def _console(self) -> "Console":
+        from rich.console import Console
+
+        tty = (sys.stderr if self._stderr else sys.stdout).isatty()
+        return Console(
+            stderr=self._stderr, highlight=False, emoji=False, width=None if tty else _WIDE
+        )
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._console, name)
+
+
+err = cast("Console", _LazyConsole(stderr=True))
+out = cast("Console", _LazyConsole(stderr=False))
+_CONTROL = {c: f"\\x{c:02x}" for c in (*range(0x20), 0x7F, *range(0x80, 0xA0)) if c != 0x09}
+"""Control characters, written as escapes by `_plain` (a file name cannot move the cursor)."""
+
+
+def _plain(line: str) -> None:
+    """One line on stdout as it is, control characters escaped (no rich needed)."""
+    sys.stdout.write(line.translate(_CONTROL) + "\n")
+
+
+def escape(text: str) -> str:
+    """`text` with rich's markup escaped (rich.markup.escape, imported when first needed)."""
+    from rich.markup import escape as rich_escape
+
+    return rich_escape(text)
+
 
 EXIT_INVALID = 2
 EXIT_BREAK = 6
@@ -133,7 +171,7 @@ def _version(value: bool) -> None:
 
         # which path runs the per-step arithmetic: the compiled extension or its Python twin
         step = "compiled" if native() is not None else "pure Python"
-        out.print(f"orchestrator {version('embodied-orchestrator')} (physics step: {step})")
+        _plain(f"orchestrator {version('embodied-orchestrator')} (physics step: {step})")
         raise typer.Exit()
 
 
@@ -680,7 +718,7 @@ def validate(
     if problems:
         _fail_config(ConfigError(problems))
     for kind, name in checked:
-        out.print(f"ok  {kind:8} {name}", markup=False)
+        _plain(f"ok  {kind:8} {name}")
 
 
 @app.command()
@@ -763,7 +801,7 @@ def list_(
     from .guards import GUARDS
     from .language.bundled import bundled_names
     from .robots import ROBOTS
-    from .skills import SKILLS
+    from .skills import all_skills
     from .skills.plugins import skill_origin
     from .success import CHECKS, check_origin
 
@@ -778,8 +816,9 @@ def list_(
         out.print("[bold]machines[/]:  " + ", ".join(bundled_names("machines")))
     if "skills" in show:
         table = Table("skill", "outcomes", "description", box=None, pad_edge=False)
-        for name in sorted(SKILLS):
-            cls = SKILLS[name]
+        skills_by_name = all_skills()
+        for name in sorted(skills_by_name):
+            cls = skills_by_name[name]
             origin = skill_origin(cls)
             doc = _first_sentence(cls) + ("" if origin == "bundled" else f" ({origin})")
             table.add_row(name, ", ".join(cls.outcomes), doc)
@@ -825,7 +864,7 @@ def show(
     --set takes, success checks) or one machine (its graph in Mermaid)."""
     from .guards import GUARDS
     from .language import reference
-    from .skills import SKILLS
+    from .skills import all_skills
     from .success import CHECKS
 
     if kind not in SHOWS:
@@ -833,7 +872,7 @@ def show(
         raise typer.Exit(EXIT_INVALID)
     _use_skills(skills)
     if kind in ("skill", "check", "guard"):
-        table: dict = {"skill": SKILLS, "check": CHECKS, "guard": GUARDS}[kind]
+        table: dict = {"skill": all_skills(), "check": CHECKS, "guard": GUARDS}[kind]
         if name not in table:
             err.print(f"unknown {kind} {name!r} (valid: {', '.join(sorted(table))})", markup=False)
             raise typer.Exit(EXIT_INVALID)

@@ -11,7 +11,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from ..skills import SKILLS, skill_names
+from ..skills import find_skill
 from .loading import MachineNode
 from .refs import parse_ref
 
@@ -22,7 +22,6 @@ def goal_keys(machine: MachineNode) -> set[str]:
     """Blackboard keys the machine moves to: those a skill's target parameter (a `target`,
     e.g. `move`'s, or a `via` point's) reads as `$key` anywhere in the tree. Offsets and
     heights are not goals."""
-    skill_names()  # discover the skills
     keys: set[str] = set()
 
     def scan(model, params: dict) -> None:
@@ -44,11 +43,11 @@ def goal_keys(machine: MachineNode) -> set[str]:
 
     for node in machine.nodes():
         for st in node.states.values():
-            cls = SKILLS.get(st.skill or "")
+            cls = find_skill(st.skill or "")
             if cls is not None:
                 scan(cls.Params, st.with_)
         for _, _, br in node.skill_branches():
-            cls = SKILLS.get(br.skill or "")
+            cls = find_skill(br.skill or "")
             if cls is not None:
                 scan(cls.Params, br.with_)
     return keys

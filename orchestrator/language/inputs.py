@@ -20,7 +20,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from ..skills import SKILLS, skill_names
+from ..skills import find_skill
 from .diagnostics import Diagnostic
 from .goals import goal_keys, item_model
 from .loading import MachineNode
@@ -100,10 +100,9 @@ def pose_uses(machine: MachineNode) -> list[PoseUse]:
     """Every place in the tree where values become a position: each skill parameter marked as
     a target (`scene_ref: target`, with the `offset` beside it) or a position hint
     (`pose_role: hint`, with its radius), in `via` lists too."""
-    skill_names()  # discover the skills
     out: list[PoseUse] = []
     for where, skill, params in _skill_states(machine):
-        cls = SKILLS.get(skill)
+        cls = find_skill(skill)
         if cls is not None:
             out += _scan(cls.Params, params, where)
     return out

@@ -12,7 +12,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from ..skills import SKILLS
+from ..skills import find_skill
 from ..world.pose import Pose
 from .diagnostics import Diagnostic, format_path
 from .loading import MachineNode
@@ -58,7 +58,7 @@ def check_values(
     """(key, its value, the problem) -> the parameters that cannot take the key's value."""
     for sub in node.nodes():
         for at, skill, params in _skill_params(sub):
-            cls = SKILLS.get(skill)
+            cls = find_skill(skill)
             if cls is None:
                 continue
             known = {}

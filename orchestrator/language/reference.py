@@ -18,7 +18,7 @@ from pydantic_core import PydanticUndefined
 
 from ..guards import bundled_guards
 from ..guards.base import Guard
-from ..skills import SKILLS, Skill, bundled_skill_names
+from ..skills import Skill, bundled_skill_names, get_skill
 from ..success import CHECKS, SuccessCheck, bundled_check_kinds
 from ..success.params import CheckParams
 from .scenario import Scenario
@@ -235,7 +235,7 @@ def skills_reference() -> str:
         "",
     ]
     for name in bundled_skill_names():
-        lines.append(skill_markdown(SKILLS[name]))
+        lines.append(skill_markdown(get_skill(name)))
     lines += [
         "# Guards",
         "",

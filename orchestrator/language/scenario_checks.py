@@ -8,7 +8,7 @@ import numpy as np
 
 from ..guards import GUARDS
 from ..robots import ROBOTS
-from ..skills import SKILLS, skill_names
+from ..skills import find_skill
 from .diagnostics import Diagnostic
 from .faults import HELD
 from .goals import goal_keys, item_model  # goal_keys: re-exported
@@ -56,7 +56,6 @@ def check_scene_names(
     or through a `$key` whose value is known before the run — must name ones this scenario has.
     """
 
-    skill_names()  # discover the skills
     objects = object_names(scenario)
     names = {
         "object": ("scene object", objects),
@@ -114,12 +113,12 @@ def check_scene_names(
         for n, st in node.states.items():
             at = (*node.at, "states", n)
             out += guards(node.source, (*at, "guards"), st.guards)
-            cls = SKILLS.get(st.skill or "")
+            cls = find_skill(st.skill or "")
             if cls is not None:
                 out += check(node.source, (*at, "with"), cls.Params, st.with_)
                 out += _missing_scene(node.source, (*at, "skill"), cls, scenario)
         for s, b, br in node.skill_branches():
-            cls = SKILLS.get(br.skill or "")
+            cls = find_skill(br.skill or "")
             if cls is not None:
                 at = (*node.at, "states", s, "parallel", b, "with")
                 out += check(node.source, at, cls.Params, br.with_)

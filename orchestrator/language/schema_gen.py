@@ -14,7 +14,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from ..guards import GUARDS, bundled_guards
-from ..skills import SKILLS, bundled_skill_names, skill_names
+from ..skills import bundled_skill_names, get_skill, skill_names
 from ..success import CHECKS, bundled_check_kinds, check_kinds
 from .machine import MachineSpec
 from .scenario import Scenario
@@ -87,7 +87,7 @@ def _skill_conditions(defs: dict[str, Any], names: list[str]) -> list[dict]:
     conditions = []
     for name in names:
         prefix = f"skill_{name}_"
-        params = _allow_refs(_model_schema(SKILLS[name].Params, defs, prefix=prefix))
+        params = _allow_refs(_model_schema(get_skill(name).Params, defs, prefix=prefix))
         for sub in [d for d in defs if d.startswith(prefix)]:  # nested models, e.g. via points
             defs[sub] = _allow_refs(defs[sub])
         conditions.append(

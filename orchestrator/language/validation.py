@@ -9,7 +9,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from ..guards import GUARDS
-from ..skills import SKILLS, get_skill, skill_names
+from ..skills import find_skill, get_skill, skill_names
 from .blackboard_types import all_finite, check_type, sample_value
 from .diagnostics import Diagnostic, did_you_mean
 from .loading import MachineNode, initial_values
@@ -44,7 +44,7 @@ _EVENT_NAME = re.compile(r"[a-z][a-z0-9_]*")
 
 def skill_writes(skill: str, params: dict) -> dict[str, str]:
     """Blackboard key -> type that a skill state writes (from its `writes` declaration)."""
-    cls = SKILLS.get(skill)
+    cls = find_skill(skill)
     if cls is None:
         return {}
     writes = cls.writes if isinstance(cls.writes, dict) else dict.fromkeys(cls.writes, "any")
@@ -60,7 +60,8 @@ def branch_outcomes(branch: MachineNode | BranchSpec) -> list[str]:
     """Outcomes a parallel branch can end with; the first one is its success."""
     if isinstance(branch, MachineNode):
         return branch.outcomes()
-    out = list(SKILLS[branch.skill].outcomes) if branch.skill in SKILLS else []
+    cls = find_skill(branch.skill or "")
+    out = list(cls.outcomes) if cls is not None else []
     if branch.timeout is not None and "timeout" not in out:
         out.append("timeout")
     return out
@@ -70,7 +71,8 @@ def state_outcomes(node: MachineNode, name: str) -> list[str]:
     """Outcomes the state `name` of `node` can end with; the first one is its success."""
     st = node.states[name]
     if st.skill is not None:
-        out = list(SKILLS[st.skill].outcomes) if st.skill in SKILLS else []
+        cls = find_skill(st.skill)
+        out = list(cls.outcomes) if cls is not None else []
     elif st.parallel is not None:
         if st.rule == "first":
             out = []
@@ -122,13 +124,11 @@ def skill_writes_of(sub: MachineNode) -> dict[str, str]:
 
 def blackboard_keys(node: MachineNode) -> set[str]:
     """Keys declared anywhere in the tree or written by one of its skills."""
-    skill_names()
     return set(blackboard_types(node))
 
 
 def validate_machine(node: MachineNode, extra_keys: Iterable[str] = ()) -> list[Diagnostic]:
     """Every static problem of `node` and its nested machines."""
-    skill_names()  # discover skills
     types = blackboard_types(node)
     for key in extra_keys:
         types.setdefault(key, "any")
@@ -266,7 +266,7 @@ def _check_state(
     out: list[Diagnostic] = []
     known = True
     if st.skill is not None:
-        if st.skill not in SKILLS:
+        if find_skill(st.skill) is None:
             known = False
             out.append(_unknown_skill(src, (*sat, "skill"), st.skill))
         else:
@@ -275,7 +275,7 @@ def _check_state(
         for bname, branch in node.branches.get(name, {}).items():
             if isinstance(branch, BranchSpec) and branch.skill is not None:
                 bat = (*sat, "parallel", bname)
-                if branch.skill not in SKILLS:
+                if find_skill(branch.skill) is None:
                     known = False
                     out.append(_unknown_skill(src, (*bat, "skill"), branch.skill))
                 else:
@@ -384,7 +384,7 @@ def _unknown_state(src: SourceMap, at: tuple, name: str, names: tuple[str, ...])
 
 
 def _unknown_skill(src: SourceMap, at: tuple, name: str) -> Diagnostic:
-    names = tuple(sorted(SKILLS))
+    names = tuple(skill_names())
     return src.diag(at, f"unknown skill {name!r}{did_you_mean(name, names)}", names)
 
 
