@@ -20,8 +20,18 @@ class MoveJointsParams(SkillParams):
     to: Literal["home"] | list[float] = Field(
         default="home", description="`home` or the arm joint angles [rad]."
     )
-    max_speed: PositiveFloat = Field(default=1.0, le=2.5, description="[rad/s]")
-    max_accel: PositiveFloat = Field(default=3.0, le=20.0, description="[rad/s^2]")
+    max_speed: PositiveFloat = Field(
+        default=1.0,
+        le=2.5,
+        description="[rad/s], of the joint moving furthest; lowered so that no joint exceeds "
+        "0.85 of its datasheet velocity limit",
+    )
+    max_accel: PositiveFloat = Field(
+        default=3.0,
+        le=20.0,
+        description="[rad/s^2], of the joint moving furthest; lowered so that no joint exceeds "
+        "0.7 of its datasheet acceleration limit",
+    )
     tolerance_rad: PositiveFloat = Field(default=0.005, description="[rad]")
     settle_s: PositiveFloat = Field(default=1.0, description="[s]")
 
@@ -60,8 +70,37 @@ class MoveJoints(Skill):
             self.goal[: len(ctx.robot.base_joints)] = self.q0[: len(ctx.robot.base_joints)]
         self.delta = self.goal - self.q0
         dist = float(np.max(np.abs(self.delta)))
-        self.profile = Profile(dist, p.max_speed, p.max_accel)
+        speed, accel = self._within_datasheet(ctx, dist)
+        self.profile = Profile(dist, speed, accel)
         self.t0 = ctx.clock
+
+    def _within_datasheet(self, ctx: Context, dist: float) -> tuple[float, float]:
+        """The profile's speed and acceleration [rad/s, rad/s^2]: `max_speed` and `max_accel`,
+        lowered (and logged) where a joint would be commanded past the share of its datasheet
+        limits that the IK's commands keep (`COMMAND_MARGIN` of its velocity limit,
+        `ACCELERATION_MARGIN` of its acceleration limit). Joint i covers |delta_i| / dist of
+        the profile, so it moves at that share of the profile's speed and acceleration."""
+        from .ik import ACCELERATION_MARGIN, COMMAND_MARGIN
+
+        p = self.params
+        share = np.abs(self.delta) / dist if dist > 0.0 else np.zeros_like(self.delta)
+        moving = share > 0.0
+        if not moving.any():
+            return p.max_speed, p.max_accel
+        v_lim = COMMAND_MARGIN * ctx.robot.joint_velocity_limits()
+        a_lim = ACCELERATION_MARGIN * np.asarray(ctx.robot.acceleration_limits, float)
+        speed = min(p.max_speed, float(np.min(v_lim[moving] / share[moving])))
+        accel = min(p.max_accel, float(np.min(a_lim[moving] / share[moving])))
+        if speed < p.max_speed or accel < p.max_accel:
+            ctx.log(
+                "skill",
+                f"move_joints: max_speed {p.max_speed:g} rad/s, max_accel {p.max_accel:g} rad/s^2 "
+                f"lowered to {speed:.3g} rad/s, {accel:.3g} rad/s^2: the joints' datasheet "
+                f"limits with the commands' margins ({COMMAND_MARGIN:g} of the velocity "
+                f"limits, {ACCELERATION_MARGIN:g} of the acceleration limits)",
+                level="WARN",
+            )
+        return speed, accel
 
     def step(self, ctx: Context) -> str | None:
         if self.profile is None:
