@@ -56,6 +56,15 @@ class _LazyConsole:
 
 err = cast("Console", _LazyConsole(stderr=True))
 out = cast("Console", _LazyConsole(stderr=False))
+
+
+def _rich(console: "Console") -> "Console":
+    """The rich `Console` behind `out` or `err`, for code that is handed it: rich's `Live` (a
+    progress bar, `watch`) enters it as a context manager, which a stand-in cannot be."""
+    lazy = cast(Any, console)
+    return lazy._console if isinstance(lazy, _LazyConsole) else console
+
+
 _CONTROL = {c: f"\\x{c:02x}" for c in (*range(0x20), 0x7F, *range(0x80, 0xA0)) if c != 0x09}
 """Control characters, written as escapes by `_plain` (a file name cannot move the cursor)."""
 
@@ -984,7 +993,7 @@ def batch(
         snapshot_on_failure=snapshot_on_failure,
     )
     show = sys.stdout.isatty() and not as_json
-    progress = RichProgress(out, label=Path(scenario).stem) if show else NullProgress()
+    progress = RichProgress(_rich(out), label=Path(scenario).stem) if show else NullProgress()
 
     def warn(message: str) -> None:
         err.print(f"warning: {message}", markup=False, soft_wrap=True)
@@ -1008,7 +1017,7 @@ def batch(
     if as_json:
         _json_line(summary.to_json_dict())
     else:
-        print_summary(summary, out)
+        print_summary(summary, _rich(out))
     raise typer.Exit(1 if summary.errors else 0)
 
 
@@ -1395,7 +1404,7 @@ def watch(
     from .live.watch import watch as watch_session
 
     creds = _credentials(user, password, credentials, tls_ca)
-    raise typer.Exit(watch_session(session, connect, duration, out, creds))
+    raise typer.Exit(watch_session(session, connect, duration, _rich(out), creds))
 
 
 @app.command()
