@@ -443,6 +443,20 @@ def test_a_dead_ray_worker_is_retried_once_then_an_error(local_ray, tmp_path):
     assert (summary.succeeded, summary.errors) == (3, 1)
 
 
+@pytest.mark.slow  # a local Ray cluster
+def test_a_ray_worker_that_cannot_import_the_package_is_one_clear_error(local_ray, tmp_path):
+    # a node started by another Python than the package's: every episode used to end `error`
+    # with "No module named 'orchestrator.robots'"
+    from orchestrator.batch.backends.ray import RayBackend
+
+    backend = RayBackend(2)
+    backend.probe = ("orchestrator.robots", "orchestrator.not_installed_on_that_node")
+    config = BatchConfig("pick_place", 2, tmp_path / "b", record="none")
+    with pytest.raises(BatchError, match="cannot run an episode .*not_installed_on_that_node"):
+        run_batch(config, backend=backend)
+    assert local_ray.is_initialized()  # the cluster it joined is left running
+
+
 # -- recording ----------------------------------------------------------------------------
 @pytest.fixture
 def recording():

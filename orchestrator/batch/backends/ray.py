@@ -19,10 +19,29 @@ from ..exceptions import BatchError
 from ..task import EpisodeTask, error_line
 from .base import MAX_ATTEMPTS, Backend, RunFn
 
-__all__ = ["RayBackend", "import_ray"]
+__all__ = ["EPISODE_MODULES", "RayBackend", "import_ray", "worker_imports"]
 
 IN_FLIGHT_PER_WORKER = 2
 """Tasks submitted per worker slot: one running, one waiting, so no CPU idles between tasks."""
+EPISODE_MODULES = ("orchestrator.batch.episode", "orchestrator.robots", "orchestrator.skills")
+"""What a Ray worker imports to run an episode; checked once on the cluster before the batch."""
+PROBE_TIMEOUT_S = 120.0
+"""How long the check may wait for a worker process to start (a cold node takes seconds)."""
+
+
+def worker_imports(modules: Sequence[str]) -> str | None:
+    """Run on a Ray worker: None if it imports `modules`, else the error. A node whose `ray
+    start` ran under another Python than the one this package is installed in finds the
+    `orchestrator` folder (the working directory is on its path) but not the packages the
+    install maps into it: `No module named 'orchestrator.robots'`, for every episode."""
+    import importlib
+
+    try:
+        for module in modules:
+            importlib.import_module(module)
+    except ImportError as exc:
+        return f"{type(exc).__name__}: {exc}"
+    return None
 
 
 def import_ray() -> ModuleType:
@@ -63,6 +82,8 @@ class RayBackend(Backend):
         self.address = address or os.environ.get("RAY_ADDRESS") or None
         self.run_fn = run_fn
         self.ray = import_ray()
+        self.probe: Sequence[str] = EPISODE_MODULES
+        """The modules a worker must import before the batch starts (`worker_imports`)."""
 
     def run(self, tasks: Sequence[EpisodeTask]) -> Iterator[dict[str, Any]]:
         ray = self.ray
@@ -79,6 +100,12 @@ class RayBackend(Backend):
             else:
                 ray.init(num_cpus=self.workers, include_dashboard=False, **common)
             started = True
+        try:
+            self._check_workers()
+        except BaseException:
+            if started:
+                ray.shutdown()
+            raise
         slots = self.requested_workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
         self.workers = slots
         # Ray re-runs a task whose worker process died (max_retries), then raises.
@@ -109,3 +136,27 @@ class RayBackend(Backend):
                 ray.cancel(ref, force=True)
             if started:
                 ray.shutdown()
+
+    def _check_workers(self) -> None:
+        """One task on the cluster imports what an episode needs (`worker_imports`; it needs no
+        CPU, so a busy cluster runs it at once).
+
+        Raises:
+            BatchError: A worker cannot: the message says why and how to start the nodes.
+        """
+        ray = self.ray
+        probe = ray.remote(num_cpus=0, max_retries=0)(worker_imports)
+        try:
+            problem = ray.get(probe.remote(list(self.probe)), timeout=PROBE_TIMEOUT_S)
+        except ray.exceptions.GetTimeoutError:
+            return  # no worker started in time: each episode's line will say what went wrong
+        except ray.exceptions.RayError as exc:  # e.g. this module does not unpickle there
+            lines = str(exc).strip().splitlines()
+            problem = lines[-1] if lines else type(exc).__name__
+        if problem is not None:
+            raise BatchError(
+                f"the Ray workers cannot run an episode ({problem}): every node must be "
+                "started by the Python that has embodied-orchestrator installed (`python -m "
+                "ray.scripts.scripts start ...` when the `ray` on PATH belongs to another "
+                "one), and scenario files must be at the same path there"
+            )
