@@ -76,28 +76,24 @@ class MoveJoints(Skill):
 
     def _within_datasheet(self, ctx: Context, dist: float) -> tuple[float, float]:
         """The profile's speed and acceleration [rad/s, rad/s^2]: `max_speed` and `max_accel`,
-        lowered (and logged) where a joint would be commanded past the share of its datasheet
-        limits that the IK's commands keep (`COMMAND_MARGIN` of its velocity limit,
-        `ACCELERATION_MARGIN` of its acceleration limit). Joint i covers |delta_i| / dist of
+        lowered (and logged) where a joint would be commanded past the limits every joint
+        command keeps (the IK's joint limiter: `COMMAND_MARGIN` of the velocity limits,
+        `ACCELERATION_MARGIN` of the acceleration limits). Joint i covers |delta_i| / dist of
         the profile, so it moves at that share of the profile's speed and acceleration."""
-        from .ik import ACCELERATION_MARGIN, COMMAND_MARGIN
-
         p = self.params
         share = np.abs(self.delta) / dist if dist > 0.0 else np.zeros_like(self.delta)
         moving = share > 0.0
         if not moving.any():
             return p.max_speed, p.max_accel
-        v_lim = COMMAND_MARGIN * ctx.robot.joint_velocity_limits()
-        a_lim = ACCELERATION_MARGIN * np.asarray(ctx.robot.acceleration_limits, float)
-        speed = min(p.max_speed, float(np.min(v_lim[moving] / share[moving])))
-        accel = min(p.max_accel, float(np.min(a_lim[moving] / share[moving])))
+        limiter = ctx.ik.limiter
+        speed = min(p.max_speed, float(np.min(limiter.v_max[moving] / share[moving])))
+        accel = min(p.max_accel, float(np.min(limiter.a_max[moving] / share[moving])))
         if speed < p.max_speed or accel < p.max_accel:
             ctx.log(
                 "skill",
                 f"move_joints: max_speed {p.max_speed:g} rad/s, max_accel {p.max_accel:g} rad/s^2 "
-                f"lowered to {speed:.3g} rad/s, {accel:.3g} rad/s^2: the joints' datasheet "
-                f"limits with the commands' margins ({COMMAND_MARGIN:g} of the velocity "
-                f"limits, {ACCELERATION_MARGIN:g} of the acceleration limits)",
+                f"lowered to {speed:.3g} rad/s, {accel:.3g} rad/s^2: the joints' limits for "
+                "commands (their datasheet limits less the margins the IK's commands keep)",
                 level="WARN",
             )
         return speed, accel
