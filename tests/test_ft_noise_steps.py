@@ -18,7 +18,8 @@ from orchestrator.engine.runner import Observer, drive, new_run
 from orchestrator.language.load import load_scenario
 from orchestrator.recording import RerunRecorder
 from orchestrator.world.native import PURE_PYTHON_ENV, compiled
-from orchestrator.world.realism import FT_SEED, WristForceNoise
+from orchestrator.world.random_streams import stream
+from orchestrator.world.realism import WristForceNoise
 
 DT = 0.002
 PATHS = [
@@ -59,7 +60,7 @@ def test_reading_every_step_is_six_draws_a_step_and_a_walk_of_the_time_stepped(p
     n = 1200  # > 2 blocks of 512 steps
     times = _clock(n)
     noise = _noise(path)
-    draws = np.random.default_rng([11, FT_SEED]).standard_normal(6 * 1536).reshape(-1, 6)
+    draws = stream(11, "wrist_noise").standard_normal(6 * 1536).reshape(-1, 6)
     bias = [0.0, 0.0, 0.0]
     for k in range(1, n + 1):
         d = draws[k - 1].tolist()

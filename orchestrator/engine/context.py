@@ -14,6 +14,7 @@ from ..perception.rig import CameraRig
 from ..world.actuators import ActuatorFault
 from ..world.native import native
 from ..world.pose import Pose
+from ..world.random_streams import stream
 from ..world.realism import WristForceNoise
 from ..world.sensors import JointEncoders, PerceptionFaults, WristForceFault
 from ..world.world import as_index
@@ -220,7 +221,7 @@ class Context:
             as_index(world.robot_qpos),
             as_index(world.robot_dof),
             world.robot.n_arm,
-            np.random.default_rng([world.seed, 0xE2C0]),
+            stream(world.seed, "encoders"),
             world.robot.encoder_resolution_rad if quantize else 0.0,
             self._time,
             status=self.sensor_faults[1:],

@@ -8,13 +8,12 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
-import numpy as np
-
 from ..exceptions import OrchestratorError
 from ..language.load import LoadedScenario
 from ..language.scenario_checks import workspace_box
 from ..robots import Controller
 from ..skills.ik import IKSolver
+from ..world.random_streams import stream
 from ..world.world import World, robot_only_model
 from .blackboard import Blackboard
 from .context import Context
@@ -79,7 +78,7 @@ def make_context(
     world: World, controller: Controller, blackboard: Blackboard, seed: int, dt_control: float
 ) -> Context:
     """The context of an episode (or of a live session): sensors, IK, the blackboard."""
-    ctx = Context(world, controller, blackboard, np.random.default_rng([seed, 1]), dt_control)
+    ctx = Context(world, controller, blackboard, stream(seed, "skills"), dt_control)
     ctx.workspace_box = workspace_box(world.scenario)
     ctx.ik = IKSolver(
         world.robot, robot_only_model(world.robot), dt_control, world.scenario.robot.base_pos

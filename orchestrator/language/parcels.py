@@ -14,6 +14,7 @@ import numpy as np
 
 from ..exceptions import ConfigError
 from ..world.footprint import Box, corners, separated
+from ..world.random_streams import stream
 from .diagnostics import Diagnostic
 
 if TYPE_CHECKING:
@@ -189,5 +190,5 @@ def draw_parcels(p: Parcels, seed: int) -> list[tuple[str, _Drawn]]:
     Raises:
         ConfigError: The parcels do not fit in the pick area.
     """
-    rng = np.random.default_rng([seed, 0x9A4C])
+    rng = stream(seed, "parcels")
     return [(parcel_name(i, p.count), d) for i, d in enumerate(_draw(p, rng))]

@@ -24,10 +24,10 @@ from typing import Annotated
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-__all__ = ["BLACKBOARD_STREAM", "DrawnValues", "GoalBox", "draw_goals"]
+from ..world.random_streams import stream
 
-BLACKBOARD_STREAM = 0xB1AC_B0A2
-"""Tag of the random stream the blackboard draws come from (`default_rng([seed, tag])`)."""
+__all__ = ["DrawnValues", "GoalBox", "draw_goals"]
+
 
 Range = Annotated[
     list[Annotated[float, Field(ge=-10.0, le=10.0)]], Field(min_length=2, max_length=2)
@@ -81,7 +81,7 @@ def draw_goals(randomize: DrawnValues, seed: int) -> dict[str, list[float]]:
     """The positions drawn for `seed`, key -> [x, y, z] [m] (in the order of `randomize`)."""
     if not randomize.blackboard:
         return {}
-    rng = np.random.default_rng([seed, BLACKBOARD_STREAM])
+    rng = stream(seed, "blackboard_goals")
     return {
         key: [float(rng.uniform(lo, hi)) for lo, hi in (box.x, box.y, box.z)]
         for key, box in randomize.blackboard.items()

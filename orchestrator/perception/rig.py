@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from ..world.random_streams import stream
 from .backends import Renderer, open_renderer
 from .exceptions import PerceptionError
 from .frame import Frame, Intrinsics
@@ -53,7 +54,7 @@ class CameraRig:
         self.intrinsics = {
             c.name: Intrinsics.from_fovy(c.width, c.height, c.fovy_deg) for c in scenario.cameras
         }
-        self._rng = np.random.default_rng([seed, 0x1A6E])
+        self._rng = stream(seed, "camera_noise")
         self._renderer: Renderer | None = None
         self.frames = 0
         """Frames captured so far."""

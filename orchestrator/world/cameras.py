@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from .random_streams import stream
+
 if TYPE_CHECKING:
     from ..language.scenario import CameraSpec, Scenario
     from ..robots import Robot
@@ -101,7 +103,7 @@ def randomize_appearance(
     if not scenario.cameras:
         return
     r = scenario.perception.randomize
-    rng = np.random.default_rng([seed, 0xCA3E4A])
+    rng = stream(seed, "camera_light")
     scale = rng.uniform(r.light_intensity[0], r.light_intensity[1])
     tilt = math.radians(rng.uniform(0.0, r.light_tilt_deg))
     azimuth = rng.uniform(-math.pi, math.pi)

@@ -29,6 +29,7 @@ import numpy as np
 from ..robots.panda.model import WORLD_CONAFFINITY, WORLD_CONTYPE
 from .pool import parcel_id, pool_body_name
 from .pose import quat_from_yaw
+from .random_streams import stream
 
 if TYPE_CHECKING:
     from ..language.conveyor_scene import Conveyor
@@ -75,7 +76,6 @@ _ON_BELT_Z_M = 0.006
 """A parcel's bottom this close to the belt's top rests on it [m]."""
 _AT_REST_M_S = 0.03
 """A body slower than this is at rest [m/s]."""
-_RNG_TAG = 0xC07E
 
 
 def _frame(c: Conveyor) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
@@ -293,7 +293,7 @@ class ConveyorBelt:
             self.order.remove(i)
         k = self.fed
         c = self.c
-        rng = np.random.default_rng([self.world.seed, _RNG_TAG, k])
+        rng = stream(self.world.seed, "conveyor_feed", k)
         classes = list(c.classes)
         cls = classes[int(rng.integers(len(classes)))]
         size = np.array(

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .pose import quat_from_yaw, quat_from_ypr
+from .random_streams import stream
 
 if TYPE_CHECKING:
     from ..language.scenario import Scenario
@@ -18,7 +19,7 @@ __all__ = ["object_poses", "phantom_state"]
 
 def object_poses(scenario: Scenario, seed: int) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """Per-seed poses of the free objects: nominal + uniform offsets from the seed."""
-    rng = np.random.default_rng([seed, 0x5CE4E])
+    rng = stream(seed, "object_poses")
     out = []
     top = scenario.scene.table.height
     for obj in scenario.scene.objects:
@@ -44,7 +45,7 @@ def phantom_state(scenario: Scenario, seed: int) -> tuple[np.ndarray, np.ndarray
     The orientation is Rz(yaw) Ry(pitch) Rx(roll) (`Phantom`'s docstring)."""
     ph = scenario.scene.phantom
     assert ph is not None
-    rng = np.random.default_rng([seed, 0xFA27])
+    rng = stream(seed, "phantom_pose")
     r = ph.randomize
     dx = rng.uniform(r.x[0], r.x[1])
     dy = rng.uniform(r.y[0], r.y[1])

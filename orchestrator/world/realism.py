@@ -25,17 +25,13 @@ import mujoco
 import numpy as np
 
 from .native import native
+from .random_streams import stream
 
 if TYPE_CHECKING:
     from ..language.scenario import Realism
     from ..robots import Robot
 
 __all__ = ["WristForceNoise", "apply_joint_friction", "link_mass_scale"]
-
-MASS_SEED = 0x3A55
-"""Stream id of the model-mismatch draw (with the episode seed)."""
-FT_SEED = 0xF7
-"""Stream id of the wrist sensor's noise (with the episode seed)."""
 
 
 def apply_joint_friction(
@@ -56,7 +52,7 @@ def link_mass_scale(realism: Realism, n_bodies: int, seed: int) -> np.ndarray | 
     uniform in [1 - x, 1 + x] for `x = realism.mass_mismatch`; None when off. Shape (n,)."""
     if not realism.enabled or realism.mass_mismatch == 0.0:
         return None
-    rng = np.random.default_rng([seed, MASS_SEED])
+    rng = stream(seed, "mass_mismatch")
     x = realism.mass_mismatch
     return rng.uniform(1.0 - x, 1.0 + x, size=n_bodies)
 
@@ -89,7 +85,7 @@ class WristForceNoise:
         self.std = float(std_n)
         self.drift = float(drift_n_per_sqrt_s)
         self.dt = float(dt)
-        self.rng = np.random.default_rng([seed, FT_SEED])
+        self.rng = stream(seed, "wrist_noise")
         self._draws: list[tuple[float, ...]] = []
         """Normal samples drawn ahead, six per physics step (white noise x, y, z, then the
         drift's steps x, y, z), in blocks of `_BLOCK` steps: the stream is the same as drawing
