@@ -146,3 +146,22 @@ def test_a_resumed_run_checks_its_new_goals_from_where_the_arm_is(cli, tmp_path)
     assert res.exit_code == 2 and res.exception is None
     assert "<--set>: goal rejected: place_at = [1.2, 0.2, 0.3]" in res.stderr
     assert "nothing was resumed" in res.stderr
+
+
+def test_an_episode_whose_goal_its_own_objects_refuse_is_refused_as_run_refuses_it(cli, tmp_path):
+    """A position hint must be near the object: the cube is drawn within it for seed 3, not
+    for seed 4. The batch starts (seed 3 is fine), the episode of seed 4 is refused in its
+    worker with `run`'s message, and its printed re-run command gives that refusal."""
+    hint = "pick_at=[0.5, -0.12, 0.225]"
+    out = tmp_path / "b"
+    res = cli("batch", "pick_place", "-n", "2", "--seed-base", "3", "--out", str(out),
+              "--record", "none", "--set", hint)  # fmt: skip
+    assert res.exit_code == 1, res.stderr  # an episode did not run
+    lines = {ln["seed"]: ln for ln in map(json.loads, (out / "results.jsonl").open())}
+    assert lines[3]["outcome"] == "succeeded"
+    error = lines[4]["error"]
+    assert lines[4]["outcome"] == "error" and error["traceback"] is None
+    again = _rerun(cli, res.stdout)
+    assert again.exit_code == 2 and again.stdout == ""
+    assert again.stderr.splitlines()[0] == error["message"]
+    assert error["message"].startswith("<--set>: goal rejected: pick_at = [0.5, -0.12, 0.225]")

@@ -16,6 +16,7 @@ from ..engine.result import RunResult
 from ..engine.runner import Observer, WallTimeExceeded, drive
 from ..engine.snapshot import EntryLog, last_entry_stop, local_skill_files, run_to, write_run
 from ..engine.snapshot.breaks import final_paths
+from ..exceptions import ConfigError
 from .memory import release_episode, rss_mb, worker_stamp
 from .task import EpisodeTask, error_line, rrd_name, snapshot_name
 
@@ -82,6 +83,8 @@ def _run(task: EpisodeTask) -> dict[str, Any]:
             line["rrd"] = rrd_name(task.seed)
     except WallTimeExceeded as exc:  # the episode was stopped: its reason, not a traceback
         return error_line(task, type(exc).__name__, str(exc), None)
+    except ConfigError as exc:  # refused as `run` refuses it (a goal by the objects drawn)
+        return error_line(task, type(exc).__name__, _one_line(exc), None)
     except Exception as exc:  # crash isolation: whatever went wrong is this episode's error
         return error_line(task, type(exc).__name__, _one_line(exc), traceback.format_exc())
     if task.record == "failures" and result.outcome != "succeeded":
