@@ -346,9 +346,9 @@ def run(
     input, 3 aborted by a guard, 4 a skill raised (outcome `error`: the arm is brought to rest;
     the skill's file:line and exception are printed, the traceback with --debug), 6 stopped
     at a break point (--break, --break-on, --break-at: the snapshot's path is printed)."""
-    from .engine.runner import WallTimeExceeded, run_episode
+    from .engine.prepare import prepare
+    from .engine.runner import WallTimeExceeded
     from .language.entries import file_kind
-    from .language.load import load_scenario
 
     _check_wall(max_wall_s)
     if rrd is not None:
@@ -380,22 +380,19 @@ def run(
             soft_wrap=True,
         )
     try:
-        loaded = load_scenario(
-            scenario, set_ or [], fault or [], _allowed(allow_path), events=event or []
+        prepared = prepare(
+            scenario, seed, set_ or [], fault or [], event or [], _allowed(allow_path)
         )
-        _guard_goals(loaded, set_ or [], seed)
         if breaking:
-            from .engine.runner import new_run
-
-            points = _break_points(loaded.machine, break_ or [], break_on or [], break_at)
-            _break(lambda: new_run(loaded, seed), points, snapshot, as_json, debug)
+            points = _break_points(prepared.loaded.machine, break_ or [], break_on or [], break_at)
+            _break(prepared.new_run, points, snapshot, as_json, debug)
             return
         observers = []
         if rrd is not None or spawn or connect is not None:
             from .recording import RerunRecorder
 
             observers.append(RerunRecorder(path=rrd, spawn=spawn, connect=connect))
-        result = run_episode(loaded, seed, observers, max_wall_s)
+        result = prepared.run_episode(observers, max_wall_s)
     except ConfigError as exc:
         _fail_config(exc)
         return
@@ -483,6 +480,7 @@ def _run_from(
     snapshot: Path | None,
 ) -> None:
     """`run --from SNAPSHOT`: resume it (and break again, if asked)."""
+    from .engine.prepare import check_resumed_goals
     from .engine.runner import WallTimeExceeded, drive
     from .engine.snapshot import SnapshotError, open_run
 
@@ -500,7 +498,10 @@ def _run_from(
         _fail_config(exc, "nothing was resumed")
         return
     run = opened.run
-    _guard_resumed_goals(run, sets)
+    try:
+        check_resumed_goals(run, sets)
+    except ConfigError as exc:
+        _fail_config(exc, "nothing was resumed")
     states, guards, at_t = breaks
     if states or guards or at_t is not None:
         points = _break_points(run.loaded.machine, states, guards, at_t)
@@ -550,49 +551,6 @@ def _finish(result, as_json: bool, debug: bool, rrd: Path | None) -> None:
     if rrd is not None:
         err.print(f"recording saved to {rrd} (open it with: rerun {rrd})", markup=False)
     raise typer.Exit(result.exit_code)
-
-
-def _guard_resumed_goals(run, sets: list[str]) -> None:
-    """Positions changed with `--set` at a resume go through the guardrail from where the
-    arm is (as a live session's goals do)."""
-    from .language.overrides import parse_override
-    from .live.guardrail import GoalRejected, check_goals
-
-    keys = [ov.path[0] for ov in map(parse_override, sets) if hasattr(ov, "path")]
-    if not keys:
-        return
-    from dataclasses import replace
-
-    world, scn = run.ctx.world, run.loaded.scenario
-    now = {**scn.blackboard, **{k: run.ctx.blackboard.get(k) for k in keys}}
-    loaded = replace(run.loaded, scenario=scn.model_copy(update={"blackboard": now}))
-    try:
-        check_goals(loaded, keys, world, world.data.qpos[world.arm_qpos].copy())
-    except GoalRejected as exc:
-        err.print(f"<--set>: goal rejected: {exc}", markup=False, soft_wrap=True)
-        err.print("1 error; nothing was resumed.", style="red")
-        raise typer.Exit(EXIT_INVALID) from None
-
-
-def _guard_goals(loaded, sets: list[str], seed: int) -> None:
-    """Values set with `--set` that become positions (targets, via points, offsets, position
-    hints) go through the live sessions' guardrail before anything runs (workspace, no-go
-    zones, reachability from the home configuration, a hint near an object)."""
-    from .language.overrides import parse_override
-    from .live.guardrail import GoalRejected, check_goals, posed_keys
-
-    keys = [ov.path[0] for ov in map(parse_override, sets) if hasattr(ov, "path")]
-    if not posed_keys(loaded, keys):
-        return
-    from .world.world import World
-
-    world = World.build(loaded.scenario, seed)
-    try:
-        check_goals(loaded, keys, world, world.home)
-    except GoalRejected as exc:
-        err.print(f"<--set>: goal rejected: {exc}", markup=False, soft_wrap=True)
-        err.print("1 error; nothing was simulated.", style="red")
-        raise typer.Exit(EXIT_INVALID) from None
 
 
 def _print_skill_fault(error: dict, debug: bool) -> None:

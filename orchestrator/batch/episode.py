@@ -1,7 +1,8 @@
 """The worker side: run one episode, never raise, return its results.jsonl line.
 
 Workers import this module once (the local backend preloads it in its fork server) and load
-each scenario once per process from (reference, overrides), then reuse it for every seed.
+each scenario once per process from (reference, overrides), then prepare each seed from it
+as `orchestrator run` does (engine/prepare.py: its world compiled once, its goals checked).
 """
 
 from __future__ import annotations
@@ -10,27 +11,34 @@ import traceback
 from pathlib import Path
 from typing import Any
 
+from ..engine.prepare import Prepared, prepare
 from ..engine.result import RunResult
-from ..engine.runner import Observer, WallTimeExceeded, drive, new_run, run_episode
+from ..engine.runner import Observer, WallTimeExceeded, drive
 from ..engine.snapshot import EntryLog, last_entry_stop, local_skill_files, run_to, write_run
 from ..engine.snapshot.breaks import final_paths
-from ..language.load import LoadedScenario, load_scenario
+from ..exceptions import ConfigError
 from .memory import release_episode, rss_mb, worker_stamp
 from .task import EpisodeTask, error_line, rrd_name, snapshot_name
 
-__all__ = ["loaded_scenario", "run_task", "same_episode"]
+__all__ = ["prepared_episode", "run_task", "same_episode"]
 
-_LOADED: dict[tuple[str, tuple[str, ...], tuple[str, ...]], LoadedScenario] = {}
+_PREPARED: dict[tuple[str, tuple[str, ...], tuple[str, ...]], Prepared] = {}
 
 
-def loaded_scenario(
-    ref: str, overrides: tuple[str, ...], allow_paths: tuple[str, ...] = ()
-) -> LoadedScenario:
-    """The scenario `ref` with `overrides`, loaded once per process."""
-    key = (ref, overrides, allow_paths)
-    if key not in _LOADED:
-        _LOADED[key] = load_scenario(ref, list(overrides), allow_paths=allow_paths)
-    return _LOADED[key]
+def prepared_episode(task: EpisodeTask) -> Prepared:
+    """The episode of `task`, prepared as `orchestrator run` prepares it (engine/prepare.py):
+    the scenario with the batch's overrides is loaded once per process, then each seed gets
+    its world compiled and its goals checked on it.
+
+    Raises:
+        ConfigError: What `run --seed SEED` with the batch's `--set` would refuse.
+    """
+    key = (task.scenario, task.overrides, task.allow_paths)
+    if key not in _PREPARED:
+        _PREPARED[key] = prepare(
+            task.scenario, task.seed, task.overrides, allow_paths=task.allow_paths
+        )
+    return _PREPARED[key].reseeded(task.seed)
 
 
 _NOT_THE_EPISODE = ("wall_time", "worker")
@@ -62,8 +70,8 @@ def run_task(task: EpisodeTask) -> dict[str, Any]:
 def _run(task: EpisodeTask) -> dict[str, Any]:
     log: EntryLog | None = None
     try:
-        loaded = loaded_scenario(task.scenario, task.overrides, task.allow_paths)
-        run = new_run(loaded, task.seed)
+        prepared = prepared_episode(task)
+        run = prepared.new_run()
         if task.snapshot_on_failure:  # where each state was entered, to break there later
             log = EntryLog(run)
             run.executor.entry_listeners.append(log)
@@ -75,23 +83,25 @@ def _run(task: EpisodeTask) -> dict[str, Any]:
             line["rrd"] = rrd_name(task.seed)
     except WallTimeExceeded as exc:  # the episode was stopped: its reason, not a traceback
         return error_line(task, type(exc).__name__, str(exc), None)
+    except ConfigError as exc:  # refused as `run` refuses it (a goal by the objects drawn)
+        return error_line(task, type(exc).__name__, _one_line(exc), None)
     except Exception as exc:  # crash isolation: whatever went wrong is this episode's error
         return error_line(task, type(exc).__name__, _one_line(exc), traceback.format_exc())
     if task.record == "failures" and result.outcome != "succeeded":
-        line.update(_record_again(loaded, task, result))
+        line.update(_record_again(prepared, task, result))
     if log is not None and result.outcome != "succeeded":
-        line.update(_snapshot_again(loaded, task, log))
+        line.update(_snapshot_again(prepared, task, log))
     return line
 
 
-def _snapshot_again(loaded: LoadedScenario, task: EpisodeTask, log: EntryLog) -> dict[str, Any]:
+def _snapshot_again(prepared: Prepared, task: EpisodeTask, log: EntryLog) -> dict[str, Any]:
     """Run a failed episode again to the start of the tick of its last state entry before the
     failure and keep that snapshot (`snapshots/seed_<S>.snap`, or `snapshot_error`: why not)."""
     try:
-        stop = last_entry_stop(log, final_paths(loaded.machine).__contains__)
+        stop = last_entry_stop(log, final_paths(prepared.loaded.machine).__contains__)
         if stop is None:
             return {"snapshot_error": "no state was entered before the failure"}
-        run = new_run(loaded, task.seed)
+        run = prepared.new_run()
         if not run_to(run, stop):
             return {"snapshot_error": "the re-run ended before that tick (not deterministic)"}
         assert task.out_dir is not None
@@ -102,10 +112,10 @@ def _snapshot_again(loaded: LoadedScenario, task: EpisodeTask, log: EntryLog) ->
     return {"snapshot": snapshot_name(task.seed), "snapshot_state": stop.reason}
 
 
-def _record_again(loaded: LoadedScenario, task: EpisodeTask, result: RunResult) -> dict[str, Any]:
+def _record_again(prepared: Prepared, task: EpisodeTask, result: RunResult) -> dict[str, Any]:
     """Re-run a failed episode with a recorder; episodes are deterministic, so it is the same."""
     try:
-        again = run_episode(loaded, task.seed, [_recorder(task)], task.max_wall_s)
+        again = prepared.run_episode([_recorder(task)], task.max_wall_s)
     except Exception as exc:  # the episode's result stands; say why there is no recording
         return {"rrd_error": f"{type(exc).__name__}: {_one_line(exc)}"}
     extra: dict[str, Any] = {"rrd": rrd_name(task.seed)}

@@ -14,9 +14,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
+from ..engine.prepare import prepare
 from ..engine.result import EXIT_CODES
-from ..engine.runner import run_episode
-from ..language.load import load_scenario
 
 __all__ = ["MATRICES", "MatrixRow", "RowResult", "expected", "matrix_for", "run_matrix"]
 
@@ -227,11 +226,11 @@ def run_matrix(
     Raises:
         ConfigError: If the scenario, an override or a row's fault is invalid.
     """
-    name = load_scenario(scenario, overrides or []).name
+    # the front door of `run`: what `run --set` refuses is refused here, before any row runs
+    name = prepare(scenario, seed, overrides or []).loaded.name
     rows = []
     for row in matrix_for(name):
-        loaded = load_scenario(scenario, overrides or [], [row.fault])
-        result = run_episode(loaded, seed)
+        result = prepare(scenario, seed, overrides or [], [row.fault]).run_episode()
         m = result.metrics
         injected = m.get("faults") or []
         fault_t = injected[0]["t"] if injected else None

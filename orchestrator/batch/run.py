@@ -9,8 +9,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ..engine.prepare import prepare
 from ..engine.strict_json import dumps
-from ..language.load import load_scenario
 from .backends import Backend, make_backend
 from .config import BatchConfig, RecordMode, portable_ref
 from .exceptions import BatchError
@@ -64,7 +64,9 @@ def run_batch(
     if config.address and config.backend != "ray":
         raise BatchError(f"--address {config.address} is a Ray cluster: add --backend ray")
     allow = tuple(str(Path(a).resolve()) for a in config.allow_paths)
-    loaded = load_scenario(config.scenario, list(config.overrides), allow_paths=allow)
+    # the front door `run` goes through, for the first seed: what `run` refuses is refused
+    # here, with the same message, before anything runs (each episode goes through it again)
+    loaded = prepare(config.scenario, config.seed_base, config.overrides, allow_paths=allow).loaded
     ref = portable_ref(config.scenario)
     no_recording = recording_unavailable()
     record = _record_mode(config.record, no_recording, warn)
@@ -125,7 +127,10 @@ def run_batch(
             wall_time_s=wall,
             episodes_run=len(new),
             results=store.path,
-            rrd_dir=None if no_recording else out_dir,
+            # the re-run command records beside the episode's recording: not without one
+            # (its folder is made by the first one saved)
+            rrd_dir=None if no_recording or record == "none" else out_dir,
+            allow_paths=allow,
         )
         _write_json(out_dir / SUMMARY, summary.to_json_dict())
         return summary

@@ -118,8 +118,10 @@ def rerun_command(
     seed: int,
     rrd: Path | None = None,
     snapshot: Path | None = None,
+    allow_paths: Iterable[str] = (),
 ) -> str:
-    """The shell command that runs one episode of the batch again, on its own.
+    """The shell command that runs one episode of the batch again, on its own: `run` prepares
+    it as the batch's worker did (engine/prepare.py), so it reproduces the episode.
 
     Args:
         ref: Scenario file or bundled name.
@@ -128,6 +130,8 @@ def rerun_command(
         rrd: Where `run` should save a Rerun recording, if recording is available.
         snapshot: The episode's snapshot (`--snapshot-on-failure`): the command resumes it,
             at the last state entry before the failure, instead of running from the start.
+        allow_paths: The batch's `--allow-path` directories (absolute): the scenario's files
+            load from them again.
     """
     if snapshot is not None:
         parts = ["orchestrator", "run", "--from", str(snapshot)]
@@ -135,6 +139,8 @@ def rerun_command(
         parts = ["orchestrator", "run", ref, "--seed", str(seed)]
         for text in overrides:
             parts += ["--set", text]
+        for path in allow_paths:
+            parts += ["--allow-path", path]
     if rrd is not None:
         parts += ["--rrd", str(rrd)]
     return shlex.join(parts)
@@ -153,6 +159,7 @@ def summarize(
     episodes_run: int,
     results: Path,
     rrd_dir: Path | None,
+    allow_paths: Iterable[str] = (),
 ) -> BatchSummary:
     """Summarize result lines (one per seed).
 
@@ -167,8 +174,9 @@ def summarize(
         wall_time_s: Wall time of this invocation [s].
         episodes_run: Episodes this invocation ran.
         results: Path of results.jsonl.
-        rrd_dir: The batch directory when recording is available (the re-run command then
-            saves `--rrd DIR/episodes/seed_<S>.rrd`), else None.
+        rrd_dir: The batch directory when its episodes are recorded (the re-run command then
+            saves `--rrd DIR/episodes/seed_<S>.rerun.rrd`, beside the episode's), else None.
+        allow_paths: The batch's `--allow-path` directories (in the re-run command).
     """
     lines = sorted(lines, key=lambda ln: ln["seed"])
     overrides = list(overrides)
@@ -194,7 +202,7 @@ def summarize(
         )  # beside the saved recording, never over it
         line = next(ln for ln in lines if int(ln["seed"]) == seed)
         snapshot = results.parent / line["snapshot"] if line.get("snapshot") else None
-        command = rerun_command(scenario_ref, overrides, seed, rrd, snapshot)
+        command = rerun_command(scenario_ref, overrides, seed, rrd, snapshot, allow_paths)
     return BatchSummary(
         scenario=scenario,
         scenario_ref=scenario_ref,

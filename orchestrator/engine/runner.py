@@ -114,10 +114,18 @@ class RunState:
         return self.episode.executor
 
 
-def new_run(loaded: LoadedScenario, seed: int) -> RunState:
-    """The world of `loaded` built for `seed`, its machine not started yet."""
+def new_run(loaded: LoadedScenario, seed: int, world: World | None = None) -> RunState:
+    """The world of `loaded` built for `seed`, its machine not started yet.
+
+    Args:
+        loaded: The validated scenario.
+        seed: Episode seed.
+        world: The world of `loaded` already built for `seed` and never stepped (the one
+            `prepare` compiled and checked the goals on, engine/prepare.py); None: build it.
+    """
     scn = loaded.scenario
-    world = World.build(scn, seed)
+    if world is None:
+        world = World.build(scn, seed)
     controller = make_controller(world, seed)
     dt = float(world.model.opt.timestep)
     n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))

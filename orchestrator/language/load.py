@@ -8,7 +8,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
 
@@ -35,7 +35,17 @@ from .success import typed_success, validate_success
 from .validation import blackboard_types, validate_guards, validate_machine
 from .yamlio import SourceMap, load_yaml
 
-__all__ = ["LoadedScenario", "check_blackboard_sets", "load_machine", "load_scenario"]
+if TYPE_CHECKING:
+    from ..world.world import World
+
+__all__ = [
+    "LoadedScenario",
+    "check_blackboard_sets",
+    "compile_world",
+    "load_machine",
+    "load_scenario",
+    "load_world",
+]
 
 
 @dataclass
@@ -54,7 +64,7 @@ class LoadedScenario:
 
 def load_scenario(
     ref: str,
-    overrides: list[str] | None = None,
+    overrides: Sequence[str | Override | Diagnostic] | None = None,
     faults: list[str] | None = None,
     allow_paths: Sequence[Path | str] = (),
     events: list[str] | None = None,
@@ -66,7 +76,7 @@ def load_scenario(
     Args:
         ref: A scenario or machine file, or a bundled scenario or machine name (the rule of
             `entries.py`; a machine runs in the default scene).
-        overrides: `--set KEY=VALUE` texts.
+        overrides: `--set KEY=VALUE` texts, or what `parse_override` made of them.
         faults: `--fault SPEC` texts, added to the scenario's `faults:`.
         allow_paths: Directories outside the scenario's own tree that `machine:` may name
             (`--allow-path`).
@@ -83,6 +93,52 @@ def load_scenario(
     Raises:
         ConfigError: With every problem found in the scenario, its machine and the overrides.
     """
+    return _load(ref, overrides, faults, allow_paths, events, machine, import_skills, 0)[0]
+
+
+def load_world(
+    ref: str,
+    seed: int,
+    overrides: Sequence[str | Override | Diagnostic] | None = None,
+    faults: list[str] | None = None,
+    allow_paths: Sequence[Path | str] = (),
+    events: list[str] | None = None,
+) -> tuple[LoadedScenario, World]:
+    """`load_scenario`, and the world it compiled to check that MuJoCo builds it: built for
+    `seed`, unused, ready to run (engine/prepare.py runs it instead of compiling another).
+
+    Raises:
+        ConfigError: As `load_scenario`.
+    """
+    loaded, world = _load(ref, overrides, faults, allow_paths, events, None, True, seed)
+    assert world is not None
+    return loaded, world
+
+
+def compile_world(loaded: LoadedScenario, seed: int) -> World:
+    """The world of `loaded` built for `seed` (another seed than the one it was loaded with).
+
+    Raises:
+        ConfigError: MuJoCo cannot build the scene drawn for this seed (said as
+            `load_scenario` says it).
+    """
+    world, problems = _compiles(loaded.scenario, loaded.source, seed)
+    if problems:
+        raise ConfigError(problems)
+    assert world is not None
+    return world
+
+
+def _load(
+    ref: str,
+    overrides: Sequence[str | Override | Diagnostic] | None,
+    faults: list[str] | None,
+    allow_paths: Sequence[Path | str],
+    events: list[str] | None,
+    machine: str | None,
+    import_skills: bool,
+    seed: int,
+) -> tuple[LoadedScenario, World | None]:
     path = entry_file(ref)  # a file, else a bundled scenario, else a bundled machine
     if path is None:
         raise ConfigError([unknown_entry(ref)])
@@ -102,7 +158,7 @@ def load_scenario(
     overridden: dict[str, str] = {}
     """Path of a value set on the command line -> the option that set it (`--set k=v`)."""
     own_machine = data.get("machine")
-    parsed = [parse_override(text) for text in overrides or []]
+    parsed = [parse_override(ov) if isinstance(ov, str) else ov for ov in overrides or []]
     for ov in parsed:  # `--set machine=...` chooses the machine: apply it before loading one
         if isinstance(ov, Override) and ov.path == ("machine",):
             if not isinstance(ov.value, str):
@@ -187,13 +243,15 @@ def load_scenario(
             )
     if node is not None:
         problems += validate_machine(node) + check_inputs(node)
+    world: World | None = None
     if scenario is not None and not problems:
-        problems += _compiles(scenario, doc.source)
+        world, built = _compiles(scenario, doc.source, seed)
+        problems += built
     if problems:
         problems = [hint_unimported(d, unimported) for d in problems]
         raise ConfigError([_attribute(d, overridden, doc.source.file) for d in problems])
     assert scenario is not None and node is not None
-    return LoadedScenario(scenario, node, path, doc.source)
+    return LoadedScenario(scenario, node, path, doc.source), world
 
 
 def _append_options(
@@ -336,17 +394,18 @@ def _attribute(diag: Diagnostic, overridden: dict[str, str], file: str) -> Diagn
     return diag
 
 
-def _compiles(scenario: Scenario, source: SourceMap) -> list[Diagnostic]:
-    """Build the scenario's world once (about 10 ms): what MuJoCo refuses to compile is
-    reported by `validate` too, not only by `run` after the user waited for it."""
+def _compiles(
+    scenario: Scenario, source: SourceMap, seed: int
+) -> tuple[World | None, list[Diagnostic]]:
+    """Build the scenario's world once, for `seed` (about 10 ms): what MuJoCo refuses to
+    compile is reported by `validate` too, not only by `run` after the user waited for it."""
     from ..world.world import World
 
     try:
-        World.build(scenario, 0)
+        return World.build(scenario, seed), []
     except Exception as exc:  # MjSpec reports bad geometry as ValueError or its own errors
         text = " ".join(str(exc).split()) or type(exc).__name__
-        return [source.diag(("scene",), f"MuJoCo cannot build this scene: {text}")]
-    return []
+        return None, [source.diag(("scene",), f"MuJoCo cannot build this scene: {text}")]
 
 
 def _arm_joints(scenario: Scenario) -> int:

@@ -49,13 +49,13 @@ import numpy as np
 
 from ..engine.blackboard import Blackboard
 from ..engine.episode import make_controller
+from ..engine.prepare import prepare
 from ..engine.runner import Observer, make_context
 from ..engine.safety_stop import SafetyStop
 from ..engine.step import StepLoop
 from ..exceptions import ConfigError
 from ..language.load import load_scenario
 from ..language.machine import ESTOP, PAUSE, RESUME
-from ..world.world import World
 from .blocked import Blocked
 from .guardrail import GoalRejected, check_goals
 from .inputs import parse_sets, refuse_non_inputs
@@ -120,9 +120,11 @@ class Session:
             speed,
             watchdog_s,
         )
-        self.loaded = load_scenario(scenario, allow_paths=self.allow_paths)
+        prepared = prepare(scenario, seed, allow_paths=self.allow_paths)  # as `run` does
+        self.loaded = prepared.loaded
         scn = self.loaded.scenario
-        self.world = world = World.build(scn, seed)
+        assert prepared.world is not None
+        self.world = world = prepared.world
         dt = float(world.model.opt.timestep)
         self.controller = make_controller(world, seed)
         self.n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
