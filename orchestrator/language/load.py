@@ -6,7 +6,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +46,9 @@ class LoadedScenario:
     machine: MachineNode
     path: Path
     source: SourceMap
+    recipe: dict[str, Any] = field(default_factory=dict)
+    """The arguments of `load_scenario` that made it, as data (a run snapshot rebuilds the
+    run from them: engine/snapshot/run_snapshot.py)."""
 
     @property
     def name(self) -> str:
@@ -193,7 +196,15 @@ def load_scenario(
         problems = [hint_unimported(d, unimported) for d in problems]
         raise ConfigError([_attribute(d, overridden, doc.source.file) for d in problems])
     assert scenario is not None and node is not None
-    return LoadedScenario(scenario, node, path, doc.source)
+    recipe = {
+        "ref": str(path.resolve()),
+        "overrides": list(overrides or []),
+        "faults": list(faults or []),
+        "events": list(events or []),
+        "allow_paths": [str(Path(a).resolve()) for a in allow],
+        "machine": machine,
+    }
+    return LoadedScenario(scenario, node, path, doc.source, recipe)
 
 
 def _append_options(
