@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel
 
-__all__ = ["is_data", "plain_state"]
+__all__ = ["attributes", "is_data", "plain_state"]
 
 _MAX_DEPTH = 12
 
@@ -32,7 +32,17 @@ def is_data(value: Any, depth: int = 0) -> bool:
     return False
 
 
+def attributes(obj: Any) -> dict[str, Any]:
+    """`obj`'s attributes by name: its `__dict__`, and its `__slots__` that are set."""
+    out = dict(getattr(obj, "__dict__", {}))
+    for cls in type(obj).__mro__:
+        slots = cls.__dict__.get("__slots__", ())
+        for name in (slots,) if isinstance(slots, str) else slots:
+            if name not in ("__dict__", "__weakref__") and hasattr(obj, name):
+                out[name] = getattr(obj, name)
+    return out
+
+
 def plain_state(obj: Any) -> dict[str, Any]:
     """Every attribute of `obj` that is plain data, by name, in name order."""
-    values = getattr(obj, "__dict__", {})
-    return {k: v for k, v in sorted(values.items()) if is_data(v)}
+    return {k: v for k, v in sorted(attributes(obj).items()) if is_data(v)}

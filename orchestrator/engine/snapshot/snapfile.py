@@ -40,13 +40,14 @@ __all__ = [
     "MAX_FILE_BYTES",
     "SnapshotFile",
     "pack",
+    "read_header",
     "read_snapshot",
     "trust",
     "write_snapshot",
 ]
 
 MAGIC = b"ORCHESTRATOR-SNAPSHOT"
-MAX_FILE_BYTES = 256 << 20
+MAX_FILE_BYTES = 64 << 20
 """The largest snapshot file read, and the most its arrays may unpack to [bytes]."""
 MAX_HEADER_BYTES = 1 << 20
 MAX_ARRAYS = 10_000
@@ -201,6 +202,17 @@ def _header(path: Path, line: bytes) -> dict[str, Any]:
     if not isinstance(header, dict):
         raise SnapshotError(f"{path}: broken snapshot header: not a JSON object")
     return header
+
+
+def read_header(path: Path) -> dict[str, Any]:
+    """A snapshot file's header, signed or not (bounded like `read_snapshot`).
+
+    Raises:
+        SnapshotError: Not a snapshot, another format, too large, or a broken header.
+    """
+    path = Path(path)
+    _, line, _, _ = _split(path, _read_bounded(path))
+    return _header(path, line)
 
 
 def read_snapshot(path: Path) -> SnapshotFile:
