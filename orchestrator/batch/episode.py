@@ -6,6 +6,7 @@ each scenario once per process from (reference, overrides), then reuse it for ev
 
 from __future__ import annotations
 
+import errno
 import traceback
 from pathlib import Path
 from typing import Any
@@ -16,7 +17,7 @@ from ..engine.snapshot import EntryLog, last_entry_stop, local_skill_files, run_
 from ..engine.snapshot.breaks import final_paths
 from ..language.load import LoadedScenario, load_scenario
 from .memory import release_episode, rss_mb, worker_stamp
-from .task import EpisodeTask, error_line, rrd_name, snapshot_name
+from .task import NOT_WRITTEN, EpisodeTask, error_line, rrd_name, snapshot_name
 
 __all__ = ["loaded_scenario", "run_task", "same_episode"]
 
@@ -32,6 +33,9 @@ def loaded_scenario(
         _LOADED[key] = load_scenario(ref, list(overrides), allow_paths=allow_paths)
     return _LOADED[key]
 
+
+_DISK_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+"""A write that failed for want of room: the machine's trouble, not the episode's."""
 
 _NOT_THE_EPISODE = ("wall_time", "worker")
 """Result-line keys that describe how an episode ran (wall time, the worker's memory), not
@@ -75,6 +79,10 @@ def _run(task: EpisodeTask) -> dict[str, Any]:
             line["rrd"] = rrd_name(task.seed)
     except WallTimeExceeded as exc:  # the episode was stopped: its reason, not a traceback
         return error_line(task, type(exc).__name__, str(exc), None)
+    except OSError as exc:
+        if exc.errno not in _DISK_FULL:
+            return error_line(task, type(exc).__name__, _one_line(exc), traceback.format_exc())
+        return {"seed": task.seed, NOT_WRITTEN: exc.strerror or str(exc)}  # no result: retried
     except Exception as exc:  # crash isolation: whatever went wrong is this episode's error
         return error_line(task, type(exc).__name__, _one_line(exc), traceback.format_exc())
     if task.record == "failures" and result.outcome != "succeeded":
