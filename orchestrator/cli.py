@@ -1033,10 +1033,11 @@ app.add_typer(snapshot_app, name="snapshot")
 def _snapshot_header(path: Path) -> dict:
     """A snapshot file's header (bounded reads; exit 2 if it is not one)."""
     from .engine.snapshot import SnapshotError
+    from .engine.snapshot.run_snapshot import check_any_header
     from .engine.snapshot.snapfile import read_header
 
     try:
-        return read_header(path)
+        return check_any_header(path, read_header(path))
     except SnapshotError as exc:
         _fail(str(exc))
         raise  # unreachable: _fail exits

@@ -31,7 +31,7 @@ from ..engine.episode import make_controller
 from ..engine.runner import make_context
 from ..engine.safety_stop import SafetyStop
 from ..engine.snapshot import SnapshotError, local_skill_files, read_snapshot, write_snapshot
-from ..engine.snapshot.run_snapshot import check_versions, file_digest
+from ..engine.snapshot.run_snapshot import check_any_header, check_versions, file_digest
 from ..engine.snapshot.snapfile import pack
 from ..engine.snapshot.versions import versions
 from ..engine.snapshot.world_state import apply_world, capture_world
@@ -110,7 +110,10 @@ def read_session(path: Path, loaded: LoadedScenario) -> tuple[SessionState, dict
     snap = read_snapshot(path)
     header = snap.header
     if header.get("kind") != "session":
-        raise SnapshotError(f"{path}: a snapshot of a {str(header.get('kind'))[:40]!r}, not of a session")
+        kind = header.get("kind")
+        what = f"a snapshot of a {kind[:40]!r}" if isinstance(kind, str) else "no kind"
+        raise SnapshotError(f"{path}: {what}, not of a session")
+    check_any_header(path, header)
     if header.get("scenario_sha256") != file_digest(loaded.path):
         raise SnapshotError(
             f"{path}: a snapshot of scenario {str(header.get('scenario'))[:80]!r} "
@@ -118,9 +121,7 @@ def read_session(path: Path, loaded: LoadedScenario) -> tuple[SessionState, dict
             f"({loaded.path}) as it is now"
         )
     check_versions(snap)
-    seed = header.get("seed")
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        raise SnapshotError(f"{path}: the header's seed is not a whole number >= 0")
+    seed = header["seed"]
     arrays = snap.arrays()
     raw = arrays.pop("world", None)
     if raw is None or raw.dtype != np.uint8 or raw.ndim != 1:

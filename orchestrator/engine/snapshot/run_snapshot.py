@@ -36,6 +36,7 @@ from .versions import differences, local_files, versions
 __all__ = [
     "RunSnapshot",
     "capture_run",
+    "check_any_header",
     "check_header",
     "check_versions",
     "detached",
@@ -146,6 +147,35 @@ _RECIPE_KEYS: dict[str, tuple[type, ...]] = {
 }
 
 
+_SESSION_KEYS: dict[str, tuple[type, ...]] = {
+    "session": (str,),
+    "scenario": (str,),
+    "scenario_file": (str,),
+    "scenario_sha256": (str,),
+    "seed": (int,),
+    "t": (int, float),
+    "tick": (int,),
+    "state": (str, type(None)),
+    "task": (dict, type(None)),
+    "skill_paths": (list,),
+    "versions": (dict,),
+}
+
+
+def check_any_header(path: Path, h: dict[str, Any]) -> dict[str, Any]:
+    """A run's or a live session's snapshot header, each key of the type it must have.
+
+    Raises:
+        SnapshotError: Another kind, or a key missing or of another type (named).
+    """
+    if h.get("kind") == "session":
+        _typed(path, h, _SESSION_KEYS, "")
+        if isinstance(h["seed"], bool) or h["seed"] < 0:
+            raise SnapshotError(f"{path}: the header's seed is negative")
+        return h
+    return check_header(SnapshotFile(Path(path), h, b""))
+
+
 def check_header(snap: SnapshotFile) -> dict[str, Any]:
     """The header of a run snapshot, each key of the type it must have.
 
@@ -154,7 +184,9 @@ def check_header(snap: SnapshotFile) -> dict[str, Any]:
     """
     h, path = snap.header, snap.path
     if h.get("kind") != "run":
-        raise SnapshotError(f"{path}: a snapshot of a {str(h.get('kind'))[:40]!r}, not of a run")
+        kind = h.get("kind")
+        what = f"a snapshot of a {str(kind)[:40]!r}" if isinstance(kind, str) else "no kind"
+        raise SnapshotError(f"{path}: {what}, not of a run")
     _typed(path, h, _RUN_KEYS, "")
     _typed(path, h["recipe"], _RECIPE_KEYS, "recipe.")
     for key in ("overrides", "faults", "events", "allow_paths"):

@@ -86,8 +86,12 @@ def _make_key(path: Path) -> None:
         return
     except OSError as exc:
         raise SnapshotError(f"cannot make the snapshot key {path}: {exc}") from None
-    with os.fdopen(fd, "wb") as f:
-        f.write(secrets.token_bytes(_KEY_BYTES))
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(secrets.token_bytes(_KEY_BYTES))
+    except OSError as exc:  # a full disk: no half key is left to sign with
+        path.unlink(missing_ok=True)
+        raise SnapshotError(f"cannot make the snapshot key {path}: {exc.strerror or exc}") from None
 
 
 def sign(data: bytes, key: bytes | None = None) -> str:
