@@ -174,3 +174,19 @@ def test_a_batch_on_a_full_disk_stops_with_a_message_and_resume_runs_the_rest(tm
     assert sorted(ln["seed"] for ln in lines) == [0, 1, 2, 3]  # each once, none lost
     assert all(ln["outcome"] != "error" for ln in lines)  # no write error as a result
     assert [p.name for p in out.iterdir() if p.name.endswith(".tmp")] == []
+
+
+def test_a_batch_that_cannot_snapshot_a_failure_says_so_and_records_why(tmp_path):
+    out = tmp_path / "batch"
+    out.mkdir()
+    (out / "snapshots").write_text("a file where the snapshots' folder would be\n")
+    res = _cli("batch", "pick_place", "-n", "1", "--workers", "1", "--record", "none",
+               "--set", "guards.workspace.max=[0.95, 0.1, 1.2]",  # the carried cube leaves it
+               "--snapshot-on-failure", "--out", str(out), env=_env(tmp_path))  # fmt: skip
+    said = " ".join(res.stderr.split())
+    assert "Traceback" not in res.stderr, res.stderr
+    assert "seed 0: no snapshot (SnapshotError: cannot write the snapshot" in said
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["failing_seeds"] == [0]
+    assert "cannot write the snapshot" in summary["snapshot_errors"]["0"]
+    assert "--from" not in summary["rerun_command"]  # from t = 0, as said
