@@ -23,6 +23,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import stat
 import tempfile
 import zipfile
 from dataclasses import dataclass
@@ -163,7 +164,17 @@ def _read_bounded(path: Path) -> bytes:
                 raise SnapshotError(
                     f"{path}: not a snapshot file (it does not start with {MAGIC.decode()})"
                 )
-            rest = f.read(MAX_FILE_BYTES + 1 - len(first))
+            left = MAX_FILE_BYTES + 1 - len(first)
+            if stat.S_ISREG(st.st_mode):  # no buffer larger than the file: memory as its size
+                left = min(left, max(st.st_size - len(first), 0) + 1)
+            parts, size = [], 0
+            while size < left:  # a pipe or a device: a chunk at a time, up to the limit
+                chunk = f.read(min(left - size, 1 << 20))
+                if not chunk:
+                    break
+                parts.append(chunk)
+                size += len(chunk)
+            rest = b"".join(parts)
     except IsADirectoryError:
         raise SnapshotError(f"{path}: a folder, not a snapshot file") from None
     except OSError as exc:
