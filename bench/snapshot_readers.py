@@ -114,7 +114,9 @@ def _in_process(files: dict[str, str]) -> None:
         "run --from (read_snapshot + check_header)": lambda p: check_header(read_snapshot(p)),
         "live restore (read_session)": lambda p: read_session(p, loaded),
     }
-    print("\n| reader, in process | file | refused | wall [ms] (median of 5) | peak allocated [MB] |")
+    print(
+        "\n| reader, in process | file | refused | wall [ms] (median of 5) | peak allocated [MB] |"
+    )
     print("|---|---|---|---|---|")
     for reader, fn in readers.items():
         for name, path in files.items():
@@ -130,8 +132,11 @@ def _in_process(files: dict[str, str]) -> None:
                 walls.append(time.perf_counter() - wall0)
                 peak = max(peak, tracemalloc.get_traced_memory()[1])
                 tracemalloc.stop()
-            print(f"| {reader} | {name} | {'yes' if refused else 'NO'} | "
-                  f"{statistics.median(walls) * 1e3:.1f} | {peak / 1e6:.1f} |", flush=True)
+            print(
+                f"| {reader} | {name} | {'yes' if refused else 'NO'} | "
+                f"{statistics.median(walls) * 1e3:.1f} | {peak / 1e6:.1f} |",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

@@ -1061,8 +1061,8 @@ def snapshot_show(
     if as_json:
         _json_line({**header, "signed_by_you": signed.startswith("yes")})
         return
-    stop = header.get("break") if isinstance(header.get("break"), dict) else {}
-    versions = header.get("versions") if isinstance(header.get("versions"), dict) else {}
+    stop = header["break"] if isinstance(header.get("break"), dict) else {}
+    versions = header["versions"] if isinstance(header.get("versions"), dict) else {}
     for key, value in (
         ("scenario", f"{header.get('scenario')} ({header.get('scenario_file')})"),
         ("seed", header.get("seed")),

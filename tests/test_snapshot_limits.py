@@ -16,11 +16,11 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator.engine.snapshot import SnapshotError, read_snapshot, write_run
+from orchestrator.engine.snapshot import SnapshotError, write_run
 from orchestrator.engine.snapshot.signing import KEY_ENV, MIN_KEY_BYTES, signing_key
 from orchestrator.engine.snapshot.snapfile import MAX_FILE_BYTES, write_snapshot
-from orchestrator.live.snapshots import read_session
 from orchestrator.language.load import load_scenario
+from orchestrator.live.snapshots import read_session
 
 
 @pytest.fixture(autouse=True)
@@ -44,7 +44,7 @@ def _crafted(tmp_path: Path) -> dict[str, Path]:
     files: dict[str, bytes] = {
         "deep": b"ORCHESTRATOR-SNAPSHOT 2\n" + b"[" * 200_000 + b"\n",
         "no_end": b"ORCHESTRATOR-SNAPSHOT 2\n" + b"{" * (2 << 20),
-        "huge_int": b"ORCHESTRATOR-SNAPSHOT 2\n{\"seed\": " + b"9" * 100_000 + b"}\n",
+        "huge_int": b'ORCHESTRATOR-SNAPSHOT 2\n{"seed": ' + b"9" * 100_000 + b"}\n",
         "not_utf8": b"ORCHESTRATOR-SNAPSHOT 2\n\xff\xfe{}\n",
     }
     out = {}

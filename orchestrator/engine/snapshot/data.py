@@ -1,10 +1,11 @@
 """Plain data: what a snapshot holds instead of objects.
 
 A value is *data* as skills/plain_state.py says (numbers, strings, arrays, pydantic dumps, and
-lists and dicts of them). `encode` turns data into a
-JSON tree plus a dict of arrays (each array in the tree is `{"$array": NAME}`, a non-finite
-float `{"$float": "nan"}`); `decode` is its inverse and never builds anything else: no class
-is looked up by name, no callable named in a file is called. `objects` walks a run's graph to find what a snapshot records (generators, skills, checks).
+lists and dicts of them). `encode` turns data into a JSON tree plus a dict of arrays (each
+array in the tree is `{"$array": NAME}`, a non-finite float `{"$float": "nan"}`); `decode` is
+its inverse and never builds anything else: no class is looked up by name, no callable named
+in a file is called. `objects` walks a run's graph to find what a snapshot records
+(generators, skills, checks).
 """
 
 from __future__ import annotations

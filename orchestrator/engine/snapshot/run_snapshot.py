@@ -205,8 +205,10 @@ def check_header(snap: SnapshotFile) -> dict[str, Any]:
 def _typed(path: Path, h: dict[str, Any], keys: dict[str, tuple[type, ...]], pre: str) -> None:
     for key, types in keys.items():
         value = h.get(key)
-        if key not in h or not isinstance(value, types) or (
-            isinstance(value, bool) and bool not in types
+        if (
+            key not in h
+            or not isinstance(value, types)
+            or (isinstance(value, bool) and bool not in types)
         ):
             want = " or ".join("null" if t is type(None) else t.__name__ for t in types)
             raise SnapshotError(f"{path}: the header's {pre}{key} is missing or not {want}")

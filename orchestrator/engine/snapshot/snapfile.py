@@ -81,7 +81,7 @@ class SnapshotFile:
 def pack(arrays: dict[str, np.ndarray]) -> bytes:
     """`arrays` as an .npz archive (compressed)."""
     buf = io.BytesIO()
-    np.savez_compressed(buf, **arrays)
+    np.savez_compressed(buf, **arrays)  # type: ignore[arg-type]
     return buf.getvalue()
 
 

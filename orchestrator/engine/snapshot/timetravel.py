@@ -25,8 +25,8 @@ from .breaks import BreakPoint
 from .errors import SnapshotError
 from .run_snapshot import RunSnapshot, check_header, file_digest, load_run, write_run
 from .snapfile import read_snapshot
-from .versions import local_files
 from .stops import Stop, find_stop, run_to
+from .versions import local_files
 
 __all__ = [
     "Broken",

@@ -1,8 +1,9 @@
 """What a snapshot must be resumed with: the same code and the same libraries.
 
 A resumed run is bit-identical to the uninterrupted one only on the code that wrote the
-snapshot: another MuJoCo steps differently, another version of a skill plans differently. So a snapshot records the versions below and
-`run --from` refuses one whose versions differ from its own, naming each difference.
+snapshot: another MuJoCo steps differently, another version of a skill plans differently. So
+a snapshot records the versions below and `run --from` refuses one whose versions differ from
+its own, naming each difference.
 """
 
 from __future__ import annotations

@@ -3,9 +3,10 @@ built the normal way (a live session's snapshot: live/snapshots.py).
 
 Recorded: MuJoCo's integration state and the model's digest, every numpy Generator reachable
 from the context (by path), and the plain-data attributes of the context, the controller,
-the IK, the world, its step clock and the encoders. Put back on a world built from the same scenario and seed: the MuJoCo state by
-`mj_setState` (then `mj_forward`), each generator's state, and each attribute — an array into
-the array already there (`np.copyto`: views into it stay views), anything else set. An array
+the IK, the world, its step clock and the encoders. Put back on a world built from the same
+scenario and seed: the MuJoCo state by `mj_setState` (then `mj_forward`), each generator's
+state, and each attribute — an array into the array already there (`np.copyto`: views into it
+stay views), anything else set. An array
 that is a view of other memory (into MjData) is not written: MuJoCo's state brings it back.
 """
 
@@ -17,8 +18,8 @@ import mujoco
 import numpy as np
 from pydantic import BaseModel
 
-from ..context import Context
 from ...skills.plain_state import attributes
+from ..context import Context
 from .data import decode, encode, objects, plain_state
 from .errors import SnapshotError
 from .state import model_digest, mujoco_state
@@ -89,8 +90,10 @@ def _apply(obj: Any, values: Any, where: str) -> None:
         if isinstance(now, np.ndarray):
             if now.base is not None:
                 continue  # a view of memory MuJoCo's state brings back
-            if isinstance(value, np.ndarray) and value.shape == now.shape and (
-                value.dtype == now.dtype
+            if (
+                isinstance(value, np.ndarray)
+                and value.shape == now.shape
+                and (value.dtype == now.dtype)
             ):
                 np.copyto(now, value)  # in place: whatever holds it sees the value
             else:
