@@ -6,13 +6,16 @@ machines), the episode runs once uninterrupted while every state entry is noted;
 are picked from it (an entry inside a parallel state, a retry, a guard's abort, an entry
 inside a nested machine, one near the middle, ticks at 1/3 and 2/3 of the run: at least 3
 distinct ticks). For each, a fresh episode runs to the start of that tick, the snapshot is
-written to a file (pickled, compressed, signed), read back (verified, unpickled) and run to
-the end; its `run --json` object minus the wall time must equal the uninterrupted run's.
+written to a file (recorded as data, compressed, signed), read back (verified, rebuilt,
+checked) and run to the end; its `run --json` object minus the wall time must equal the
+uninterrupted run's. A snapshot is data (a JSON header and an .npz of arrays): reading it
+back rebuilds the run from the scenario, drives it to the snapshot's tick and checks it holds
+the recorded state, so "read" includes that replay.
 
 Reported per break point: identical or not (and the first key that differs), the file's size,
 the time to write it and to read it back (wall time: report them with the machine's load),
-and the time to re-simulate the episode from t = 0 to there (what resuming by replay, the
-design not taken, would cost). `--cross-process` also resumes one snapshot per scenario with
+and the time to re-simulate the episode from t = 0 to there alone (the replay a resume now
+does, without reading and checking). `--cross-process` also resumes one snapshot per scenario with
 `orchestrator run --from` in a fresh process (another PYTHONHASHSEED).
 
     python bench/snapshot_identity.py                   # the table (markdown) and a verdict
@@ -54,13 +57,18 @@ def _label(name: str, faults: list[str]) -> str:
     return Path(name).stem + (f" + {' '.join(faults)}" if faults else "")
 
 
-def _cross_process(path: Path, expected: dict, key_home: str) -> bool:
+def _cross_process(path: Path, expected: dict, key_home: str) -> bool | str:
+    """True when `orchestrator run --from` in a fresh process ends as `expected`; else False,
+    or what it said when it refused (a snapshot is refused, e.g., when the code changed)."""
     env = {**os.environ, "PYTHONHASHSEED": "12345", "XDG_CONFIG_HOME": key_home}
     proc = subprocess.run(
         [sys.executable, "-m", "orchestrator.cli", "run", "--from", str(path), "--json"],
         capture_output=True, text=True, check=False, env=env,
     )  # fmt: skip
-    got = json.loads(proc.stdout)
+    try:
+        got = json.loads(proc.stdout)
+    except ValueError:
+        return " ".join(proc.stderr.split())[:200] or f"exit {proc.returncode}"
     got.pop("wall_time", None)
     return got == expected
 
@@ -109,7 +117,7 @@ def main() -> int:
             if args.cross_process and i == 0:
                 snap = folder / f"{loaded.name}-seed0-tick{case.stop.tick}.snap"
                 row["cross_process_identical"] = _cross_process(snap, expected, key_home)
-                all_ok = all_ok and row["cross_process_identical"]
+                all_ok = all_ok and row["cross_process_identical"] is True
             all_ok = all_ok and outcome.identical
             rows.append(row)
             other = row.get("cross_process_identical")
@@ -118,7 +126,11 @@ def main() -> int:
                 f"{'identical' if outcome.identical else 'DIFFERS: ' + str(outcome.difference)}"
                 f"  {outcome.size / 1e6:.2f} MB  write {outcome.write_s * 1e3:4.0f} ms  "
                 f"read {outcome.load_s * 1e3:4.0f} ms  replay {replay_s * 1e3:5.0f} ms"
-                + ("" if other is None else f"  another process: {other and 'identical'}"),
+                + (
+                    ""
+                    if other is None
+                    else f"  another process: {'identical' if other is True else other}"
+                ),
                 flush=True,
             )
     print(f"load average at end: {os.getloadavg()[0]:.1f}")

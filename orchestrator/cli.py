@@ -989,25 +989,16 @@ app.add_typer(snapshot_app, name="snapshot")
 
 
 def _snapshot_header(path: Path) -> dict:
-    """A snapshot file's header, read without unpickling anything (exit 2 if it is not one)."""
-    from .engine.snapshot.snapfile import MAGIC
+    """A snapshot file's header (bounded reads; exit 2 if it is not one)."""
+    from .engine.snapshot import SnapshotError
+    from .engine.snapshot.run_snapshot import check_any_header
+    from .engine.snapshot.snapfile import read_header
 
     try:
-        with path.open("rb") as f:
-            head, line = f.readline(), f.readline(1 << 20)
-    except OSError as exc:
-        _fail(f"{path}: cannot read it ({exc.strerror})")
-    if not head.startswith(MAGIC + b" "):
-        _fail(f"{path}: not a snapshot file")
-    import json
-
-    try:
-        header = json.loads(line)
-    except ValueError as exc:
-        _fail(f"{path}: broken snapshot header: {exc}")
-    if not isinstance(header, dict):
-        _fail(f"{path}: broken snapshot header: not a JSON object")
-    return header
+        return check_any_header(path, read_header(path))
+    except SnapshotError as exc:
+        _fail(str(exc))
+        raise  # unreachable: _fail exits
 
 
 @snapshot_app.command("show")
@@ -1015,8 +1006,8 @@ def snapshot_show(
     path: Annotated[Path, typer.Argument(help="The snapshot file.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print the header as JSON.")] = False,
 ) -> None:
-    """What a snapshot is of: scenario, seed, time, state, break point, versions (nothing in it
-    is unpickled: safe on any file). Says whether this user's key signed it."""
+    """What a snapshot is of: scenario, seed, time, state, break point, versions (a snapshot is
+    data: safe on any file, read within a size limit). Says whether this user's key signed it."""
     from .engine.snapshot import SnapshotError, read_snapshot
 
     header = _snapshot_header(path)
@@ -1028,14 +1019,15 @@ def snapshot_show(
     if as_json:
         _json_line({**header, "signed_by_you": signed.startswith("yes")})
         return
-    stop = header.get("break") or {}
+    stop = header["break"] if isinstance(header.get("break"), dict) else {}
+    versions = header["versions"] if isinstance(header.get("versions"), dict) else {}
     for key, value in (
         ("scenario", f"{header.get('scenario')} ({header.get('scenario_file')})"),
         ("seed", header.get("seed")),
         ("at", f"t={header.get('t')} s, control tick {header.get('tick')}"),
         ("state", header.get("state")),
         ("stopped for", f"{stop.get('reason')} ({stop.get('option')})"),
-        ("versions", ", ".join(f"{k} {v}" for k, v in (header.get("versions") or {}).items())),
+        ("versions", ", ".join(f"{k} {v}" for k, v in versions.items())),
         ("signed by you", signed),
     ):
         out.print(f"{key + ':':14} {value}", markup=False, soft_wrap=True)
@@ -1045,8 +1037,9 @@ def snapshot_show(
 def snapshot_trust(
     path: Annotated[Path, typer.Argument(help="The snapshot file.")],
 ) -> None:
-    """Sign a snapshot with your key, so that `run --from` loads it. Only for a snapshot from
-    someone you trust: loading a snapshot runs the code it names (it is a pickle)."""
+    """Sign a snapshot with your key, so that `run --from` loads it: for a snapshot from someone
+    you trust to have taken it (a snapshot is data and runs no code; the signature says who
+    wrote it and that it is unchanged)."""
     from .engine.snapshot import SnapshotError, trust
 
     _snapshot_header(path)

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import abc
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from pydantic import BaseModel, ConfigDict
+
+from .plain_state import plain_state
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -86,6 +88,13 @@ class Skill(abc.ABC):
         the text goes into that transition's `detail` in the result. Default: nothing to say.
         """
         return None
+
+    def snapshot_state(self) -> dict[str, Any]:
+        """What this skill holds mid-motion, as plain data (skills/plain_state.py): a snapshot
+        records it, and a resumed run, rebuilt from the scenario, must hold the same before it
+        goes on (docs/time-travel.md). Default: every attribute that is plain data. Override it
+        to leave out a cache or to add what an object of your own holds."""
+        return plain_state(self)
 
     def written_keys(self) -> list[str]:
         """Blackboard keys this instance writes (the values of its `writes` fields)."""

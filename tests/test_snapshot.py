@@ -1,6 +1,7 @@
 """Snapshots (engine/snapshot): a run broken at a state, written, read back and continued ends
-exactly as the run that was never interrupted; and a snapshot file is never unpickled unless
-this user's key signed it, this version wrote it and it is of the scenario named.
+exactly as the run that was never interrupted; a snapshot is data (a JSON header and numeric
+arrays), resumed only when this user's key signed it, this version wrote it, it is of the
+scenario named and the run rebuilt from that scenario holds the recorded state.
 
 The fast subset runs here: one machine that has a retry, a parallel state and nested machines
 (tests/machines/parallel_pick.yaml), broken inside each; the whole matrix over every bundled
@@ -9,26 +10,24 @@ scenario is tests/test_snapshot_matrix.py (slow) and bench/snapshot_identity.py.
 
 from __future__ import annotations
 
+import io
 import json
 import os
-import pickle
 import stat
+import zipfile
 from pathlib import Path
 
-import mujoco
 import numpy as np
 import pytest
 
 from orchestrator.engine.runner import new_run
-from orchestrator.engine.snapshot import SnapshotError, read_snapshot
-from orchestrator.engine.snapshot.audit import fingerprint, first_difference, process_values
+from orchestrator.engine.snapshot import SnapshotError, load_run, read_snapshot, write_run
+from orchestrator.engine.snapshot.data import decode, encode
 from orchestrator.engine.snapshot.identity import check, comparable, reference
-from orchestrator.engine.snapshot.pickler import dumps, loads
 from orchestrator.engine.snapshot.signing import KEY_ENV, key_path
 from orchestrator.engine.snapshot.snapfile import write_snapshot
-from orchestrator.engine.snapshot.stops import run_to
+from orchestrator.engine.snapshot.stops import Stop, run_to
 from orchestrator.language.load import load_scenario
-from orchestrator.world.realism import WristForceNoise
 
 MACHINES = Path(__file__).parent / "machines"
 PARALLEL_PICK = str(MACHINES / "parallel_pick.yaml")
@@ -41,66 +40,50 @@ def _own_key(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path_factory.getbasetemp() / "config"))
 
 
-# -- the pickler ----------------------------------------------------------------------------
-class _Holder:
-    """What the hot loop does: views into MjData and into an array of its own, bound once."""
-
-    def __init__(self) -> None:
-        self.model = mujoco.MjModel.from_xml_string(
-            "<mujoco><worldbody><body><freejoint/><geom size='.1'/></body></worldbody></mujoco>"
-        )
-        self.data = mujoco.MjData(self.model)
-        self.qpos_tail = self.data.qpos[3:7]  # a view into MjData's memory
-        self.warnings = self.data.warning.number[1:4]  # a strided field of a sub-struct
-        self.flags = np.zeros(3)
-        self.flag = self.flags[1:]  # a view of an array of its own
-
-
-def test_views_into_mujoco_and_into_numpy_arrays_come_back_as_views():
-    h = loads(dumps(_Holder()))
-    h.data.qpos[3] = 0.25
-    h.data.warning.number[2] = 7
-    h.flags[2] = 5.0
-    assert h.qpos_tail[0] == 0.25  # still MjData's memory, not a copy
-    assert h.warnings[1] == 7
-    assert h.flag[1] == 5.0
-    assert h.data.model is h.model  # the data is on the snapshot's own model
+# -- the data ---------------------------------------------------------------------------------
+def test_a_run_snapshot_holds_data_only_and_names_each_running_skill(tmp_path):
+    loaded = load_scenario("pick_place")
+    run = new_run(loaded, 0)
+    assert run_to(run, Stop(300, False, "test", "test"))
+    path = tmp_path / "x.snap"
+    write_run(path, run, Stop(300, False, "test", "test").header(), [])
+    arrays = read_snapshot(path).arrays()
+    assert all(a.dtype.kind in "biuf" for a in arrays.values())  # numbers, no objects
+    state = json.loads(arrays["state"].tobytes())
+    skill = next(iter(state["skills"].values()))
+    assert skill["skill"].startswith("orchestrator.skills.") and isinstance(skill["state"], dict)
+    assert state["leaf"] == run.executor.leaf and set(state["generators"]) >= {".ctx.rng"}
+    with zipfile.ZipFile(io.BytesIO(read_snapshot(path).payload)) as zf:
+        for name in zf.namelist():  # every member loads as an array without pickle
+            np.lib.format.read_array(zf.open(name), allow_pickle=False)
 
 
-def test_a_restored_world_with_sleeping_bodies_steps_as_the_original():
-    # MuJoCo 4.0's MjData pickle loses the sleeping counters: a sleeping body then stopped
-    # the step with "mj_sleep: found sleeping tree"; the snapshot patches what it loses
-    xml = """<mujoco><option><flag sleep="enable"/></option><worldbody>
-      <geom type="plane" size="1 1 .1"/>
-      <body pos="0 0 .2"><freejoint/><geom size=".05"/></body>
-      <body pos=".3 0 .5"><freejoint/><geom size=".05"/></body></worldbody></mujoco>"""
-    model = mujoco.MjModel.from_xml_string(xml)
-    data = mujoco.MjData(model)
-    for _ in range(1500):
-        mujoco.mj_step(model, data)
-    assert data.ntree_awake < model.ntree  # something sleeps
-    m2, d2 = loads(dumps((model, data)))
-    for _ in range(200):
-        mujoco.mj_step(model, data)
-        mujoco.mj_step(m2, d2)
-    assert d2.qpos.tobytes() == data.qpos.tobytes()
-    assert d2.ntree_awake == data.ntree_awake
+def test_a_rebuilt_run_that_differs_from_the_recorded_state_is_refused(tmp_path):
+    loaded = load_scenario("pick_place")
+    run = new_run(loaded, 0)
+    stop = Stop(200, False, "test", "test")
+    assert run_to(run, stop)
+    run.ctx.rng.random()  # the recorded generator is one draw ahead of any rebuilt run
+    path = tmp_path / "x.snap"
+    write_run(path, run, stop.header(), [])
+    with pytest.raises(SnapshotError, match=r"does not hold the recorded state .*\.ctx\.rng"):
+        load_run(path)
 
 
-def test_the_wrist_sensors_noise_stream_goes_on_where_it_was():
-    noise = WristForceNoise(0.3, 0.05, 7, 0.002)
-    for i in range(700):  # past a block of draws
-        noise.offset(i * 0.002)
-    again = pickle.loads(pickle.dumps(noise))
-    times = [1.4 + i * 0.002 for i in range(1200)]
-    assert [again.offset(t) for t in times] == [noise.offset(t) for t in times]
+def test_a_skills_default_state_is_its_plain_data():
+    class Probe:
+        def __init__(self) -> None:
+            self.t0, self.name, self.path = 1.5, "a", np.arange(3.0)
+            self.params = {"k": [1, 2]}
+            self.callback = print  # not data: left out
 
+    from orchestrator.skills.plain_state import plain_state
 
-def test_what_cannot_be_pickled_is_named_where_it_is():
-    h = _Holder()
-    h.callback = lambda: 1  # type: ignore[attr-defined]
-    with pytest.raises(SnapshotError, match=r"at \.callback \(a local function"):
-        dumps(h)
+    state = plain_state(Probe())
+    assert set(state) == {"t0", "name", "path", "params"}
+    tree, arrays = encode(state, "p/")
+    back = decode(json.loads(json.dumps(tree)), arrays)
+    assert back["path"].tobytes() == np.arange(3.0).tobytes() and back["t0"] == 1.5
 
 
 # -- a resumed run is the uninterrupted run -------------------------------------------------
@@ -120,23 +103,6 @@ def test_a_run_resumed_inside_a_parallel_state_a_retry_or_a_nested_machine_ends_
     outcome = check(loaded, 0, case, expected, tmp_path)
     assert outcome.identical, f"{case.stop.reason}: {outcome.difference} differs"
     assert expected["outcome"] == "succeeded" and expected["retries"] == {"SEARCH": 1}
-
-
-def test_a_restored_graph_is_the_original_and_holds_nothing_of_its_process(parallel_pick):
-    loaded, _, cases = parallel_pick
-    run = new_run(loaded, 0)
-    assert run_to(run, cases["parallel"].stop)
-    original = fingerprint(run)
-    assert first_difference(original, fingerprint(loads(dumps(run)))) is None
-    # ids and raw addresses kept as plain ints would read wrong after a restore
-    assert process_values(run) == []
-
-
-def test_the_audit_finds_an_id_kept_as_a_plain_int(parallel_pick):
-    loaded, _, _ = parallel_pick
-    run = new_run(loaded, 0)
-    run.ctx.metrics["cache"] = {id(run.executor): 1}  # what the IK's problem cache once did
-    assert any("the id of a Executor" in p for p in process_values(run))
 
 
 # -- the command line -----------------------------------------------------------------------
@@ -247,23 +213,41 @@ def test_a_tampered_snapshot_is_refused_unread(cli, grasp_snapshot, tmp_path):
     bad.write_bytes(bytes(data))
     code, message = _resume(cli, bad)
     assert code == 2 and "not signed with this user's snapshot key" in message
-    assert "loading a pickle runs the code it names" in message
 
 
-def test_a_pickle_signed_with_another_key_never_runs(cli, tmp_path, monkeypatch):
+def test_a_pickle_in_a_snapshot_never_runs_even_signed_with_this_users_key(
+    cli, grasp_snapshot, tmp_path
+):
+    import pickle
+
     marker = tmp_path / "pwned"
 
     class Evil:
         def __reduce__(self):
             return (os.system, (f"touch {marker}",))
 
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as zf:  # an .npz whose one array is an object array
+        zf.writestr("state.npy", _npy_object_bytes(pickle.dumps([Evil()])))
     path = tmp_path / "evil.snap"
-    monkeypatch.setenv(KEY_ENV, "someone else's key")
-    write_snapshot(path, {"kind": "run", "versions": {}}, pickle.dumps(Evil()))
-    monkeypatch.delenv(KEY_ENV)
+    header = read_snapshot(grasp_snapshot[0]).header  # a real run's header: it gets that far
+    write_snapshot(path, header, buf.getvalue())  # signed with this user's own key
     code, message = _resume(cli, path)
-    assert code == 2 and "not signed with this user's snapshot key" in message
+    assert code == 2 and "broken snapshot payload" in message
     assert not marker.exists()
+    payload = read_snapshot(path)
+    with pytest.raises(SnapshotError, match="broken snapshot payload"):
+        payload.arrays()
+    assert not marker.exists()
+
+
+def _npy_object_bytes(pickled: bytes) -> bytes:
+    """An .npy file of an object array: numpy's header, then the pickle numpy would load."""
+    out = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        out, {"descr": "|O", "fortran_order": False, "shape": (1,)}
+    )
+    return out.getvalue() + pickled
 
 
 def test_a_snapshot_of_another_version_is_refused_naming_what_differs(
@@ -283,8 +267,9 @@ def test_a_snapshot_of_another_version_is_refused_naming_what_differs(
     ("data", "message"),
     [
         (b"not a snapshot\n", "not a snapshot file"),
-        (b"ORCHESTRATOR-SNAPSHOT 9\n{}\n", "snapshot format '9', this version reads format 1"),
-        (b"ORCHESTRATOR-SNAPSHOT 1\n{not json\n", "broken snapshot header"),
+        (b"ORCHESTRATOR-SNAPSHOT 9\n{}\n", "snapshot format '9', this version reads format 2"),
+        (b"ORCHESTRATOR-SNAPSHOT 1\n{}\n", "format 1 snapshots were pickles"),
+        (b"ORCHESTRATOR-SNAPSHOT 2\n{not json\n", "broken snapshot header"),
     ],
 )
 def test_files_that_are_no_snapshot_are_refused(cli, tmp_path, data, message):
@@ -306,7 +291,7 @@ def test_a_key_file_others_can_read_is_refused(cli, grasp_snapshot):
     assert f"chmod 600 {key}" in message
 
 
-def test_snapshot_show_reads_the_header_without_unpickling(cli, grasp_snapshot):
+def test_snapshot_show_reads_the_header(cli, grasp_snapshot):
     path, _, _ = grasp_snapshot
     res = cli("snapshot", "show", str(path), "--json")
     assert res.exit_code == 0
@@ -319,7 +304,7 @@ def test_a_snapshot_trusted_with_snapshot_trust_resumes(cli, grasp_snapshot, tmp
     path, full, _ = grasp_snapshot
     other = tmp_path / "from_a_colleague.snap"
     snap = read_snapshot(path)
-    monkeypatch.setenv(KEY_ENV, "a colleague's key")
+    monkeypatch.setenv(KEY_ENV, "a colleague's key, at least 32 bytes long")
     write_snapshot(other, snap.header, snap.payload)
     monkeypatch.delenv(KEY_ENV)
     assert _resume(cli, other)[0] == 2

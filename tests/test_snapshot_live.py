@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from orchestrator.engine.snapshot.signing import KEY_ENV
@@ -101,25 +102,28 @@ def test_a_reload_that_does_not_fit_the_running_task_is_refused(tmp_path, files)
     assert "WAIT: runs now and is not in the new file (its states: PAUSE, DONE)" in reply.reason
 
 
-def test_a_session_snapshot_restores_the_task_where_it_was(tmp_path, files):
+def test_a_session_snapshot_restores_the_world_where_it_was_and_the_arm_holds(tmp_path, files):
     events: list[dict] = []
     session = _session(tmp_path, events)
     assert session.submit(Command(op="run", machine=str(files["loop"]))).accepted
     _step(session, 40)  # inside the second hold
     reply = session.submit(Command(op="snapshot", snapshot="second_hold"))
     assert reply.accepted and reply.snapshot == str(tmp_path / "snaps" / "second_hold.snap")
+    _step(session, 1)
+    q, t = session.ctx.q.copy(), session.ctx.t
     _step(session, 200)
-    first = session.last_result
-    assert first is not None
+    assert session.last_result is not None
+    session.ctx.data.qpos[0] += 0.3  # the world moved on since
     reply = session.submit(Command(op="restore", snapshot="second_hold", client="me"))
     assert reply.accepted, reply.reason
-    _step(session, 200)
-    again = session.last_result
-    assert again is not None and again["task"] != first["task"]  # a new task of `me`
-    assert again["transitions"] == first["transitions"]  # from there, the same run
-    assert again["sim_time"] == first["sim_time"]
+    _step(session, 1)
     restored = next(e for e in events if e["event"] == "restore")
-    assert restored["tick"] == 40 and restored["task"] == again["task"]
+    assert restored["tick"] == 40 and restored["task"] is None  # the world, not a task
+    assert abs(session.ctx.t - t) <= session.ctx.dt_control + 1e-9  # back to the snapshot's time
+    assert np.abs(session.ctx.q - q).max() < 1e-3
+    _step(session, 100)  # no task: the arm holds where the snapshot had it
+    assert np.abs(session.ctx.q - q).max() < 1e-3
+    assert session.task is None
 
 
 @pytest.mark.parametrize(

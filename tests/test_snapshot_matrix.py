@@ -127,7 +127,7 @@ def test_a_batch_keeps_each_failures_snapshot_and_reruns_from_it(tmp_path, cli):
         assert line["snapshot"] == f"snapshots/seed_{seed}.snap"
         assert line["snapshot_state"] == "entry of TRANSPORT"  # the last entry before
     path = tmp_path / "batch" / "snapshots" / "seed_0.snap"
-    assert summary.rerun_command == f"orchestrator run --from {path} --rrd " + str(
+    assert summary.rerun_command == f"orchestrator run pick_place --from {path} --rrd " + str(
         tmp_path / "batch" / "episodes" / "seed_0.rerun.rrd"
     )
     res = cli("run", "--from", str(path), "--json")

@@ -7,6 +7,7 @@ as `orchestrator run` does (engine/prepare.py: its world compiled once, its goal
 
 from __future__ import annotations
 
+import errno
 import traceback
 from pathlib import Path
 from typing import Any
@@ -18,7 +19,7 @@ from ..engine.snapshot import EntryLog, last_entry_stop, local_skill_files, run_
 from ..engine.snapshot.breaks import final_paths
 from ..exceptions import ConfigError
 from .memory import release_episode, rss_mb, worker_stamp
-from .task import EpisodeTask, error_line, rrd_name, snapshot_name
+from .task import NOT_WRITTEN, EpisodeTask, error_line, rrd_name, snapshot_name
 
 __all__ = ["prepared_episode", "run_task", "same_episode"]
 
@@ -40,6 +41,9 @@ def prepared_episode(task: EpisodeTask) -> Prepared:
         )
     return _PREPARED[key].reseeded(task.seed)
 
+
+_DISK_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+"""A write that failed for want of room: the machine's trouble, not the episode's."""
 
 _NOT_THE_EPISODE = ("wall_time", "worker")
 """Result-line keys that describe how an episode ran (wall time, the worker's memory), not
@@ -85,6 +89,10 @@ def _run(task: EpisodeTask) -> dict[str, Any]:
         return error_line(task, type(exc).__name__, str(exc), None)
     except ConfigError as exc:  # refused as `run` refuses it (a goal by the objects drawn)
         return error_line(task, type(exc).__name__, _one_line(exc), None)
+    except OSError as exc:
+        if exc.errno not in _DISK_FULL:
+            return error_line(task, type(exc).__name__, _one_line(exc), traceback.format_exc())
+        return {"seed": task.seed, NOT_WRITTEN: exc.strerror or str(exc)}  # no result: retried
     except Exception as exc:  # crash isolation: whatever went wrong is this episode's error
         return error_line(task, type(exc).__name__, _one_line(exc), traceback.format_exc())
     if task.record == "failures" and result.outcome != "succeeded":

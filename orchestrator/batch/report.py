@@ -48,6 +48,14 @@ def print_summary(summary: BatchSummary, console: Console) -> None:
         more = len(s.failing_seeds) - _MAX_SEEDS_SHOWN
         console.print(f"failing seeds: {shown}" + (f" and {more} more" if more > 0 else ""))
         console.print(f"re-run one:    {s.rerun_command}", markup=False, soft_wrap=True)
+    if s.snapshot_errors:
+        seed, why = next(iter(s.snapshot_errors.items()))
+        console.print(
+            f"no snapshot:   {len(s.snapshot_errors)} failing seeds (seed {seed}: {why}); "
+            "their reruns start from t = 0",
+            markup=False,
+            soft_wrap=True,
+        )
     console.print(f"results:       {s.results}", markup=False, soft_wrap=True)
 
 

@@ -18,7 +18,7 @@ from .lock import BatchLock
 from .progress import BatchProgress, NullProgress
 from .store import ResultsStore
 from .summary import SUMMARY, BatchSummary, summarize
-from .task import EpisodeTask
+from .task import NOT_WRITTEN, EpisodeTask
 
 __all__ = ["MANIFEST", "recording_unavailable", "run_batch"]
 
@@ -98,22 +98,36 @@ def run_batch(
             )
             for s in todo
         ]
-        out_dir.mkdir(parents=True, exist_ok=True)
-        _write_json(out_dir / MANIFEST, manifest)
         new: list[dict[str, Any]] = []
         t0 = time.perf_counter()
-        store.open()
+        try:
+            out_dir.mkdir(parents=True, exist_ok=True)
+            _write_json(out_dir / MANIFEST, manifest)
+            store.open()
+        except OSError as exc:
+            raise _write_failed(out_dir, exc, 0) from None
         progress.start(len(seeds), finished)
         try:
             if tasks:
                 for line in backend.run(tasks):
+                    not_written = line.get(NOT_WRITTEN)
+                    if not_written:  # the worker could not write: not a result of the episode
+                        raise _write_failed(out_dir, OSError(not_written), len(new))
                     if line.get("scenario") is None:
                         line["scenario"] = loaded.name
-                    store.append(line)
+                    try:
+                        store.append(line)
+                    except OSError as exc:
+                        raise _write_failed(out_dir, exc, len(new)) from None
                     new.append(line)
                     progress.advance(line)
+                    if line.get("snapshot_error") and warn is not None:
+                        warn(f"seed {line['seed']}: no snapshot ({line['snapshot_error']})")
         finally:
-            store.close()
+            try:
+                store.close()
+            except OSError:
+                pass  # the error that matters was raised above
             progress.stop()
         wall = time.perf_counter() - t0
         summary = summarize(
@@ -132,8 +146,21 @@ def run_batch(
             rrd_dir=None if no_recording or record == "none" else out_dir,
             allow_paths=allow,
         )
-        _write_json(out_dir / SUMMARY, summary.to_json_dict())
+        try:
+            _write_json(out_dir / SUMMARY, summary.to_json_dict())
+        except OSError as exc:
+            raise _write_failed(out_dir, exc, len(new)) from None
         return summary
+
+
+def _write_failed(out_dir: Path, exc: OSError, recorded: int) -> BatchError:
+    """The batch stops: a file of it cannot be written (a full disk, a quota)."""
+    why = exc.strerror or str(exc)
+    return BatchError(
+        f"cannot write to {out_dir}: {why}; {recorded} episodes of this run were recorded, "
+        f"none with a write error: free space, then continue with the same command plus "
+        f"--resume --out {out_dir} (it runs every episode without a result)"
+    )
 
 
 def _record_mode(
@@ -177,7 +204,12 @@ def _check_out_dir(
 
 
 def _write_json(path: Path, data: dict[str, Any]) -> None:
-    """Write atomically: a crash leaves the old file or the new one, never half of one."""
+    """Write atomically: a crash leaves the old file or the new one, never half of one, and a
+    failed write leaves no temporary file."""
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(dumps(data, indent=2) + "\n")
-    os.replace(tmp, path)
+    try:
+        tmp.write_text(dumps(data, indent=2) + "\n")
+        os.replace(tmp, path)
+    except OSError:
+        tmp.unlink(missing_ok=True)
+        raise

@@ -98,6 +98,11 @@ class BatchSummary(BaseModel):
         description="Re-runs the first failing seed alone (from its snapshot, at the last "
         "state entry before the failure, with --snapshot-on-failure)."
     )
+    snapshot_errors: dict[str, str] = Field(
+        default_factory=dict,
+        description="With --snapshot-on-failure: failing seeds whose snapshot could not be "
+        "written, and why (their rerun runs from t = 0).",
+    )
     results: str = Field(description="Path of results.jsonl.")
     sorting: SortingStats | None = Field(
         default=None, description="Parcel counts of a batch whose scenario has parcels."
@@ -133,8 +138,8 @@ def rerun_command(
         allow_paths: The batch's `--allow-path` directories (absolute): the scenario's files
             load from them again.
     """
-    if snapshot is not None:
-        parts = ["orchestrator", "run", "--from", str(snapshot)]
+    if snapshot is not None:  # the scenario named: its own code folders are imported
+        parts = ["orchestrator", "run", ref, "--from", str(snapshot)]
     else:
         parts = ["orchestrator", "run", ref, "--seed", str(seed)]
         for text in overrides:
@@ -224,6 +229,9 @@ def summarize(
         episodes_per_s=round(episodes_run / wall_time_s, 4) if wall_time_s > 0 else 0.0,
         failing_seeds=failing,
         rerun_command=command,
+        snapshot_errors={
+            str(ln["seed"]): str(ln["snapshot_error"]) for ln in lines if ln.get("snapshot_error")
+        },
         results=str(results),
         sorting=_sorting(lines),
         memory=memory_stats(lines),

@@ -8,10 +8,13 @@ from typing import Any
 
 from .config import RecordMode
 
-__all__ = ["ERROR", "EpisodeTask", "error_line", "rrd_name", "snapshot_name"]
+__all__ = ["ERROR", "NOT_WRITTEN", "EpisodeTask", "error_line", "rrd_name", "snapshot_name"]
 
 ERROR = "error"
 """The outcome of an episode that raised, or whose worker process died."""
+NOT_WRITTEN = "not_written"
+"""Key of a worker's line saying a file could not be written (a full disk): the line is no
+result of the episode; the batch stops and `--resume` runs that episode again."""
 
 
 def rrd_name(seed: int) -> str:

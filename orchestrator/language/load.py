@@ -6,7 +6,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -56,6 +56,9 @@ class LoadedScenario:
     machine: MachineNode
     path: Path
     source: SourceMap
+    recipe: dict[str, Any] = field(default_factory=dict)
+    """The arguments of `load_scenario` that made it, as data (a run snapshot rebuilds the
+    run from them: engine/snapshot/run_snapshot.py)."""
 
     @property
     def name(self) -> str:
@@ -251,7 +254,16 @@ def _load(
         problems = [hint_unimported(d, unimported) for d in problems]
         raise ConfigError([_attribute(d, overridden, doc.source.file) for d in problems])
     assert scenario is not None and node is not None
-    return LoadedScenario(scenario, node, path, doc.source), world
+    recipe = {
+        "ref": str(path.resolve()),
+        "overrides": [o if isinstance(o, str) else o.text for o in overrides or []
+                      if isinstance(o, str | Override)],
+        "faults": list(faults or []),
+        "events": list(events or []),
+        "allow_paths": [str(Path(a).resolve()) for a in allow],
+        "machine": machine,
+    }  # fmt: skip
+    return LoadedScenario(scenario, node, path, doc.source, recipe), world
 
 
 def _append_options(

@@ -1,29 +1,40 @@
-"""A live session's snapshots: the world it keeps, and the task running on it, if any.
+"""A live session's snapshots: the world it keeps, as data.
 
 `snapshot [NAME]` writes `<folder>/<NAME>.snap` at the start of the next control tick: the
-world, the controller, the step loop, the running task (its machine at every level, its
-skills mid-motion), the idle world's stop, and whether the session is e-stopped, in error or
-blocked. `restore NAME` puts one back at the start of a control tick: the running task and the
-queue are dropped (their clients are told), and the task of the snapshot, if it had one,
-continues as a new task owned by whoever restored it. A snapshot is written and read as
-`orchestrator run`'s are (engine/snapshot: signed with the key of the user the session runs
-as, refused if another version or another scenario wrote it). Names are plain (letters,
-digits, `_`, `-`, `.`; no path): a client never names a file outside the session's folder.
+world's state as data (engine/snapshot/world_state.py: MuJoCo's integration state, the random
+generators, the controller's, the IK's and the context's plain data) and, in the header, the
+task that was running, if any. `restore NAME` builds a world from the session's scenario and
+seed the way the session built its own and puts the recorded state on it; the arm then holds
+where it is. The running task and the queue are dropped (their clients are told); the task of
+the snapshot is not resumed (a session snapshot holds the world, not a task's code: the
+`restore` event says which task it was). A latched state (e-stop, error) never comes from a
+snapshot. Files are written and read as `orchestrator run`'s are (engine/snapshot/snapfile.py:
+bounded reads, data only, signed with the key of the user the session runs as, refused if
+another version or another scenario wrote it). Names are plain (letters, digits, `_`, `-`,
+`.`; no path): a client never names a file outside the session's folder.
 """
 
 from __future__ import annotations
 
+import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import mujoco
+import numpy as np
+
+from ..engine.blackboard import Blackboard
 from ..engine.context import Context
+from ..engine.episode import make_controller
+from ..engine.runner import make_context
 from ..engine.safety_stop import SafetyStop
 from ..engine.snapshot import SnapshotError, local_skill_files, read_snapshot, write_snapshot
-from ..engine.snapshot.pickler import dumps, loads
-from ..engine.snapshot.run_snapshot import check_versions, detached, file_digest
+from ..engine.snapshot.run_snapshot import check_any_header, check_versions, file_digest
+from ..engine.snapshot.snapfile import pack
 from ..engine.snapshot.versions import versions
+from ..engine.snapshot.world_state import apply_world, capture_world
 from ..engine.step import StepLoop
 from ..language.load import LoadedScenario
 from ..robots import Controller
@@ -67,7 +78,7 @@ def snapshot_file(folder: Path, name: str) -> Path:
 
 
 def write_session(path: Path, state: SessionState, loaded: LoadedScenario, session: str) -> int:
-    """Write `state` as a signed snapshot; returns its size [bytes]."""
+    """Write `state`'s world as a signed snapshot of data; returns its size [bytes]."""
     ctx, task = state.ctx, state.task
     header: dict[str, Any] = {
         "kind": "session",
@@ -83,30 +94,52 @@ def write_session(path: Path, state: SessionState, loaded: LoadedScenario, sessi
         "skill_paths": local_skill_files(),
         "versions": versions(),
     }
-    with detached(ctx, task.episode if task is not None else None):
-        payload = dumps(state, [ctx.model, ctx.data])
-    return write_snapshot(path, header, payload)
+    tree, arrays = capture_world(ctx)
+    arrays["world"] = np.frombuffer(json.dumps(tree, allow_nan=False).encode(), np.uint8)
+    return write_snapshot(path, header, pack(arrays))
 
 
 def read_session(path: Path, loaded: LoadedScenario) -> tuple[SessionState, dict[str, Any]]:
-    """Read back a session snapshot for the session of `loaded`.
+    """Read back a session snapshot for the session of `loaded`: a world built from the
+    scenario and the snapshot's seed, the recorded state put on it (bounded reads, data only).
 
     Raises:
         SnapshotError: Not a session snapshot, not signed with this user's key, of another
-            scenario (or its file changed since), or written by another version.
+            scenario (or its file changed since), written by another version, or broken.
     """
     snap = read_snapshot(path)
     header = snap.header
     if header.get("kind") != "session":
-        raise SnapshotError(f"{path}: a snapshot of a {header.get('kind')!r}, not of a session")
+        kind = header.get("kind")
+        what = f"a snapshot of a {kind[:40]!r}" if isinstance(kind, str) else "no kind"
+        raise SnapshotError(f"{path}: {what}, not of a session")
+    check_any_header(path, header)
     if header.get("scenario_sha256") != file_digest(loaded.path):
         raise SnapshotError(
-            f"{path}: a snapshot of scenario {header.get('scenario')!r} "
-            f"({header.get('scenario_file')}), not of this session's {loaded.name!r} "
+            f"{path}: a snapshot of scenario {str(header.get('scenario'))[:80]!r} "
+            f"({str(header.get('scenario_file'))[:200]}), not of this session's {loaded.name!r} "
             f"({loaded.path}) as it is now"
         )
     check_versions(snap)
-    state = loads(snap.payload)
-    if not isinstance(state, SessionState):
-        raise SnapshotError(f"{path}: the payload is a {type(state).__name__}, not a session")
+    seed = header["seed"]
+    arrays = snap.arrays()
+    raw = arrays.pop("world", None)
+    if raw is None or raw.dtype != np.uint8 or raw.ndim != 1:
+        raise SnapshotError(f"{path}: the payload holds no world")
+    try:
+        tree = json.loads(raw.tobytes())
+    except (ValueError, UnicodeDecodeError, RecursionError) as exc:
+        raise SnapshotError(f"{path}: broken snapshot world: {str(exc)[:200]}") from None
+    scn = loaded.scenario
+    world = World.build(scn, seed)
+    dt = float(world.model.opt.timestep)
+    controller = make_controller(world, seed)
+    n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
+    ctx = make_context(world, controller, Blackboard({}), seed, n_sub * dt)
+    loop = StepLoop(ctx, n_sub)
+    mujoco.mj_forward(world.model, world.data)
+    apply_world(tree, arrays, ctx, str(path))
+    controller.hold(ctx.q)  # no task comes back: the arm holds where it is
+    state = SessionState(world, ctx, controller, loop, None, None, False, None,
+                         Blocked(loaded, ctx))  # fmt: skip
     return state, header

@@ -10,9 +10,10 @@ scenario's entry statically (`success: {placed: {kind: object_at, object: cube, 
 from __future__ import annotations
 
 import abc
-from typing import TYPE_CHECKING, ClassVar, NamedTuple
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 from ..skills.base import SCENE_OBJECT, SCENE_TARGET
+from ..skills.plain_state import plain_state
 from .params import CheckParams, Vec3
 
 if TYPE_CHECKING:
@@ -55,6 +56,12 @@ class SuccessCheck(abc.ABC):
     def evaluate(self, ctx: Context) -> Verdict:
         """Judge the finished episode: ground truth (`ctx.object_pose`, `ctx.data`) is fair
         here — a success check is the experimenter's measurement, not the robot's."""
+
+    def snapshot_state(self) -> dict[str, Any]:
+        """What this check holds during a run, as plain data (skills/plain_state.py): a
+        snapshot records it, and a resumed run must hold the same (docs/time-travel.md).
+        Default: every attribute that is plain data (its validated `params` as their dump)."""
+        return plain_state(self)
 
     def metrics(self, ctx: Context) -> dict[str, float]:
         """Figures for the result's `metrics`, each key prefixed with the check's name

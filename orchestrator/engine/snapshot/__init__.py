@@ -1,8 +1,8 @@
-"""Snapshots of a running episode: break at a state, write the world to a file, resume it bit
-for bit, or change one thing first (docs/time-travel.md)."""
+"""Snapshots of a running episode: break at a state, write the run's state to a file as data,
+resume it bit for bit, or change one thing first (docs/time-travel.md)."""
 
 from .breaks import ANY_GUARD, BreakPoint, break_points, state_paths
-from .pickler import SnapshotError
+from .errors import SnapshotError
 from .run_snapshot import RunSnapshot, capture_run, load_run, write_run
 from .snapfile import SnapshotFile, read_snapshot, trust, write_snapshot
 from .stops import EntryLog, Stop, find_stop, last_entry_stop, run_to

@@ -49,8 +49,8 @@ class Outcome:
         identical: The resumed run's result equals the uninterrupted one's.
         difference: The first key that differs (None if identical).
         size: The snapshot file [bytes].
-        write_s: Pickle, compress, sign and write it [s].
-        load_s: Read, verify, decompress and unpickle it [s].
+        write_s: Record, compress, sign and write it [s].
+        load_s: Read, verify, rebuild and check it [s].
         t: Simulated time of the snapshot [s].
     """
 

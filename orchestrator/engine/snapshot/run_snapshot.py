@@ -1,44 +1,53 @@
-"""A snapshot of `orchestrator run`: the whole `RunState` between two control ticks.
+"""A snapshot of `orchestrator run`: the run between two control ticks, as data.
 
-What the run depends on from here is exactly what `RunState` reaches, and the snapshot
-pickles all of it (pickler.py): MuJoCo's model and data (the model too: a conveyor reshapes
-parcels and a tissue probe moves static bodies during a run), the controller (its pinocchio
-model and data, its setpoints), the IK (mink's configuration, the QP's cached rows, the joint
-limiter), the encoders and every noise generator (numpy Generators pickle their exact state),
-the blackboard, the executor (the active state at every level, inside nested machines and
-parallel states, every running skill with its profile, retry counters, timers, the
-transitions and the task log), the fault injector's queue, the scenario, the seed.
+The file (snapfile.py) holds a header — the scenario and how it was loaded (`recipe`: the
+file, `--set`, `--fault`, `--event`, the allowed folders), the seed, the tick, the break
+point, the versions — and the run's state (state.py): MuJoCo's integration state and its
+model's digest, every random generator's state, the controller's and the IK's data, the
+machine's active path with each running skill's and success check's `snapshot_state()`, the
+blackboard, the metrics and the task log.
 
-What is not the run's is left out and given back on restore: the observers (a recorder is
-this process's output) and whatever listens to the executor from outside (`entry_listeners`).
+Reading one back rebuilds the run the normal way — the scenario loaded from its recipe, the
+world built for the seed — runs it to the snapshot's tick, and checks that it holds exactly
+the recorded state (every array bit for bit). A run is deterministic, so it does; a run that
+does not (other code, another library, a changed machine file) is refused, naming the first
+difference. Nothing of the file is ever turned into an object, a class or a call.
 """
 
 from __future__ import annotations
 
 import hashlib
+import json
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..context import Context
-from ..episode import Episode
-from ..runner import RunState
-from .pickler import SnapshotError, dumps, loads
-from .snapfile import SnapshotFile, read_snapshot, write_snapshot
-from .versions import differences, versions
+import numpy as np
+
+from ..runner import RunState, new_run
+from .data import decode, first_difference
+from .errors import SnapshotError
+from .snapfile import SnapshotFile, pack, read_snapshot, write_snapshot
+from .state import capture, detached
+from .stops import Stop, run_to
+from .versions import differences, local_files, versions
 
 __all__ = [
     "RunSnapshot",
     "capture_run",
+    "check_any_header",
+    "check_header",
     "check_versions",
     "detached",
     "file_digest",
     "load_run",
+    "rebuild_run",
     "write_run",
 ]
+
+_STATE = "state.json"
+"""The array holding the state's JSON tree (UTF-8 bytes as uint8)."""
 
 
 @dataclass(frozen=True)
@@ -49,7 +58,7 @@ class RunSnapshot:
         run: The run, ready to continue (`engine.runner.drive`).
         header: The file's header (scenario, seed, time, state, break point, versions).
         path: The file.
-        load_s: Wall time it took to verify, decompress and unpickle [s].
+        load_s: Wall time it took to read, rebuild and check it [s].
     """
 
     run: RunState
@@ -63,45 +72,26 @@ def file_digest(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-@contextmanager
-def detached(ctx: Context, episode: Episode | None) -> Iterator[None]:
-    """Within: `episode`'s observers, their listeners on `ctx` and the executor's
-    `entry_listeners` are taken off (they are this process's, not the run's); put back after."""
-    observers = episode.observers if episode is not None else []
-    own = {id(o) for o in observers}
-    listeners = ctx.listeners
-    entry = episode.executor.entry_listeners if episode is not None else []
-    try:
-        if episode is not None:
-            episode.observers = []
-            episode.loop.set_observers([])
-            episode.executor.entry_listeners = []
-        ctx.listeners = [f for f in listeners if id(getattr(f, "__self__", None)) not in own]
-        yield
-    finally:
-        ctx.listeners = listeners
-        if episode is not None:
-            episode.observers = observers
-            episode.loop.set_observers(observers)
-            episode.executor.entry_listeners = entry
-
-
 def capture_run(run: RunState) -> bytes:
-    """Pickle `run` (pickler.py), without what is not the run's (see the module docstring);
-    the run itself is left as it was and may continue."""
-    with detached(run.ctx, run.episode):
-        return dumps(run, [run.ctx.model, run.ctx.data])
+    """`run`'s state (state.py) as the payload of a snapshot file (an .npz archive)."""
+    tree, arrays = capture(run)
+    text = json.dumps(tree, sort_keys=True, allow_nan=False).encode()
+    arrays[_STATE.removesuffix(".json")] = np.frombuffer(text, dtype=np.uint8)
+    return pack(arrays)
 
 
 def run_header(run: RunState, stop: dict[str, Any], skill_paths: list[str]) -> dict[str, Any]:
-    """The header of a run snapshot: what it is of and where it stopped (readable without
-    unpickling: `orchestrator snapshot show`)."""
+    """The header of a run snapshot: what it is of, how to rebuild it and where it stopped
+    (`orchestrator snapshot show` prints it)."""
     ctx, loaded = run.ctx, run.loaded
+    if not loaded.recipe:
+        raise SnapshotError("cannot snapshot a run of a scenario not loaded by load_scenario")
     return {
         "kind": "run",
         "scenario": loaded.name,
         "scenario_file": str(loaded.path),
         "scenario_sha256": file_digest(loaded.path),
+        "recipe": loaded.recipe,
         "seed": run.seed,
         "t": round(ctx.t, 6),
         "tick": ctx.tick,
@@ -113,7 +103,11 @@ def run_header(run: RunState, stop: dict[str, Any], skill_paths: list[str]) -> d
 
 
 def write_run(path: Path, run: RunState, stop: dict[str, Any], skill_paths: list[str]) -> int:
-    """Write `run` as a signed snapshot file at `path`; returns the file's size [bytes]."""
+    """Write `run` as a signed snapshot file at `path`; returns the file's size [bytes].
+
+    Raises:
+        SnapshotError: It cannot be written (the message says why; no file is left).
+    """
     return write_snapshot(path, run_header(run, stop, skill_paths), capture_run(run))
 
 
@@ -130,29 +124,161 @@ def check_versions(snap: SnapshotFile) -> None:
         )
 
 
-def load_run(path: Path, snap: SnapshotFile | None = None) -> RunSnapshot:
-    """Read, verify and restore a run snapshot.
+_RUN_KEYS: dict[str, tuple[type, ...]] = {
+    "scenario": (str,),
+    "scenario_file": (str,),
+    "scenario_sha256": (str,),
+    "recipe": (dict,),
+    "seed": (int,),
+    "t": (int, float),
+    "tick": (int,),
+    "state": (str, type(None)),
+    "break": (dict,),
+    "skill_paths": (list,),
+    "versions": (dict,),
+}
+_RECIPE_KEYS: dict[str, tuple[type, ...]] = {
+    "ref": (str,),
+    "overrides": (list,),
+    "faults": (list,),
+    "events": (list,),
+    "allow_paths": (list,),
+    "machine": (str, type(None)),
+}
 
-    Args:
-        path: The file.
-        snap: The file already read (`read_snapshot`), if it was (e.g. to register the
-            scenario's skill folders its header names before the payload is unpickled).
+
+_SESSION_KEYS: dict[str, tuple[type, ...]] = {
+    "session": (str,),
+    "scenario": (str,),
+    "scenario_file": (str,),
+    "scenario_sha256": (str,),
+    "seed": (int,),
+    "t": (int, float),
+    "tick": (int,),
+    "state": (str, type(None)),
+    "task": (dict, type(None)),
+    "skill_paths": (list,),
+    "versions": (dict,),
+}
+
+
+def check_any_header(path: Path, h: dict[str, Any]) -> dict[str, Any]:
+    """A run's or a live session's snapshot header, each key of the type it must have.
 
     Raises:
-        SnapshotError: Not a run snapshot, not signed with this user's key, or written by
-            other code (each said with the reason).
+        SnapshotError: Another kind, or a key missing or of another type (named).
     """
+    if h.get("kind") == "session":
+        _typed(path, h, _SESSION_KEYS, "")
+        if isinstance(h["seed"], bool) or h["seed"] < 0:
+            raise SnapshotError(f"{path}: the header's seed is negative")
+        return h
+    return check_header(SnapshotFile(Path(path), h, b""))
+
+
+def check_header(snap: SnapshotFile) -> dict[str, Any]:
+    """The header of a run snapshot, each key of the type it must have.
+
+    Raises:
+        SnapshotError: Another kind of snapshot, or a key missing or of another type (named).
+    """
+    h, path = snap.header, snap.path
+    if h.get("kind") != "run":
+        kind = h.get("kind")
+        what = f"a snapshot of a {str(kind)[:40]!r}" if isinstance(kind, str) else "no kind"
+        raise SnapshotError(f"{path}: {what}, not of a run")
+    _typed(path, h, _RUN_KEYS, "")
+    _typed(path, h["recipe"], _RECIPE_KEYS, "recipe.")
+    for key in ("overrides", "faults", "events", "allow_paths"):
+        if not all(isinstance(v, str) for v in h["recipe"][key]):
+            raise SnapshotError(f"{path}: the header's recipe.{key} is not a list of texts")
+    if not all(isinstance(v, str) for v in h["skill_paths"]):
+        raise SnapshotError(f"{path}: the header's skill_paths is not a list of files")
+    b = h["break"]
+    if not (isinstance(b.get("tick"), int) and isinstance(b.get("before_start"), bool)):
+        raise SnapshotError(f"{path}: the header's break has no tick and before_start")
+    if isinstance(h["seed"], bool) or h["seed"] < 0 or b["tick"] < 0 or h["tick"] < 0:
+        raise SnapshotError(f"{path}: the header's seed or tick is negative")
+    return h
+
+
+def _typed(path: Path, h: dict[str, Any], keys: dict[str, tuple[type, ...]], pre: str) -> None:
+    for key, types in keys.items():
+        value = h.get(key)
+        if (
+            key not in h
+            or not isinstance(value, types)
+            or (isinstance(value, bool) and bool not in types)
+        ):
+            want = " or ".join("null" if t is type(None) else t.__name__ for t in types)
+            raise SnapshotError(f"{path}: the header's {pre}{key} is missing or not {want}")
+
+
+def rebuild_run(snap: SnapshotFile, loaded: Any) -> RunState:
+    """The run of `snap` rebuilt from `loaded` (the scenario loaded from the header's recipe):
+    the world built for the seed, run to the snapshot's tick, checked against the recorded
+    state.
+
+    Raises:
+        SnapshotError: The payload is broken, or the rebuilt run is not the recorded one.
+    """
+    h = snap.header
+    arrays = snap.arrays()
+    raw = arrays.pop(_STATE.removesuffix(".json"), None)
+    if raw is None or raw.dtype != np.uint8 or raw.ndim != 1:
+        raise SnapshotError(f"{snap.path}: the payload holds no state")
+    try:
+        recorded = decode(json.loads(raw.tobytes()), arrays)
+    except (ValueError, UnicodeDecodeError, RecursionError) as exc:
+        raise SnapshotError(f"{snap.path}: broken snapshot state: {str(exc)[:200]}") from None
+    b = h["break"]
+    stop = Stop(b["tick"], b["before_start"], str(b.get("reason", "")), str(b.get("option", "")))
+    run = new_run(loaded, h["seed"])
+    if not run_to(run, stop):
+        raise SnapshotError(
+            f"{snap.path}: the run rebuilt from {h['scenario_file']} ended before control tick "
+            f"{stop.tick}: it is not the run the snapshot was taken of"
+        )
+    tree, now_arrays = capture(run)
+    found = first_difference(recorded, decode(tree, now_arrays))
+    if found is not None:
+        raise SnapshotError(
+            f"{snap.path}: the run rebuilt from {h['scenario_file']} for seed {h['seed']} does "
+            f"not hold the recorded state at tick {stop.tick} (first difference: {found[:200]}):"
+            " the scenario, a file it includes or the code changed since"
+        )
+    return run
+
+
+def load_run(path: Path, snap: SnapshotFile | None = None) -> RunSnapshot:
+    """Read, rebuild and check a run snapshot (its scenario loaded from the header's recipe;
+    the scenario's `skills:` folders are imported as a run of it imports them).
+
+    Raises:
+        SnapshotError: Not a run snapshot, not signed with this user's key, written by other
+            code, or the rebuilt run is not the recorded one (each said with the reason).
+    """
+    from ...exceptions import ConfigError
+    from ...language.load import load_scenario
+
     wall0 = time.perf_counter()
     snap = snap if snap is not None else read_snapshot(path)
-    if snap.header.get("kind") != "run":
+    h = check_header(snap)
+    r = h["recipe"]
+    try:
+        loaded = load_scenario(
+            r["ref"], r["overrides"], r["faults"], r["allow_paths"], r["events"], r["machine"]
+        )
+    except ConfigError as exc:
         raise SnapshotError(
-            f"{path}: a snapshot of a {snap.header.get('kind')!r}, not of `orchestrator run`"
+            f"{path}: its scenario {r['ref']} does not load any more: {exc}"
+        ) from None
+    missing = sorted(set(h["skill_paths"]) - set(local_files()))
+    if missing:
+        raise SnapshotError(
+            f"{path}: the run used skill modules not imported now: {', '.join(missing[:5])}; "
+            "pass their folders with --skills (a snapshot never imports code itself)"
         )
     check_versions(snap)
-    try:
-        run = loads(snap.payload)
-    except Exception as exc:  # signed by this user and of this version: a bug, said plainly
-        raise SnapshotError(f"{path}: the snapshot does not restore: {exc!r}") from None
-    if not isinstance(run, RunState):
-        raise SnapshotError(f"{path}: the payload is a {type(run).__name__}, not a run")
-    return RunSnapshot(run, snap.header, Path(path), time.perf_counter() - wall0)
+    run = rebuild_run(snap, loaded)
+    return RunSnapshot(run, h, Path(path), time.perf_counter() - wall0)

@@ -1,14 +1,14 @@
-"""Who may hand us a snapshot: the user's own key signs every snapshot, and only a snapshot
-signed with it is ever unpickled.
+"""Who wrote a snapshot, and is it unchanged: the user's own key signs every snapshot.
 
-A snapshot is a pickle, and loading a pickle runs whatever code it names: a snapshot from
-someone else is a program from someone else. So every snapshot file carries an HMAC-SHA256 of
-its bytes under a per-user secret key, and `run --from` checks it before anything is
-unpickled; a file it does not verify is refused (exit 2) with the reason. The key is
-`$ORCHESTRATOR_SNAPSHOT_KEY` (a shared secret for a team or a batch cluster) if set, else the
-file `snapshot.key` in `$XDG_CONFIG_HOME/orchestrator` (default `~/.config/orchestrator`), made
-on first use: 32 random bytes, readable by its owner only. A key file that others can read or
-write is refused: anyone who can read it can forge snapshots.
+A snapshot is data (snapfile.py): reading one cannot run code, signed or not. The signature
+is integrity and provenance: a file changed, cut or made by someone else is refused with the
+reason, and `orchestrator snapshot trust FILE` signs one the user has decided to take. Every
+snapshot file carries an HMAC-SHA256 of its bytes under a per-user secret key: the key is
+`$ORCHESTRATOR_SNAPSHOT_KEY` (a shared secret for a team or a batch cluster: at least
+`MIN_KEY_BYTES` bytes, else refused) if set, else the file `snapshot.key` in
+`$XDG_CONFIG_HOME/orchestrator` (default `~/.config/orchestrator`), made on first use: 32
+random bytes, readable by its owner only. A key file that others can read or write, or that is
+shorter than `MIN_KEY_BYTES`, is refused.
 """
 
 from __future__ import annotations
@@ -20,13 +20,15 @@ import secrets
 import stat
 from pathlib import Path
 
-from .pickler import SnapshotError
+from .errors import SnapshotError
 
-__all__ = ["KEY_ENV", "NoKeyError", "key_path", "sign", "signing_key", "verify"]
+__all__ = ["KEY_ENV", "MIN_KEY_BYTES", "NoKeyError", "key_path", "sign", "signing_key", "verify"]
 
 KEY_ENV = "ORCHESTRATOR_SNAPSHOT_KEY"
-"""Environment variable holding the signing key itself (any text; overrides the key file)."""
+"""Environment variable holding the signing key itself (overrides the key file)."""
 _KEY_BYTES = 32
+MIN_KEY_BYTES = 32
+"""The shortest key taken [bytes]: a short key is guessed, and then snapshots are forged."""
 
 
 class NoKeyError(SnapshotError):
@@ -47,7 +49,14 @@ def signing_key(create: bool = True) -> bytes:
     """
     env = os.environ.get(KEY_ENV)
     if env:
-        return env.encode()
+        key = env.encode("utf-8", "surrogateescape")
+        if len(key) < MIN_KEY_BYTES:
+            raise SnapshotError(
+                f"${KEY_ENV} is {len(key)} bytes long: a snapshot key must be at least "
+                f"{MIN_KEY_BYTES} bytes (e.g. {KEY_ENV}=$(openssl rand -hex 32)), or unset it "
+                f"to use your own key file ({key_path()})"
+            )
+        return key
     path = key_path()
     if not path.exists():
         if not create:
@@ -59,9 +68,13 @@ def signing_key(create: bool = True) -> bytes:
             f"{path}: the snapshot key is open to other users (mode {stat.filemode(mode)}): "
             f"anyone who reads it can forge snapshots; chmod 600 {path}"
         )
-    key = path.read_bytes()
-    if len(key) < 16:
-        raise SnapshotError(f"{path}: the snapshot key is too short ({len(key)} bytes)")
+    with open(path, "rb") as f:
+        key = f.read(4096)
+    if len(key) < MIN_KEY_BYTES:
+        raise SnapshotError(
+            f"{path}: the snapshot key is {len(key)} bytes long, at least {MIN_KEY_BYTES} are "
+            f"needed: remove the file and a new one is made with the next snapshot"
+        )
     return key
 
 
@@ -73,8 +86,12 @@ def _make_key(path: Path) -> None:
         return
     except OSError as exc:
         raise SnapshotError(f"cannot make the snapshot key {path}: {exc}") from None
-    with os.fdopen(fd, "wb") as f:
-        f.write(secrets.token_bytes(_KEY_BYTES))
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(secrets.token_bytes(_KEY_BYTES))
+    except OSError as exc:  # a full disk: no half key is left to sign with
+        path.unlink(missing_ok=True)
+        raise SnapshotError(f"cannot make the snapshot key {path}: {exc.strerror or exc}") from None
 
 
 def sign(data: bytes, key: bytes | None = None) -> str:

@@ -1,32 +1,32 @@
 """Break, snapshot, resume: the steps `orchestrator run --break/--from` and batches take.
 
 `break_run` runs an episode to a break point and writes its snapshot; `open_run` reads one
-back (checked: signature, versions, the scenario it is of) and applies `--set` values;
+back (checked: signature, header, versions, the scenario it is of; the run rebuilt from the
+scenario and checked against the recorded state) and applies `--set` values;
 `engine.runner.drive` continues it. The resumed run's result is the uninterrupted run's, bit
 for bit, but for its wall time (tests/test_snapshot.py, bench/snapshot_identity.py).
 """
 
 from __future__ import annotations
 
-import hashlib
-import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ...language.bundled import bundled_folder
 from ...language.entries import entry_file
 from ...language.load import check_blackboard_sets
-from ...skills.plugins import LOCAL_PREFIX
-from ...success import register_plugin_path
+from ...language.yamlio import load_yaml
 from ..result import RunResult
 from ..runner import RunState
 from .breaks import BreakPoint
-from .pickler import SnapshotError
-from .run_snapshot import RunSnapshot, file_digest, load_run, write_run
+from .errors import SnapshotError
+from .run_snapshot import RunSnapshot, check_header, file_digest, load_run, write_run
 from .snapfile import read_snapshot
 from .stops import Stop, find_stop, run_to
+from .versions import local_files
 
 __all__ = [
     "Broken",
@@ -46,7 +46,7 @@ class Broken:
         stop: Where it stopped and why.
         run: The run as it was written (stopped there).
         size: The file's size [bytes].
-        write_s: Wall time it took to pickle, compress, sign and write it [s].
+        write_s: Wall time it took to record, compress, sign and write it [s].
     """
 
     path: Path
@@ -73,19 +73,9 @@ class Broken:
 
 def local_skill_files() -> list[str]:
     """The user's own skill and check modules imported now (a scenario's `skills:`,
-    `--skills`): a resumed run imports them again before its snapshot is unpickled."""
-    return sorted(
-        str(m.__file__)
-        for name, m in list(sys.modules.items())
-        if name.startswith(LOCAL_PREFIX) and getattr(m, "__file__", None)
-    )
-
-
-def _import_local(files: Sequence[str]) -> None:
-    for file in files:
-        digest = hashlib.sha1(str(Path(file)).encode()).hexdigest()[:8]
-        if f"{LOCAL_PREFIX}{Path(file).stem}_{digest}" not in sys.modules:
-            register_plugin_path(file)
+    `--skills`): a resumed run must have them imported too (the snapshot names them; it never
+    imports anything itself)."""
+    return local_files()
 
 
 def default_snapshot_path(run: RunState, stop: Stop) -> Path:
@@ -148,23 +138,40 @@ def open_run(
         ConfigError: A `--set` is refused (each problem located at `<--set>`).
     """
     snap = read_snapshot(path)
-    header = snap.header
+    header = check_header(snap)
     _check_scenario(snap.path, header, scenario)
-    if seed is not None and seed != header.get("seed"):
+    if seed is not None and seed != header["seed"]:
         raise SnapshotError(
-            f"{path}: a snapshot of seed {header.get('seed')}, not seed {seed}: it resumes "
+            f"{path}: a snapshot of seed {header['seed']}, not seed {seed}: it resumes "
             "the run it was taken of (leave --seed out)"
         )
-    files = header.get("skill_paths") or []
-    if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
-        raise SnapshotError(f"{path}: the header's skill_paths is not a list of files")
-    _import_local(files)
+    _check_code(snap.path, header, scenario)
     opened = load_run(Path(path), snap)
     values = check_blackboard_sets(opened.run.loaded, list(sets))
     blackboard = opened.run.ctx.blackboard
     for key, value in values.items():
         blackboard[key] = value
     return opened
+
+
+def _check_code(path: Path, header: dict[str, Any], scenario: str | None) -> None:
+    """A scenario outside the bundled ones that imports code (`skills:` folders) is rebuilt
+    only when the user named it: a snapshot never decides which code runs."""
+    ref = Path(header["recipe"]["ref"])
+    if scenario is not None or any(
+        ref.is_relative_to(bundled_folder(kind).resolve()) for kind in ("scenarios", "machines")
+    ):
+        return
+    try:
+        skills = load_yaml(ref).data
+    except Exception:  # noqa: BLE001 (unreadable: load_scenario says why, with the file)
+        return
+    if isinstance(skills, dict) and skills.get("skills"):
+        raise SnapshotError(
+            f"{path}: its scenario {ref} imports code from its skills: folders, and a snapshot "
+            f"never decides which code runs: name the scenario to resume it "
+            f"(orchestrator run {ref} --from {path})"
+        )
 
 
 def _check_scenario(path: Path, header: dict[str, Any], scenario: str | None) -> None:

@@ -1,9 +1,9 @@
 """What a snapshot must be resumed with: the same code and the same libraries.
 
 A resumed run is bit-identical to the uninterrupted one only on the code that wrote the
-snapshot: another MuJoCo steps differently, another version of a skill plans differently, and
-a pickle names classes that may have changed. So a snapshot records the versions below and
-`run --from` refuses one whose versions differ from its own, naming each difference.
+snapshot: another MuJoCo steps differently, another version of a skill plans differently. So
+a snapshot records the versions below and `run --from` refuses one whose versions differ from
+its own, naming each difference.
 """
 
 from __future__ import annotations
@@ -18,10 +18,10 @@ from pathlib import Path
 from ...skills.plugins import LOCAL_PREFIX
 from ...world.native import native
 
-__all__ = ["FORMAT", "differences", "local_code", "versions"]
+__all__ = ["FORMAT", "differences", "local_code", "local_files", "versions"]
 
-FORMAT = 1
-"""The snapshot file format; a file of another format is refused."""
+FORMAT = 2
+"""The snapshot file format; a file of another format is refused (1: a pickle, gone)."""
 
 _DISTRIBUTIONS = (
     "embodied-orchestrator",
@@ -36,7 +36,7 @@ _DISTRIBUTIONS = (
     "scipy",
     "opencv-python-headless",
 )
-"""The libraries a run's numbers or its pickled objects depend on."""
+"""The libraries a run's numbers depend on."""
 
 
 def _version(dist: str) -> str:
@@ -64,14 +64,20 @@ def _package_code() -> str:
     return h.hexdigest()[:16]
 
 
-def local_code() -> str:
-    """SHA-256 of the user's own skill and check modules imported now (a scenario's `skills:`,
-    `--skills`), empty if none."""
-    files = sorted(
+def local_files() -> list[str]:
+    """The user's own skill and check modules imported now (a scenario's `skills:`,
+    `--skills`), by file."""
+    return sorted(
         str(m.__file__)
         for name, m in list(sys.modules.items())
         if name.startswith(LOCAL_PREFIX) and getattr(m, "__file__", None)
     )
+
+
+def local_code() -> str:
+    """SHA-256 of the user's own skill and check modules imported now (a scenario's `skills:`,
+    `--skills`), empty if none."""
+    files = local_files()
     if not files:
         return ""
     h = hashlib.sha256()

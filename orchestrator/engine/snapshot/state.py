@@ -1,0 +1,130 @@
+"""The state a run snapshot records, as plain data (data.py), and the check that a rebuilt run
+holds it.
+
+Recorded between two control ticks:
+
+* MuJoCo's own state: `mj_getState(..., mjSTATE_INTEGRATION)` (time, positions, velocities,
+  actuator state, warm start, controls, applied forces, mocap, equality flags) and the SHA-256
+  of every array of the model (a conveyor reshapes parcels, a tissue probe moves bodies);
+* the state of every numpy Generator the run reaches (noise of the encoders, the wrist sensor,
+  perception, faults), as its bit generator's state;
+* the controller and the IK: their plain-data attributes (setpoints, gains, filters, the
+  joint limiter, the QP's cached rows);
+* the machine's active path, and each running skill's and each success check's
+  `snapshot_state()` (skills/base.py, success/base.py), by where it is in the run;
+* the blackboard, the metrics and the task log.
+
+None of it is an object: reading it back builds numbers, strings, lists, dicts and arrays.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from ...skills import Skill
+from ...success.base import SuccessCheck
+from ..context import Context
+from ..episode import Episode
+from ..runner import RunState
+from .data import encode, objects, plain_state
+
+__all__ = ["capture", "detached", "model_digest", "mujoco_state"]
+
+_INTEGRATION = mujoco.mjtState.mjSTATE_INTEGRATION
+
+
+@contextmanager
+def detached(ctx: Context, episode: Episode | None) -> Iterator[None]:
+    """Within: `episode`'s observers, their listeners on `ctx` and the executor's
+    `entry_listeners` are taken off (they are this process's, not the run's); put back after."""
+    observers = episode.observers if episode is not None else []
+    own = {id(o) for o in observers}
+    listeners = ctx.listeners
+    entry = episode.executor.entry_listeners if episode is not None else []
+    try:
+        if episode is not None:
+            episode.observers = []
+            episode.loop.set_observers([])
+            episode.executor.entry_listeners = []
+        ctx.listeners = [f for f in listeners if id(getattr(f, "__self__", None)) not in own]
+        yield
+    finally:
+        ctx.listeners = listeners
+        if episode is not None:
+            episode.observers = observers
+            episode.loop.set_observers(observers)
+            episode.executor.entry_listeners = entry
+
+
+def mujoco_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """MuJoCo's integration state of `data` (mj_getState)."""
+    out = np.empty(mujoco.mj_stateSize(model, _INTEGRATION))
+    mujoco.mj_getState(model, data, out, _INTEGRATION)
+    return out
+
+
+def model_digest(model: mujoco.MjModel) -> str:
+    """SHA-256 of every array of `model` (by name, in name order)."""
+    h = hashlib.sha256()
+    for name in sorted(dir(model)):
+        if name.startswith("_"):
+            continue
+        try:
+            value = getattr(model, name)
+        except Exception:  # noqa: S112 (a property that does not apply to this model)
+            continue
+        if isinstance(value, np.ndarray) and not value.dtype.hasobject:
+            h.update(name.encode() + b"\0")
+            h.update(np.ascontiguousarray(value).tobytes())
+    return h.hexdigest()
+
+
+def _who(obj: Any) -> str:
+    cls = type(obj)
+    return f"{cls.__module__}.{cls.__qualname__}"
+
+
+def capture(run: RunState) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """`run`'s state as (JSON tree, arrays): see the module docstring. The run is left as it
+    was."""
+    ctx = run.ctx
+    tree: dict[str, Any] = {
+        "t": ctx.t,
+        "tick": ctx.tick,
+        "started": run.started,
+        "leaf": run.executor.leaf if run.started else None,
+        "model_sha256": model_digest(ctx.model),
+        "mujoco": {"$array": "mujoco"},
+    }
+    arrays: dict[str, np.ndarray] = {"mujoco": mujoco_state(ctx.model, ctx.data)}
+    rngs: dict[str, Any] = {}
+    skills: dict[str, Any] = {}
+    checks: dict[str, Any] = {}
+    with detached(ctx, run.episode):
+        for path, obj in objects(run.episode):
+            if isinstance(obj, np.random.Generator):
+                rngs[path] = obj.bit_generator.state
+            elif isinstance(obj, Skill):
+                skills[path] = {"skill": _who(obj), "state": obj.snapshot_state()}
+            elif isinstance(obj, SuccessCheck):
+                checks[path] = {"check": _who(obj), "state": obj.snapshot_state()}
+    parts = {
+        "generators": rngs,
+        "skills": skills,
+        "checks": checks,
+        "controller": plain_state(ctx.controller),
+        "ik": plain_state(ctx.ik),
+        "blackboard": dict(ctx.blackboard._values),
+        "metrics": ctx.metrics,
+        "tasks": plain_state(ctx.tasks),
+    }
+    for name, value in parts.items():
+        tree[name], more = encode(value, f"{name}/")
+        arrays.update(more)
+    return tree, arrays
