@@ -80,13 +80,14 @@ def test_serve_and_each_batch_episode_compile_their_world_once(compiles, tmp_pat
     assert compiles["pick_place"] == 2
 
 
-def _rerun(cli, stdout: str):
-    """Run the command a batch printed (`re-run one: ...`) with --json."""
+def _rerun(cli_process, stdout: str):
+    """Run the command a batch printed (`re-run one: ...`) with --json, in a process of its
+    own as a user would (not beside what other tests imported into this one)."""
     printed = [ln for ln in stdout.splitlines() if ln.startswith("re-run one:")]
     assert len(printed) == 1, stdout
     args = shlex.split(printed[0].removeprefix("re-run one:"))
     assert args[:2] == ["orchestrator", "run"], args
-    return cli(*args[1:], "--json")
+    return cli_process(*args[1:], "--json")
 
 
 def _only_line(out: Path) -> dict:
@@ -94,7 +95,7 @@ def _only_line(out: Path) -> dict:
     return line
 
 
-def test_the_rerun_command_of_an_aborted_episode_reproduces_it(cli, tmp_path):
+def test_the_rerun_command_of_an_aborted_episode_reproduces_it(cli, cli_process, tmp_path):
     """A scenario whose machine lives outside its folder: the batch needs --allow-path, and so
     does the command it prints."""
     lib = tmp_path / "lib"
@@ -112,7 +113,7 @@ def test_the_rerun_command_of_an_aborted_episode_reproduces_it(cli, tmp_path):
     assert res.exit_code == 0, res.stderr
     episode = _only_line(out)
     assert episode["outcome"] == "aborted" and episode["seed"] == 2
-    again = _rerun(cli, res.stdout)
+    again = _rerun(cli_process, res.stdout)
     assert again.exit_code == 3, again.stderr
     rerun = again.json
     for key in ("wall_time", "worker"):  # how it ran, not what happened
@@ -122,7 +123,7 @@ def test_the_rerun_command_of_an_aborted_episode_reproduces_it(cli, tmp_path):
 
 
 def test_the_rerun_command_of_a_failed_episode_resumes_its_snapshot_and_reproduces_it(
-    cli, tmp_path
+    cli, cli_process, tmp_path
 ):
     out = tmp_path / "b"
     res = cli("batch", "pick_place", "-n", "1", "--seed-base", "1", "--out", str(out),
@@ -131,7 +132,7 @@ def test_the_rerun_command_of_a_failed_episode_resumes_its_snapshot_and_reproduc
     assert res.exit_code == 0, res.stderr
     episode = _only_line(out)
     assert episode["outcome"] == "failed" and episode.get("snapshot"), episode
-    again = _rerun(cli, res.stdout)
+    again = _rerun(cli_process, res.stdout)
     assert again.exit_code == 1, again.stderr
     assert "--from" in res.stdout  # the printed command resumes the snapshot
     for key in ("outcome", "final_state", "metrics"):
@@ -148,7 +149,9 @@ def test_a_resumed_run_checks_its_new_goals_from_where_the_arm_is(cli, tmp_path)
     assert "nothing was resumed" in res.stderr
 
 
-def test_an_episode_whose_goal_its_own_objects_refuse_is_refused_as_run_refuses_it(cli, tmp_path):
+def test_an_episode_whose_goal_its_own_objects_refuse_is_refused_as_run_refuses_it(
+    cli, cli_process, tmp_path
+):
     """A position hint must be near the object: the cube is drawn within it for seed 3, not
     for seed 4. The batch starts (seed 3 is fine), the episode of seed 4 is refused in its
     worker with `run`'s message, and its printed re-run command gives that refusal."""
@@ -161,7 +164,7 @@ def test_an_episode_whose_goal_its_own_objects_refuse_is_refused_as_run_refuses_
     assert lines[3]["outcome"] == "succeeded"
     error = lines[4]["error"]
     assert lines[4]["outcome"] == "error" and error["traceback"] is None
-    again = _rerun(cli, res.stdout)
+    again = _rerun(cli_process, res.stdout)
     assert again.exit_code == 2 and again.stdout == ""
     assert again.stderr.splitlines()[0] == error["message"]
     assert error["message"].startswith("<--set>: goal rejected: pick_at = [0.5, -0.12, 0.225]")
