@@ -208,8 +208,11 @@ def test_send_and_watch_take_the_client_certificate_from_the_environment_or_opti
     ids=["plain tcp", "no CA", "users over tcp", "users alone", "CA alone"],
 )
 def test_serve_beyond_loopback_without_mutual_tls_exits_2_naming_the_fix(
-    cli, tmp_path, listen, given, says
+    cli, tmp_path, monkeypatch, listen, given, says
 ):
+    for var in ("ORCHESTRATOR_TLS_CERT", "ORCHESTRATOR_TLS_KEY", "ORCHESTRATOR_TLS_CA",
+                "ORCHESTRATOR_USERS"):  # only what the case gives: never a full set by chance
+        monkeypatch.delenv(var, raising=False)  # fmt: skip
     files = {"cert": tmp_path / "c.pem", "key": tmp_path / "k.pem", "ca": tmp_path / "ca.pem",
              "users": tmp_path / "users"}  # fmt: skip
     files["users"].write_text("op:secret\n")
