@@ -210,9 +210,8 @@ def test_send_and_watch_take_the_client_certificate_from_the_environment_or_opti
 def test_serve_beyond_loopback_without_mutual_tls_exits_2_naming_the_fix(
     cli, tmp_path, monkeypatch, listen, given, says
 ):
-    for var in ("ORCHESTRATOR_TLS_CERT", "ORCHESTRATOR_TLS_KEY", "ORCHESTRATOR_TLS_CA",
-                "ORCHESTRATOR_USERS"):  # only what the case gives: never a full set by chance
-        monkeypatch.delenv(var, raising=False)  # fmt: skip
+    for var in ("TLS_CERT", "TLS_KEY", "TLS_CA", "USERS"):  # never a full set by chance
+        monkeypatch.delenv(f"ORCHESTRATOR_{var}", raising=False)
     files = {"cert": tmp_path / "c.pem", "key": tmp_path / "k.pem", "ca": tmp_path / "ca.pem",
              "users": tmp_path / "users"}  # fmt: skip
     files["users"].write_text("op:secret\n")
@@ -234,6 +233,10 @@ def test_a_non_loopback_tls_endpoint_with_certificate_key_and_ca_is_admitted(tmp
     mine = cell.issue("session", server=True)
     access = ServerAccess(tls_cert=mine.cert, tls_key=mine.key, tls_ca=cell.ca)
     assert access.mutual and access.check(["tls/0.0.0.0:7447"], ["tls/10.0.0.2:7447"]) == []
+    # a session on loopback joining a router elsewhere: its certificate goes there
+    assert access.check(["tcp/127.0.0.1:7447"], ["tls/10.0.0.2:7447"]) == []
+    with pytest.raises(AccessError, match="--tls-cert given but no tls/ endpoint"):
+        access.check(["tcp/127.0.0.1:7447"], [])
     conf = zenoh_config(["tls/127.0.0.1:7447"], server=access, session="x")
     tls = json.loads(conf.get_json("transport/link/tls"))
     assert tls["enable_mtls"] is True and tls["root_ca_certificate"] == str(cell.ca)

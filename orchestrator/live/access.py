@@ -225,6 +225,10 @@ class ServerAccess:
         """Whether `tls/` links ask the peer for a certificate signed by `tls_ca`."""
         return None not in (self.tls_cert, self.tls_key, self.tls_ca)
 
+    def mutual_out(self, connect: list[str]) -> bool:
+        """Whether the session presents its certificate to a `tls/` endpoint it connects to."""
+        return self.mutual and any(e.startswith("tls/") for e in connect)
+
     def check(self, listen: list[str], connect: list[str]) -> list[str]:
         """Refuse settings that would expose a session without mutual TLS, or cannot work.
 
@@ -253,8 +257,9 @@ class ServerAccess:
             raise AccessError("--tls-cert and --tls-key go together")
         if tls and self.tls_cert is None:
             raise AccessError(f"{tls[0]}: a tls/ endpoint needs --tls-cert and --tls-key")
-        if self.tls_cert is not None and not tls:
-            raise AccessError("--tls-cert given but no tls/ endpoint to --listen on")
+        if self.tls_cert is not None and not tls and not self.mutual_out(connect):
+            raise AccessError("--tls-cert given but no tls/ endpoint to --listen on (or, with "
+                              "--tls-ca, to --connect to)")  # fmt: skip
         for path, option, kind in ((self.tls_ca, "--tls-ca", "CERTIFICATE"),
                                    (self.tls_cert, "--tls-cert", "CERTIFICATE"),
                                    (self.tls_key, "--tls-key", "PRIVATE KEY")):  # fmt: skip
