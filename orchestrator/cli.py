@@ -1078,6 +1078,17 @@ TlsCaOption = Annotated[
                  help="CA certificate (PEM) that signed the session's TLS certificate "
                  "(tls/ endpoints)."),
 ]  # fmt: skip
+ClientCertOption = Annotated[
+    Path | None,
+    typer.Option("--tls-cert", envvar="ORCHESTRATOR_CLIENT_CERT",
+                 help="This client's TLS certificate (PEM), signed by the CA the session "
+                 "admits: a session beyond loopback asks for one (mutual TLS)."),
+]  # fmt: skip
+ClientKeyOption = Annotated[
+    Path | None,
+    typer.Option("--tls-key", envvar="ORCHESTRATOR_CLIENT_KEY",
+                 help="Its private key (PEM, readable by you only: chmod 600)."),
+]  # fmt: skip
 
 
 def _live_error(exc: Exception, code: int = EXIT_INVALID) -> None:
@@ -1086,13 +1097,14 @@ def _live_error(exc: Exception, code: int = EXIT_INVALID) -> None:
 
 
 def _credentials(
-    user: str | None, password: str | None, credentials: Path | None, tls_ca: Path | None
-):
+    user: str | None, password: str | None, credentials: Path | None, tls_ca: Path | None,
+    tls_cert: Path | None = None, tls_key: Path | None = None,
+):  # fmt: skip
     """The client's credentials from options, environment and file, or exit 2 saying why."""
     from .live.access import AccessError, Credentials
 
     try:
-        return Credentials.resolve(user, password, credentials, tls_ca)
+        return Credentials.resolve(user, password, credentials, tls_ca, tls_cert, tls_key)
     except AccessError as exc:
         _live_error(exc)
 
@@ -1135,7 +1147,8 @@ def serve(
         typer.Option(
             "--listen",
             help="Zenoh endpoint to listen on (default tcp/127.0.0.1:7447)."
-            " Another than loopback needs --users.",
+            " Another than loopback needs mutual TLS: tls/HOST:PORT with --tls-cert, "
+            "--tls-key and --tls-ca.",
         ),
     ] = None,
     connect: Endpoints = None,
@@ -1159,7 +1172,7 @@ def serve(
         typer.Option(
             "--tls-cert",
             envvar="ORCHESTRATOR_TLS_CERT",
-            help="TLS certificate (PEM) for tls/ endpoints.",
+            help="The session's TLS certificate (PEM) for tls/ endpoints.",
         ),
     ] = None,
     tls_key: Annotated[
@@ -1171,7 +1184,15 @@ def serve(
     user: UserOption = None,
     password: PasswordOption = None,
     credentials: CredentialsOption = None,
-    tls_ca: TlsCaOption = None,
+    tls_ca: Annotated[
+        Path | None,
+        typer.Option(
+            "--tls-ca",
+            envvar="ORCHESTRATOR_TLS_CA",
+            help="CA certificate (PEM) whose certificates the session admits: with "
+            "--tls-cert and --tls-key, a client must present one (mutual TLS).",
+        ),
+    ] = None,
     spawn: Annotated[
         bool, typer.Option(help="Stream every task live to a spawned Rerun viewer.")
     ] = False,
@@ -1182,7 +1203,8 @@ def serve(
     allow_path: AllowPathOption = None,
 ) -> None:
     """Keep a world running and take commands over Zenoh (see docs/live.md). --user,
-    --password, --credentials and --tls-ca are what the session presents to --connect."""
+    --password and --credentials are what the session presents to --connect (with its
+    --tls-cert, under mutual TLS)."""
     from .live.access import AccessError, ServerAccess
     from .live.protocol import DEFAULT_ENDPOINT
     from .live.server import serve as serve_session
@@ -1191,7 +1213,7 @@ def serve(
     if not session or "/" in session or "*" in session:
         _live_error(ValueError(f"--session {session!r}: a name without '/' or '*' (e.g. cell1)"))
     endpoints = list(listen or [DEFAULT_ENDPOINT])
-    access = ServerAccess(users, tuple(viewer or ()), tls_cert, tls_key)
+    access = ServerAccess(users, tuple(viewer or ()), tls_cert, tls_key, tls_ca)
     try:  # before building anything: an exposed session is refused at once
         access.check(endpoints, list(connect or []))
     except AccessError as exc:
@@ -1222,10 +1244,13 @@ def serve(
         _fail_config(exc)
         return
 
+    admits = [f"mutual TLS, clients' CA {tls_ca}"] if access.mutual else []
+    admits += [f"users: {users}"] if users else []
+
     def ready() -> None:
         err.print(f"session {session!r} ready on {', '.join(endpoints)} (epoch {live.epoch}, "
                   f"watchdog {f'{watchdog} s' if watchdog else 'off'}, "
-                  f"{'users: ' + str(users) if users else 'no authentication'})",
+                  f"{', '.join(admits) or 'no authentication'})",
                   markup=False)  # fmt: skip
 
     try:
@@ -1265,6 +1290,8 @@ def send(
     password: PasswordOption = None,
     credentials: CredentialsOption = None,
     tls_ca: TlsCaOption = None,
+    tls_cert: ClientCertOption = None,
+    tls_key: ClientKeyOption = None,
     name: Annotated[
         str | None,
         typer.Option(
@@ -1291,7 +1318,7 @@ def send(
         _live_error(ValueError(f"{command}: {only}"))
     if name is not None and command not in ("snapshot", "restore"):
         _live_error(ValueError(f"{command}: takes no --name (only snapshot and restore do)"))
-    creds = _credentials(user, password, credentials, tls_ca)
+    creds = _credentials(user, password, credentials, tls_ca, tls_cert, tls_key)
     watchdog_s = None
     try:
         with Client(session, connect, name="orchestrator send", credentials=creds) as client:
@@ -1350,11 +1377,13 @@ def watch(
     password: PasswordOption = None,
     credentials: CredentialsOption = None,
     tls_ca: TlsCaOption = None,
+    tls_cert: ClientCertOption = None,
+    tls_key: ClientKeyOption = None,
 ) -> None:
     """A live table of a session's status; warns when its heartbeats stop."""
     from .live.watch import watch as watch_session
 
-    creds = _credentials(user, password, credentials, tls_ca)
+    creds = _credentials(user, password, credentials, tls_ca, tls_cert, tls_key)
     raise typer.Exit(watch_session(session, connect, duration, _rich(out), creds))
 
 
@@ -1369,6 +1398,8 @@ def ask(
     password: PasswordOption = None,
     credentials: CredentialsOption = None,
     tls_ca: TlsCaOption = None,
+    tls_cert: ClientCertOption = None,
+    tls_key: ClientKeyOption = None,
 ) -> None:
     """Ask a planner (an OpenAI-compatible endpoint) for a command; it goes through the
     same guardrails as any other. Set ORCHESTRATOR_PLANNER_URL (and _MODEL, _KEY). With
@@ -1376,7 +1407,7 @@ def ask(
     from .live.client import EXIT_SESSION_LOST, Client, LiveError, SessionLost
     from .live.planner import PlannerError, ask_planner, planner_url
 
-    creds = _credentials(user, password, credentials, tls_ca)
+    creds = _credentials(user, password, credentials, tls_ca, tls_cert, tls_key)
     try:
         planner_url()  # before connecting: say at once that there is none
         with Client(session, connect, name="orchestrator ask", credentials=creds) as client:

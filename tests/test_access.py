@@ -73,22 +73,24 @@ def test_credentials_come_from_options_before_the_file(tmp_path):
         Credentials.resolve(user="bob")
 
 
-def test_a_session_reachable_from_other_machines_needs_authentication(tmp_path):
+def test_a_session_reachable_from_other_machines_needs_mutual_tls(tmp_path):
     with pytest.raises(AccessError, match=r"tcp/0\.0\.0\.0:7447 can be reached from other "
-                       r"machines .* pass --users FILE"):  # fmt: skip
+                       r"machines, which is allowed only with mutual TLS"):  # fmt: skip
         ServerAccess().check(["tcp/0.0.0.0:7447"], [])
     users = _secret(tmp_path / "users.txt", "op:secret\nwatcher:look\n")
-    assert ServerAccess(users, ("watcher",)).check(["tcp/0.0.0.0:7447"], []) == ["op", "watcher"]
+    with pytest.raises(AccessError, match="only with mutual TLS"):  # users alone: not enough
+        ServerAccess(users, ("watcher",)).check(["tcp/0.0.0.0:7447"], [])
+    assert ServerAccess(users, ("watcher",)).check(["tcp/127.0.0.1:7447"], []) == ["op", "watcher"]
     with pytest.raises(AccessError, match="--viewer bob: not in the users file"):
         ServerAccess(users, ("bob",)).check([], [])
     with pytest.raises(AccessError, match="a tls/ endpoint needs --tls-cert and --tls-key"):
-        ServerAccess(users).check(["tls/0.0.0.0:7447"], [])
+        ServerAccess(users).check(["tls/127.0.0.1:7447"], [])
 
 
-def test_serve_refuses_a_non_loopback_listen_without_users_before_building_anything(cli):
+def test_serve_refuses_a_non_loopback_listen_without_mutual_tls_before_building_anything(cli):
     res = cli("serve", "pick_place", "--session", "x", "--listen", f"tcp/0.0.0.0:{free_port()}")
     assert res.exit_code == 2 and "Traceback" not in res.stderr
-    assert "can be reached from other machines" in res.stderr and "--users FILE" in res.stderr
+    assert "can be reached from other machines" in res.stderr and "--tls-ca CA" in res.stderr
 
 
 def test_send_with_half_the_credentials_exits_2(cli, monkeypatch):
