@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator.engine.snapshot import SnapshotError, write_run
+from orchestrator.engine.snapshot import SnapshotError, read_snapshot, write_run
 from orchestrator.engine.snapshot.signing import KEY_ENV, MIN_KEY_BYTES, signing_key
 from orchestrator.engine.snapshot.snapfile import MAX_FILE_BYTES, write_snapshot
 from orchestrator.language.load import load_scenario
@@ -190,3 +190,27 @@ def test_a_batch_that_cannot_snapshot_a_failure_says_so_and_records_why(tmp_path
     assert summary["failing_seeds"] == [0]
     assert "cannot write the snapshot" in summary["snapshot_errors"]["0"]
     assert "--from" not in summary["rerun_command"]  # from t = 0, as said
+
+
+def test_a_snapshot_whose_scenario_changed_or_is_a_device_is_refused(tmp_path, monkeypatch):
+    from orchestrator.engine.runner import new_run
+    from orchestrator.engine.snapshot import load_run
+    from orchestrator.engine.snapshot.stops import Stop, run_to
+
+    scenario = tmp_path / "reach.yaml"
+    scenario.write_text(
+        (Path(__file__).parent.parent / "scenarios" / "reach_random.yaml").read_text()
+    )
+    run = new_run(load_scenario(str(scenario)), 0)
+    stop = Stop(5, False, "test", "test")
+    assert run_to(run, stop)
+    path = tmp_path / "x.snap"
+    write_run(path, run, stop.header(), [])
+    scenario.write_text(scenario.read_text() + "\n# changed\n")
+    with pytest.raises(SnapshotError, match="changed since the snapshot was taken"):
+        load_run(path)
+    snap = read_snapshot(path)
+    header = {**snap.header, "recipe": {**snap.header["recipe"], "ref": "/dev/zero"}}
+    write_snapshot(path, header, snap.payload)  # signed: only the header's path is crafted
+    with pytest.raises(SnapshotError, match="changed since the snapshot was taken"):
+        load_run(path)

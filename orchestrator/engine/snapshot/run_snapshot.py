@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
+import stat
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -70,6 +72,19 @@ class RunSnapshot:
 def file_digest(path: Path) -> str:
     """SHA-256 of a file's bytes (the scenario a snapshot was taken of)."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _bounded_digest(path: Path, limit: int = 16 << 20) -> str | None:
+    """SHA-256 of a regular file of at most `limit` bytes; None for anything else (a header
+    may name any path: /dev/zero is not read)."""
+    try:
+        with open(path, "rb") as f:
+            st = os.fstat(f.fileno())
+            if not stat.S_ISREG(st.st_mode) or st.st_size > limit:
+                return None
+            return hashlib.sha256(f.read(limit + 1)).hexdigest()
+    except OSError:
+        return None
 
 
 def capture_run(run: RunState) -> bytes:
@@ -265,6 +280,11 @@ def load_run(path: Path, snap: SnapshotFile | None = None) -> RunSnapshot:
     snap = snap if snap is not None else read_snapshot(path)
     h = check_header(snap)
     r = h["recipe"]
+    if _bounded_digest(Path(r["ref"])) != h["scenario_sha256"]:
+        raise SnapshotError(
+            f"{path}: its scenario {r['ref']} changed since the snapshot was taken (or is "
+            "gone): a snapshot resumes the run it was taken of"
+        )
     try:
         loaded = load_scenario(
             r["ref"], r["overrides"], r["faults"], r["allow_paths"], r["events"], r["machine"]

@@ -39,7 +39,8 @@ _DISTRIBUTIONS = (
 """The libraries a run's numbers depend on."""
 
 
-def _version(dist: str) -> str:
+@functools.cache
+def _version(dist: str) -> str:  # installed once per process: read once (a write reads 11)
     try:
         return metadata.version(dist)
     except metadata.PackageNotFoundError:
