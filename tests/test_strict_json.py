@@ -44,7 +44,9 @@ def _result() -> RunResult:
 
 
 def test_run_json(cli, monkeypatch):
-    monkeypatch.setattr("orchestrator.engine.runner.run_episode", lambda *a, **k: _result())
+    monkeypatch.setattr(
+        "orchestrator.engine.prepare.Prepared.run_episode", lambda *a, **k: _result()
+    )
     res = cli("run", "pick_place", "--json")
     assert res.exit_code == 0, res.stderr
     line = strict_loads(res.stdout)
