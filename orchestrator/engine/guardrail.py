@@ -3,8 +3,9 @@ moves.
 
 A value set by a command (a live `run --set`, a planner's proposal, the `--set` of
 `orchestrator run`, `batch` and `faults` through `prepare`, engine/prepare.py) takes part in a
-position wherever the machine uses it as a motion's target, as the offset added to one (`move`'s `offset`, a `via` point's: a hover height), or as a position hint
-(language/inputs.py, `PoseUse`). Each such position must be:
+position wherever the machine uses it as a motion's target, as the offset added to one
+(`move`'s `offset`, a `via` point's: a hover height), or as a position hint (language/inputs.py,
+`PoseUse`). Each such position must be:
 
 * finite (the value itself, before anything else);
 * inside the scenario's workspace box (its `workspace` guard);
