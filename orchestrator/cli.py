@@ -631,8 +631,10 @@ def _print_result(result) -> None:
         trigger = tr["trigger"] + (f": {tr['detail']}" if tr.get("detail") else "")
         table.add_row(f"{tr['t']:.2f}", escape(tr["from"]), escape(tr["to"]), escape(trigger))
     out.print(table)
-    if result.reason:
-        r = result.reason
+    r = result.reason
+    if r and "guard" not in r:  # the time limit (or the wall-clock limit) cut the run short
+        out.print(f"stopped by {r.get('kind')}: {r['message']}", markup=False, soft_wrap=True)
+    elif r:
         out.print(
             f"[red]aborted by {escape(str(r['guard']))}[/]: {escape(str(r['message']))} "
             f"(value {r['value']}, limit {r['limit']})"

@@ -236,7 +236,7 @@ def run_matrix(
         injected = m.get("faults") or []
         fault_t = injected[0]["t"] if injected else None
         abort_t = m.get("abort_t")
-        guard = result.reason["guard"] if result.reason else None
+        guard = (result.reason or {}).get("guard")  # a time limit names no guard
         detect = None if abort_t is None or fault_t is None else round(abort_t - fault_t, 4)
         ok = expected(row, guard, result.outcome, detect) if row.expect else None
         undetected = bool(row.expect) and guard is None and not ok
