@@ -84,6 +84,10 @@ def escape(text: str) -> str:
 EXIT_INVALID = 2
 EXIT_BREAK = 6
 """`run --break ...` stopped at a break point and wrote its snapshot."""
+EXIT_ERROR = 4
+"""Outcome `error`: a skill raised, or the run went past `--max-wall-s` (README's table)."""
+EXIT_PIPE = 141
+"""Whoever read stdout closed it (`| head -c1`): what a shell reports for SIGPIPE (128 + 13)."""
 MAX_SEED = 2**63 - 1
 """Seeds are non-negative 64-bit integers (numpy's generators take any of them)."""
 
@@ -293,7 +297,7 @@ def run(
         typer.Option(
             min=0.001,
             help="Wall-clock limit [s]: past it the machine is halted, the arm brought to rest "
-            "and the run ends with exit 1 and the reason (default: no limit).",
+            "and the run ends `error` (exit 4) with the reason (default: no limit).",
         ),
     ] = None,
     allow_path: AllowPathOption = None,
@@ -342,9 +346,10 @@ def run(
         ),
     ] = None,
 ) -> None:
-    """Run one episode. Exit 0 succeeded, 1 failed (or stopped by --max-wall-s), 2 invalid
-    input, 3 aborted by a guard, 4 a skill raised (outcome `error`: the arm is brought to rest;
-    the skill's file:line and exception are printed, the traceback with --debug), 6 stopped
+    """Run one episode. Exit 0 succeeded, 1 failed, 2 invalid
+    input, 3 aborted by a guard, 4 outcome `error`: a skill raised or --max-wall-s passed (the
+    arm is brought to rest; the skill's file:line and exception are printed, the traceback with
+    --debug), 141 stdout closed by its reader (README's table), 6 stopped
     at a break point (--break, --break-on, --break-at: the snapshot's path is printed)."""
     from .engine.runner import WallTimeExceeded, run_episode
     from .language.entries import file_kind
@@ -406,7 +411,7 @@ def run(
             line["error"] = {"type": type(exc).__name__, "message": str(exc), "traceback": None}
             _json_line(line)
         err.print(f"error: {exc}", markup=False, soft_wrap=True)
-        raise typer.Exit(1) from None
+        raise typer.Exit(EXIT_ERROR) from None
     except OrchestratorError as exc:
         err.print(f"error: {exc}", markup=False)
         raise typer.Exit(EXIT_INVALID) from None
@@ -534,7 +539,7 @@ def _run_from(
         return
     except WallTimeExceeded as exc:
         err.print(f"error: {exc}", markup=False, soft_wrap=True)
-        raise typer.Exit(1) from None
+        raise typer.Exit(EXIT_ERROR) from None
     assert result is not None
     _finish(result, as_json, debug, rrd)
 
@@ -1454,8 +1459,41 @@ def ask(
 
 
 def main() -> None:
-    """Console-script entry point."""
-    app()
+    """Console-script entry point. A closed stdout (`orchestrator run x --json | head -c1`)
+    exits `EXIT_PIPE` without a traceback, whatever the command was doing."""
+    was_null = _is_devnull(1)
+    try:
+        app()
+    except SystemExit:
+        if _stdout_closed(was_null):
+            raise SystemExit(EXIT_PIPE) from None
+        raise
+
+
+def _is_devnull(fd: int) -> bool:
+    try:
+        st, null = os.fstat(fd), os.stat(os.devnull)
+    except OSError:
+        return False
+    return (st.st_dev, st.st_ino) == (null.st_dev, null.st_ino)
+
+
+def _stdout_closed(was_null: bool) -> bool:
+    """Did writing stdout meet a closed pipe? rich points stdout at /dev/null and exits 1 when
+    its write raised EPIPE, click (or typer's copy of it) wraps `sys.stdout` in its
+    `PacifyFlushWrapper`; the last flush may meet it too."""
+    wrapped = type(sys.stdout).__name__ == "PacifyFlushWrapper"
+    if wrapped or (not was_null and _is_devnull(1)):
+        return True
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        # nothing more reaches the reader: the interpreter's own flush at exit must not fail
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return True
+    except (OSError, ValueError):
+        return False
+    return False
 
 
 if __name__ == "__main__":
