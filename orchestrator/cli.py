@@ -666,6 +666,7 @@ def faults(
         list[str] | None,
         typer.Option("--set", help="Override a blackboard key or scenario value (KEY=VALUE)."),
     ] = None,
+    skills: SkillPaths = None,
 ) -> None:
     """The fault matrix: one run per fault type, the guard that caught it and the stop.
     Exit 0 when every row met its expectation, 1 otherwise, 2 invalid input."""
@@ -674,6 +675,7 @@ def faults(
     from .batch.fault_matrix import RowResult, run_matrix
 
     _note_entry(scenario)
+    _use_skills(skills)
 
     def progress(row: RowResult) -> None:
         if not as_json:
@@ -705,12 +707,29 @@ def faults(
             )
         out.print(table)
         undetected = sum(r.undetected for r in rows)
+        blind = sum(r.blind for r in rows)
         out.print(
             f"{len(rows)} faults: {sum(r.ok is True for r in rows)} as expected, "
-            f"{undetected} undetected",
+            f"{undetected} undetected" + (f", {blind} no guard of the scenario can see" * bool(blind)),
             markup=False,
         )
+    _warn_blind(rows)
     raise typer.Exit(0 if all(r.ok is not False for r in rows) else 1)
+
+
+def _warn_blind(rows) -> None:
+    """Say which fault kinds the scenario's guards cannot detect, and which guard would."""
+    from .batch.fault_matrix import DETECTED_BY, fault_kind
+
+    kinds = list(dict.fromkeys(fault_kind(r.fault) for r in rows if r.blind))
+    if kinds:
+        which = "; ".join(f"{k} (needs {' or '.join(DETECTED_BY[k])})" for k in kinds)
+        err.print(
+            f"warning: no guard of this scenario can detect these fault kinds: {which}; add "
+            "the guard to its `guards:` to have them caught",
+            markup=False,
+            soft_wrap=True,
+        )
 
 
 @app.command()
@@ -966,6 +985,7 @@ def batch(
             "snapshot at its last state entry before the failure (`run --from` resumes it).",
         ),
     ] = False,
+    skills: SkillPaths = None,
 ) -> None:
     """Run N seeded episodes in parallel: exit 0 all ran, 1 some raised, 2 invalid input."""
     import time as _time
@@ -977,6 +997,7 @@ def batch(
 
     _check_wall(max_wall_s)
     _note_entry(scenario)
+    _use_skills(skills)
     if seed_base + episodes - 1 > MAX_SEED:
         _fail(f"--seed-base {seed_base} + -n {episodes} runs past the largest seed {MAX_SEED}")
     if resume and out_dir is None:
@@ -998,6 +1019,7 @@ def batch(
         max_wall_s=DEFAULT_MAX_WALL_S if max_wall_s is None else max_wall_s,
         allow_paths=tuple(str(p) for p in _allowed(allow_path)),
         snapshot_on_failure=snapshot_on_failure,
+        skill_paths=tuple(str(p.resolve()) for p in skills or ()),
     )
     show = sys.stdout.isatty() and not as_json
     progress = RichProgress(_rich(out), label=Path(scenario).stem) if show else NullProgress()

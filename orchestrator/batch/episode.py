@@ -15,6 +15,7 @@ from ..engine.runner import Observer, WallTimeExceeded, drive, new_run, run_epis
 from ..engine.snapshot import EntryLog, last_entry_stop, local_skill_files, run_to, write_run
 from ..engine.snapshot.breaks import final_paths
 from ..language.load import LoadedScenario, load_scenario
+from ..success import register_plugin_path
 from .memory import release_episode, rss_mb, worker_stamp
 from .task import EpisodeTask, error_line, rrd_name, snapshot_name
 
@@ -24,13 +25,25 @@ _LOADED: dict[tuple[str, tuple[str, ...], tuple[str, ...]], LoadedScenario] = {}
 
 
 def loaded_scenario(
-    ref: str, overrides: tuple[str, ...], allow_paths: tuple[str, ...] = ()
+    ref: str,
+    overrides: tuple[str, ...],
+    allow_paths: tuple[str, ...] = (),
+    skill_paths: tuple[str, ...] = (),
 ) -> LoadedScenario:
-    """The scenario `ref` with `overrides`, loaded once per process."""
+    """The scenario `ref` with `overrides`, loaded once per process (after registering the
+    batch's `--skills` paths: a worker forked before them, or a Ray worker, has not)."""
     key = (ref, overrides, allow_paths)
+    for path in skill_paths:
+        if path not in _REGISTERED:
+            register_plugin_path(path)
+            _REGISTERED.add(path)
     if key not in _LOADED:
         _LOADED[key] = load_scenario(ref, list(overrides), allow_paths=allow_paths)
     return _LOADED[key]
+
+
+_REGISTERED: set[str] = set()
+"""`--skills` paths this process registered."""
 
 
 _NOT_THE_EPISODE = ("wall_time", "worker")
@@ -62,7 +75,7 @@ def run_task(task: EpisodeTask) -> dict[str, Any]:
 def _run(task: EpisodeTask) -> dict[str, Any]:
     log: EntryLog | None = None
     try:
-        loaded = loaded_scenario(task.scenario, task.overrides, task.allow_paths)
+        loaded = loaded_scenario(task.scenario, task.overrides, task.allow_paths, task.skill_paths)
         run = new_run(loaded, task.seed)
         if task.snapshot_on_failure:  # where each state was entered, to break there later
             log = EntryLog(run)

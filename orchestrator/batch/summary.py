@@ -118,6 +118,7 @@ def rerun_command(
     seed: int,
     rrd: Path | None = None,
     snapshot: Path | None = None,
+    skill_paths: Iterable[str] = (),
 ) -> str:
     """The shell command that runs one episode of the batch again, on its own.
 
@@ -128,6 +129,7 @@ def rerun_command(
         rrd: Where `run` should save a Rerun recording, if recording is available.
         snapshot: The episode's snapshot (`--snapshot-on-failure`): the command resumes it,
             at the last state entry before the failure, instead of running from the start.
+        skill_paths: The batch's `--skills` paths (the command passes them on).
     """
     if snapshot is not None:
         parts = ["orchestrator", "run", "--from", str(snapshot)]
@@ -135,6 +137,8 @@ def rerun_command(
         parts = ["orchestrator", "run", ref, "--seed", str(seed)]
         for text in overrides:
             parts += ["--set", text]
+    for path in skill_paths:
+        parts += ["--skills", str(path)]
     if rrd is not None:
         parts += ["--rrd", str(rrd)]
     return shlex.join(parts)
@@ -153,6 +157,7 @@ def summarize(
     episodes_run: int,
     results: Path,
     rrd_dir: Path | None,
+    skill_paths: Iterable[str] = (),
 ) -> BatchSummary:
     """Summarize result lines (one per seed).
 
@@ -169,6 +174,7 @@ def summarize(
         results: Path of results.jsonl.
         rrd_dir: The batch directory when recording is available (the re-run command then
             saves `--rrd DIR/episodes/seed_<S>.rrd`), else None.
+        skill_paths: The batch's `--skills` paths (for the re-run command).
     """
     lines = sorted(lines, key=lambda ln: ln["seed"])
     overrides = list(overrides)
@@ -194,7 +200,7 @@ def summarize(
         )  # beside the saved recording, never over it
         line = next(ln for ln in lines if int(ln["seed"]) == seed)
         snapshot = results.parent / line["snapshot"] if line.get("snapshot") else None
-        command = rerun_command(scenario_ref, overrides, seed, rrd, snapshot)
+        command = rerun_command(scenario_ref, overrides, seed, rrd, snapshot, skill_paths)
     return BatchSummary(
         scenario=scenario,
         scenario_ref=scenario_ref,
