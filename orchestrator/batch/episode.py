@@ -15,7 +15,7 @@ from ..engine.runner import Observer, WallTimeExceeded, drive, new_run, run_epis
 from ..engine.snapshot import EntryLog, last_entry_stop, local_skill_files, run_to, write_run
 from ..engine.snapshot.breaks import final_paths
 from ..language.load import LoadedScenario, load_scenario
-from ..success import register_plugin_path
+from ..language.scenario_skills import register_user_skills
 from .memory import release_episode, rss_mb, worker_stamp
 from .task import EpisodeTask, error_line, rrd_name, snapshot_name
 
@@ -33,17 +33,10 @@ def loaded_scenario(
     """The scenario `ref` with `overrides`, loaded once per process (after registering the
     batch's `--skills` paths: a worker forked before them, or a Ray worker, has not)."""
     key = (ref, overrides, allow_paths)
-    for path in skill_paths:
-        if path not in _REGISTERED:
-            register_plugin_path(path)
-            _REGISTERED.add(path)
+    register_user_skills(skill_paths)
     if key not in _LOADED:
         _LOADED[key] = load_scenario(ref, list(overrides), allow_paths=allow_paths)
     return _LOADED[key]
-
-
-_REGISTERED: set[str] = set()
-"""`--skills` paths this process registered."""
 
 
 _NOT_THE_EPISODE = ("wall_time", "worker")
