@@ -840,8 +840,11 @@ def list_(
     from .skills.plugins import skill_origin
     from .success import CHECKS, check_origin
 
+    from .language.diagnostics import did_you_mean
+
     if what is not None and what not in LISTS:
-        err.print(f"unknown list {what!r} (valid: {', '.join(LISTS)})", markup=False)
+        hint = did_you_mean(what, LISTS)
+        err.print(f"unknown list {what!r}{hint} (valid: {', '.join(LISTS)})", markup=False)
         raise typer.Exit(EXIT_INVALID)
     _use_skills(skills)
     show = LISTS if what is None else (what,)
@@ -899,17 +902,21 @@ def show(
     --set takes, success checks) or one machine (its graph in Mermaid)."""
     from .guards import GUARDS
     from .language import reference
+    from .language.diagnostics import did_you_mean
     from .skills import all_skills
     from .success import CHECKS
 
     if kind not in SHOWS:
-        err.print(f"unknown kind {kind!r} (valid: {', '.join(SHOWS)})", markup=False)
+        hint = did_you_mean(kind, SHOWS)
+        err.print(f"unknown kind {kind!r}{hint} (valid: {', '.join(SHOWS)})", markup=False)
         raise typer.Exit(EXIT_INVALID)
     _use_skills(skills)
     if kind in ("skill", "check", "guard"):
         table: dict = {"skill": all_skills(), "check": CHECKS, "guard": GUARDS}[kind]
         if name not in table:
-            err.print(f"unknown {kind} {name!r} (valid: {', '.join(sorted(table))})", markup=False)
+            hint = did_you_mean(name, table)
+            valid = ", ".join(sorted(table))
+            err.print(f"unknown {kind} {name!r}{hint} (valid: {valid})", markup=False)
             raise typer.Exit(EXIT_INVALID)
         page = {
             "skill": reference.skill_markdown,
