@@ -624,7 +624,7 @@ def _print_result(result) -> None:
         f"{escape(str(result.final_state))} after {result.sim_time:.2f} s simulated "
         f"({result.wall_time:.2f} s wall, {rtf:.0f}x real time)"
     )
-    table = Table("t [s]", "from", "to", "trigger", box=None, pad_edge=False)
+    table = Table(escape("t [s]"), "from", "to", "trigger", box=None, pad_edge=False)
     shown = result.transitions
     cut = len(shown) - 2 * _TABLE_ENDS
     if cut > 1:  # a retry loop can make thousands: the first and last ones tell the story
@@ -690,7 +690,8 @@ def faults(
         _json_line([r.to_dict() for r in rows])
     else:
         table = Table(
-            "fault", "expected", "guard", "exit", "detect [s]", "stop [s]", "stop [mm]", "",
+            "fault", "expected", "guard", "exit", escape("detect [s]"),
+            escape("stop time [s]"), escape("stop distance [mm]"), "",
             box=None, pad_edge=False,
         )  # fmt: skip
         for r in rows:
@@ -849,9 +850,9 @@ def list_(
     _use_skills(skills)
     show = LISTS if what is None else (what,)
     if "scenarios" in show:
-        out.print("[bold]scenarios[/]: " + ", ".join(bundled_names("scenarios")))
+        out.print("[bold]scenarios[/]: " + escape(", ".join(bundled_names("scenarios"))))
     if "machines" in show:
-        out.print("[bold]machines[/]:  " + ", ".join(bundled_names("machines")))
+        out.print("[bold]machines[/]:  " + escape(", ".join(bundled_names("machines"))))
     if "skills" in show:
         table = Table("skill", "outcomes", "description", box=None, pad_edge=False)
         skills_by_name = all_skills()
@@ -859,7 +860,7 @@ def list_(
             cls = skills_by_name[name]
             origin = skill_origin(cls)
             doc = _first_sentence(cls) + ("" if origin == "bundled" else f" ({origin})")
-            table.add_row(name, ", ".join(cls.outcomes), doc)
+            table.add_row(escape(name), escape(", ".join(cls.outcomes)), escape(doc))
         out.print(table)
         out.print("`orchestrator show skill NAME`: parameters with types, units and defaults.")
     if "checks" in show:
@@ -874,9 +875,9 @@ def list_(
             "`orchestrator show check KIND`: its parameters; a scenario's `success:` uses it."
         )
     if "guards" in show:
-        out.print("[bold]guards[/]:    " + ", ".join(sorted(GUARDS)))
+        out.print("[bold]guards[/]:    " + escape(", ".join(sorted(GUARDS))))
     if "robots" in show:
-        out.print("[bold]robots[/]:    " + ", ".join(sorted(ROBOTS)))
+        out.print("[bold]robots[/]:    " + escape(", ".join(sorted(ROBOTS))))
     if what is None:
         from .perception.backends import backend_status
 

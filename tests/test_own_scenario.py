@@ -124,6 +124,42 @@ def test_faults_on_a_scenario_without_the_guards_warns_instead_of_0_undetected(c
     assert warning and "ft_dropout" in warning[0] and "sensor_health" in warning[0]
     assert "estop" not in warning[0]
     assert "no guard of the scenario can see" in res.stdout
+    header = next(ln for ln in res.stdout.splitlines() if ln.startswith("fault"))
+    for column in ("detect [s]", "stop time [s]", "stop distance [mm]"):  # figures with units
+        assert column in header, header
     rows = json.loads(cli("faults", str(_tiny(tmp_path)), "--json").stdout)
     blind = {r["fault"].split("@")[0]: r["blind"] for r in rows}
     assert blind["ft_dropout"] is True and blind["estop"] is False
+
+
+SKILL = """\
+from typing import ClassVar
+
+from orchestrator.skills import Skill, SkillParams
+
+
+class WaitKey(Skill):
+    \"\"\"Waits until the blackboard's [key] is set, [bold]now[/bold].\"\"\"
+
+    name: ClassVar[str] = "wait_key_own"
+    Params = SkillParams
+    outcomes: ClassVar[tuple[str, ...]] = ("done",)
+
+    def step(self, ctx):
+        return "done"
+"""
+
+
+def test_list_prints_brackets_of_ones_own_skill_as_written(cli_process, tmp_path):
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "wait_key.py").write_text(SKILL)
+    res = cli_process("list", "skills", "--skills", str(tmp_path / "mine"))
+    assert res.exit_code == 0, res.stderr
+    line = next(ln for ln in res.stdout.splitlines() if "wait_key_own" in ln)
+    assert "blackboard's [key] is set, [bold]now[/bold]." in line  # not eaten as markup
+
+
+def test_the_run_table_header_keeps_its_unit(cli):
+    res = cli("run", "pick_place", "--set", "physics.time_limit_s=0.3")
+    header = next(ln for ln in res.stdout.splitlines() if "from" in ln and "trigger" in ln)
+    assert header.lstrip().startswith("t [s]"), header
