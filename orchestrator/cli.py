@@ -719,7 +719,8 @@ def faults(
         blind = sum(r.blind for r in rows)
         out.print(
             f"{len(rows)} faults: {sum(r.ok is True for r in rows)} as expected, "
-            f"{undetected} undetected" + (f", {blind} no guard of the scenario can see" * bool(blind)),
+            f"{undetected} undetected"
+            + (f", {blind} no guard of the scenario can see" * bool(blind)),
             markup=False,
         )
     _warn_blind(rows)
@@ -844,12 +845,11 @@ def list_(
 
     from .guards import GUARDS
     from .language.bundled import bundled_names
+    from .language.diagnostics import did_you_mean
     from .robots import ROBOTS
     from .skills import all_skills
     from .skills.plugins import skill_origin
     from .success import CHECKS, check_origin
-
-    from .language.diagnostics import did_you_mean
 
     if what is not None and what not in LISTS:
         hint = did_you_mean(what, LISTS)

@@ -32,6 +32,7 @@ def _doc_files(tmp_path: Path) -> Path:
 
 # the CLI runs in its own process here: a check folder registered in this one would stay
 
+
 def test_batch_takes_skills_for_its_workers_and_its_rerun_command(cli_process, tmp_path):
     scenario = _doc_files(tmp_path)
     out = tmp_path / "b"

@@ -69,10 +69,10 @@ def test_the_completeness_check_sees_a_member_without_a_docstring():
 def test_every_skill_facing_type_has_a_section_listing_all_its_members():
     # what `ctx` hands a skill beyond itself: the IK solver, poses, object handles, the
     # blackboard (a pose's pydantic methods are pydantic's, documented there)
+    from orchestrator.skills.ik import IKSolver
     from pydantic import BaseModel
 
     from orchestrator.engine.blackboard import Blackboard
-    from orchestrator.skills.ik import IKSolver
     from orchestrator.world.pose import Pose
     from orchestrator.world.world import ObjectHandle
 

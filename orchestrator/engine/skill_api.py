@@ -282,7 +282,7 @@ SECTIONS: tuple[Section, ...] = (
         "`from orchestrator.world.pose import Pose`. What `ctx.object_pose`, "
         "`ctx.start_pose` and the perception skills return, what a `type: pose` blackboard "
         "key holds and what a motion's target becomes: a frozen pydantic model "
-        "(`Pose(pos=[0.5, 0.0, 0.3])`, `pose.model_copy(update={\"pos\": ...})`).",
+        '(`Pose(pos=[0.5, 0.0, 0.3])`, `pose.model_copy(update={"pos": ...})`).',
         (
             Member("pos", ANY),
             Member("quat", ANY),

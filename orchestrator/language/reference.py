@@ -39,7 +39,9 @@ DOCS_DIR = Path(__file__).resolve().parent.parent.parent / "docs"
 """Where the generated pages live in a clone."""
 _UNIT = re.compile(r"\s*\[([^\]]+)\]\.?$")
 """A unit at the end of a description: `Position tolerance [m].`"""
-_INNER_UNIT = re.compile(r"(?<![`\w])\[((?:1/)?[A-Za-z%]+(?:[/*^·][A-Za-z0-9%]+)*(?:\^[0-9])?)\](?!`)")
+_INNER_UNIT = re.compile(
+    r"(?<![`\w])\[((?:1/)?[A-Za-z%]+(?:[/*^·][A-Za-z0-9%]+)*(?:\^[0-9])?)\](?!`)"
+)
 """A unit inside a description (`Speed limit [m/s] (capped by the base's).`): a bracketed
 word like `m`, `m/s`, `rad/s^2`, `N/m`, `1/rad` — not a list (`[x, y, z]`) or code."""
 
