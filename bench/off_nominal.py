@@ -180,7 +180,7 @@ def _episode(scenario: str, sets: list[str], faults: list[str], seed: int) -> di
         "seed": seed,
         "outcome": r.outcome,
         "final_state": r.final_state,
-        "guard": r.reason["guard"] if r.reason else None,
+        "guard": (r.reason or {}).get("guard"),  # a time limit's reason names no guard
         "message": r.reason["message"] if r.reason else None,
         "hung": hung,
         "sim_time": r.sim_time,

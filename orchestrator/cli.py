@@ -7,6 +7,7 @@ import functools
 import math
 import os
 import sys
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal, cast
 
@@ -84,6 +85,10 @@ def escape(text: str) -> str:
 EXIT_INVALID = 2
 EXIT_BREAK = 6
 """`run --break ...` stopped at a break point and wrote its snapshot."""
+EXIT_ERROR = 4
+"""Outcome `error`: a skill raised, or the run went past `--max-wall-s` (README's table)."""
+EXIT_PIPE = 141
+"""Whoever read stdout closed it (`| head -c1`): what a shell reports for SIGPIPE (128 + 13)."""
 MAX_SEED = 2**63 - 1
 """Seeds are non-negative 64-bit integers (numpy's generators take any of them)."""
 
@@ -192,8 +197,13 @@ def _root(
     ] = False,
 ) -> None:
     """Run declarative YAML robot task flows on MuJoCo physics."""
+    global _STARTED  # noqa: PLW0603 - when this invocation began (the printed command time)
+    _STARTED = time.perf_counter()
 
 
+_STARTED = time.perf_counter()
+"""When the command began (reset by every invocation): a run prints its episode's wall time
+beside the command's, which also loads the framework, the scenario or the snapshot."""
 _warned = False
 
 
@@ -293,7 +303,7 @@ def run(
         typer.Option(
             min=0.001,
             help="Wall-clock limit [s]: past it the machine is halted, the arm brought to rest "
-            "and the run ends with exit 1 and the reason (default: no limit).",
+            "and the run ends `error` (exit 4) with the reason (default: no limit).",
         ),
     ] = None,
     allow_path: AllowPathOption = None,
@@ -342,9 +352,10 @@ def run(
         ),
     ] = None,
 ) -> None:
-    """Run one episode. Exit 0 succeeded, 1 failed (or stopped by --max-wall-s), 2 invalid
-    input, 3 aborted by a guard, 4 a skill raised (outcome `error`: the arm is brought to rest;
-    the skill's file:line and exception are printed, the traceback with --debug), 6 stopped
+    """Run one episode. Exit 0 succeeded, 1 failed, 2 invalid
+    input, 3 aborted by a guard, 4 outcome `error`: a skill raised or --max-wall-s passed (the
+    arm is brought to rest; the skill's file:line and exception are printed, the traceback with
+    --debug), 141 stdout closed by its reader (README's table), 6 stopped
     at a break point (--break, --break-on, --break-at: the snapshot's path is printed)."""
     from .engine.prepare import prepare
     from .engine.runner import WallTimeExceeded
@@ -403,7 +414,7 @@ def run(
             line["error"] = {"type": type(exc).__name__, "message": str(exc), "traceback": None}
             _json_line(line)
         err.print(f"error: {exc}", markup=False, soft_wrap=True)
-        raise typer.Exit(1) from None
+        raise typer.Exit(EXIT_ERROR) from None
     except OrchestratorError as exc:
         err.print(f"error: {exc}", markup=False)
         raise typer.Exit(EXIT_INVALID) from None
@@ -535,7 +546,7 @@ def _run_from(
         return
     except WallTimeExceeded as exc:
         err.print(f"error: {exc}", markup=False, soft_wrap=True)
-        raise typer.Exit(1) from None
+        raise typer.Exit(EXIT_ERROR) from None
     assert result is not None
     _finish(result, as_json, debug, rrd)
 
@@ -572,12 +583,14 @@ def _print_result(result) -> None:
     from rich.table import Table  # here: `--version` and `validate` print no table
 
     rtf = result.sim_time / max(result.wall_time, 1e-9)
+    command = time.perf_counter() - _STARTED
     out.print(
         f"[bold]{escape(result.scenario)}[/] seed {result.seed}: [{style}]{result.outcome}[/] in "
         f"{escape(str(result.final_state))} after {result.sim_time:.2f} s simulated "
-        f"({result.wall_time:.2f} s wall, {rtf:.0f}x real time)"
+        f"({command:.2f} s for the command with its start-up: the episode {result.wall_time:.2f}"
+        f" s wall, {rtf:.0f}x real time)"
     )
-    table = Table("t [s]", "from", "to", "trigger", box=None, pad_edge=False)
+    table = Table(escape("t [s]"), "from", "to", "trigger", box=None, pad_edge=False)
     shown = result.transitions
     cut = len(shown) - 2 * _TABLE_ENDS
     if cut > 1:  # a retry loop can make thousands: the first and last ones tell the story
@@ -589,8 +602,10 @@ def _print_result(result) -> None:
         trigger = tr["trigger"] + (f": {tr['detail']}" if tr.get("detail") else "")
         table.add_row(f"{tr['t']:.2f}", escape(tr["from"]), escape(tr["to"]), escape(trigger))
     out.print(table)
-    if result.reason:
-        r = result.reason
+    r = result.reason
+    if r and "guard" not in r:  # the time limit (or the wall-clock limit) cut the run short
+        out.print(f"stopped by {r.get('kind')}: {r['message']}", markup=False, soft_wrap=True)
+    elif r:
         out.print(
             f"[red]aborted by {escape(str(r['guard']))}[/]: {escape(str(r['message']))} "
             f"(value {r['value']}, limit {r['limit']})"
@@ -617,6 +632,7 @@ def faults(
         list[str] | None,
         typer.Option("--set", help="Override a blackboard key or scenario value (KEY=VALUE)."),
     ] = None,
+    skills: SkillPaths = None,
 ) -> None:
     """The fault matrix: one run per fault type, the guard that caught it and the stop.
     Exit 0 when every row met its expectation, 1 otherwise, 2 invalid input."""
@@ -625,6 +641,7 @@ def faults(
     from .batch.fault_matrix import RowResult, run_matrix
 
     _note_entry(scenario)
+    _use_skills(skills)
 
     def progress(row: RowResult) -> None:
         if not as_json:
@@ -639,7 +656,8 @@ def faults(
         _json_line([r.to_dict() for r in rows])
     else:
         table = Table(
-            "fault", "expected", "guard", "exit", "detect [s]", "stop [s]", "stop [mm]", "",
+            "fault", "expected", "guard", "exit", escape("detect [s]"),
+            escape("stop time [s]"), escape("stop distance [mm]"), "",
             box=None, pad_edge=False,
         )  # fmt: skip
         for r in rows:
@@ -656,12 +674,30 @@ def faults(
             )
         out.print(table)
         undetected = sum(r.undetected for r in rows)
+        blind = sum(r.blind for r in rows)
         out.print(
             f"{len(rows)} faults: {sum(r.ok is True for r in rows)} as expected, "
-            f"{undetected} undetected",
+            f"{undetected} undetected"
+            + (f", {blind} no guard of the scenario can see" * bool(blind)),
             markup=False,
         )
+    _warn_blind(rows)
     raise typer.Exit(0 if all(r.ok is not False for r in rows) else 1)
+
+
+def _warn_blind(rows) -> None:
+    """Say which fault kinds the scenario's guards cannot detect, and which guard would."""
+    from .batch.fault_matrix import DETECTED_BY, fault_kind
+
+    kinds = list(dict.fromkeys(fault_kind(r.fault) for r in rows if r.blind))
+    if kinds:
+        which = "; ".join(f"{k} (needs {' or '.join(DETECTED_BY[k])})" for k in kinds)
+        err.print(
+            f"warning: no guard of this scenario can detect these fault kinds: {which}; add "
+            "the guard to its `guards:` to have them caught",
+            markup=False,
+            soft_wrap=True,
+        )
 
 
 @app.command()
@@ -767,20 +803,22 @@ def list_(
 
     from .guards import GUARDS
     from .language.bundled import bundled_names
+    from .language.diagnostics import did_you_mean
     from .robots import ROBOTS
     from .skills import all_skills
     from .skills.plugins import skill_origin
     from .success import CHECKS, check_origin
 
     if what is not None and what not in LISTS:
-        err.print(f"unknown list {what!r} (valid: {', '.join(LISTS)})", markup=False)
+        hint = did_you_mean(what, LISTS)
+        err.print(f"unknown list {what!r}{hint} (valid: {', '.join(LISTS)})", markup=False)
         raise typer.Exit(EXIT_INVALID)
     _use_skills(skills)
     show = LISTS if what is None else (what,)
     if "scenarios" in show:
-        out.print("[bold]scenarios[/]: " + ", ".join(bundled_names("scenarios")))
+        out.print("[bold]scenarios[/]: " + escape(", ".join(bundled_names("scenarios"))))
     if "machines" in show:
-        out.print("[bold]machines[/]:  " + ", ".join(bundled_names("machines")))
+        out.print("[bold]machines[/]:  " + escape(", ".join(bundled_names("machines"))))
     if "skills" in show:
         table = Table("skill", "outcomes", "description", box=None, pad_edge=False)
         skills_by_name = all_skills()
@@ -788,7 +826,7 @@ def list_(
             cls = skills_by_name[name]
             origin = skill_origin(cls)
             doc = _first_sentence(cls) + ("" if origin == "bundled" else f" ({origin})")
-            table.add_row(name, ", ".join(cls.outcomes), doc)
+            table.add_row(escape(name), escape(", ".join(cls.outcomes)), escape(doc))
         out.print(table)
         out.print("`orchestrator show skill NAME`: parameters with types, units and defaults.")
     if "checks" in show:
@@ -803,9 +841,9 @@ def list_(
             "`orchestrator show check KIND`: its parameters; a scenario's `success:` uses it."
         )
     if "guards" in show:
-        out.print("[bold]guards[/]:    " + ", ".join(sorted(GUARDS)))
+        out.print("[bold]guards[/]:    " + escape(", ".join(sorted(GUARDS))))
     if "robots" in show:
-        out.print("[bold]robots[/]:    " + ", ".join(sorted(ROBOTS)))
+        out.print("[bold]robots[/]:    " + escape(", ".join(sorted(ROBOTS))))
     if what is None:
         from .perception.backends import backend_status
 
@@ -831,17 +869,21 @@ def show(
     --set takes, success checks) or one machine (its graph in Mermaid)."""
     from .guards import GUARDS
     from .language import reference
+    from .language.diagnostics import did_you_mean
     from .skills import all_skills
     from .success import CHECKS
 
     if kind not in SHOWS:
-        err.print(f"unknown kind {kind!r} (valid: {', '.join(SHOWS)})", markup=False)
+        hint = did_you_mean(kind, SHOWS)
+        err.print(f"unknown kind {kind!r}{hint} (valid: {', '.join(SHOWS)})", markup=False)
         raise typer.Exit(EXIT_INVALID)
     _use_skills(skills)
     if kind in ("skill", "check", "guard"):
         table: dict = {"skill": all_skills(), "check": CHECKS, "guard": GUARDS}[kind]
         if name not in table:
-            err.print(f"unknown {kind} {name!r} (valid: {', '.join(sorted(table))})", markup=False)
+            hint = did_you_mean(name, table)
+            valid = ", ".join(sorted(table))
+            err.print(f"unknown {kind} {name!r}{hint} (valid: {valid})", markup=False)
             raise typer.Exit(EXIT_INVALID)
         page = {
             "skill": reference.skill_markdown,
@@ -917,6 +959,7 @@ def batch(
             "snapshot at its last state entry before the failure (`run --from` resumes it).",
         ),
     ] = False,
+    skills: SkillPaths = None,
 ) -> None:
     """Run N seeded episodes in parallel: exit 0 all ran, 1 some raised, 2 invalid input."""
     import time as _time
@@ -928,6 +971,7 @@ def batch(
 
     _check_wall(max_wall_s)
     _note_entry(scenario)
+    _use_skills(skills)
     if seed_base + episodes - 1 > MAX_SEED:
         _fail(f"--seed-base {seed_base} + -n {episodes} runs past the largest seed {MAX_SEED}")
     if resume and out_dir is None:
@@ -949,6 +993,7 @@ def batch(
         max_wall_s=DEFAULT_MAX_WALL_S if max_wall_s is None else max_wall_s,
         allow_paths=tuple(str(p) for p in _allowed(allow_path)),
         snapshot_on_failure=snapshot_on_failure,
+        skill_paths=tuple(str(p.resolve()) for p in skills or ()),
     )
     show = sys.stdout.isatty() and not as_json
     progress = RichProgress(_rich(out), label=Path(scenario).stem) if show else NullProgress()
@@ -1434,8 +1479,41 @@ def ask(
 
 
 def main() -> None:
-    """Console-script entry point."""
-    app()
+    """Console-script entry point. A closed stdout (`orchestrator run x --json | head -c1`)
+    exits `EXIT_PIPE` without a traceback, whatever the command was doing."""
+    was_null = _is_devnull(1)
+    try:
+        app()
+    except SystemExit:
+        if _stdout_closed(was_null):
+            raise SystemExit(EXIT_PIPE) from None
+        raise
+
+
+def _is_devnull(fd: int) -> bool:
+    try:
+        st, null = os.fstat(fd), os.stat(os.devnull)
+    except OSError:
+        return False
+    return (st.st_dev, st.st_ino) == (null.st_dev, null.st_ino)
+
+
+def _stdout_closed(was_null: bool) -> bool:
+    """Did writing stdout meet a closed pipe? rich points stdout at /dev/null and exits 1 when
+    its write raised EPIPE, click (or typer's copy of it) wraps `sys.stdout` in its
+    `PacifyFlushWrapper`; the last flush may meet it too."""
+    wrapped = type(sys.stdout).__name__ == "PacifyFlushWrapper"
+    if wrapped or (not was_null and _is_devnull(1)):
+        return True
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        # nothing more reaches the reader: the interpreter's own flush at exit must not fail
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return True
+    except (OSError, ValueError):
+        return False
+    return False
 
 
 if __name__ == "__main__":

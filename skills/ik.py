@@ -97,15 +97,24 @@ class IKSolver:
         self._nullspace = NullspacePostureTask
 
         self.robot = robot
+        """The robot it solves for (`orchestrator.robots`)."""
         self.dt = dt
+        """Control period [s]: one `step` advances the IK by this much."""
         self.base_pos = np.asarray(base_pos, float).copy()
+        """Position of the robot base in the world [m] (targets are given in the world)."""
         self.n = robot.n_arm
+        """Number of arm joints: the length of `q` and of every joint vector here."""
         self.config = mink.Configuration(model)
+        """mink's configuration of the robot-only model (the IK's joint state)."""
         self.frame_task = mink.FrameTask(
             robot.tcp_site, "site", position_cost=1.0, orientation_cost=1.0, lm_damping=1e-6
         )
+        """The TCP pose task (mink `FrameTask`, position and orientation cost 1)."""
         self.posture_task: mink.Task = NullspacePostureTask(model, self.frame_task, posture_cost)
+        """Holds the arm's redundancy at the posture (`set_posture`) in the TCP task's
+        nullspace."""
         self.tasks: list[mink.Task] = [self.frame_task, self.posture_task]
+        """The tasks of the QP, in order (a whole-body robot adds its base's)."""
         self.posture_follows_reset = False
         """Re-anchor the posture at the joints of every `reset` (the whole-body solver's
         arm posture, skills/whole_body.py) instead of holding `set_posture`'s."""
@@ -113,14 +122,18 @@ class IKSolver:
             mink.ConfigurationLimit(model),
             mink.VelocityLimit(model, {j: velocity_limit for j in robot.arm_joints}),
         ]
+        """The QP's constraints: the joint ranges and the IK's joint speed limit."""
         self.damping = damping
+        """Levenberg-Marquardt damping of the QP."""
         self._model = model
         self._target = mink.SE3.identity().copy()
         """The frame task's target, rewritten in place by `reference_step`."""
         self._problem: IKProblem | None = None
         self._problem_key: tuple | None = None
         self.velocity = np.zeros(self.n)
+        """Joint velocity of the limited command now [rad/s], shape (n,)."""
         self.acceleration = np.zeros(self.n)
+        """Joint acceleration of the limited command now [rad/s^2], shape (n,)."""
         self.reference_velocity = np.zeros(self.n)
         """The IK's own joint velocity on the last `step` (before the limiter) [rad/s]."""
         self._error: np.ndarray | None = np.zeros(6)
@@ -134,6 +147,8 @@ class IKSolver:
             ACCELERATION_MARGIN * np.asarray(robot.acceleration_limits, float),
             margin * np.asarray(robot.jerk_limits, float),
         )
+        """Bounds the command's joint speed, acceleration and jerk within the datasheet's
+        (with margins): what `command` follows (skills/joint_limiter.py)."""
         if robot.mobile:  # base + arm in one QP (skills/whole_body.py)
             apply_whole_body_costs(self, model, velocity_limit)
         self.set_posture(robot.home if posture is None else posture)

@@ -337,9 +337,9 @@ def test_max_wall_s_stops_the_episode_brings_the_arm_to_rest_and_says_why(pick_p
     assert result.metrics["rest_speed_rad_s"] < 0.05  # the arm was brought to rest
 
 
-def test_run_max_wall_s_exits_1_with_the_reason(cli):
+def test_run_max_wall_s_exits_4_with_the_reason(cli):
     res = cli("run", "pick_place", "--max-wall-s", "0.05", "--json")
-    assert res.exit_code == 1
+    assert res.exit_code == 4  # outcome `error`, as a skill that raised (README's table)
     assert "wall-clock limit" in res.stderr
     line = res.json
     assert line["outcome"] == "error" and line["error"]["type"] == "WallTimeExceeded"

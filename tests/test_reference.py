@@ -119,12 +119,15 @@ def test_show_scenario_shows_a_value_the_scenario_sets(cli, tmp_path: Path):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (("show", "skill", "mvoe"), "unknown skill 'mvoe' (valid: approach, check_tool, contact,"),
+        (("show", "skill", "mvoe"), "unknown skill 'mvoe' (did you mean 'move'?) (valid: "
+         "approach, check_tool, contact,"),
         (("show", "robot", "panda"), "unknown kind 'robot' (valid: skill, check, guard, "),
-        (("show", "check", "stakced"), "unknown check 'stakced' (valid: gripper_clear, held,"),
-        (("list", "skils"), "unknown list 'skils' (valid: scenarios, machines, skills,"),
+        (("show", "check", "stakced"), "unknown check 'stakced' (did you mean 'stacked'?) "
+         "(valid: gripper_clear, held,"),
+        (("list", "skils"), "unknown list 'skils' (did you mean 'skills'?) (valid: scenarios, "
+         "machines, skills,"),
     ],
-)
+)  # fmt: skip
 def test_show_and_list_reject_unknown_names_with_the_valid_ones(cli, args, message):
     res = cli(*args)
     assert res.exit_code == 2 and message in res.stderr, res.stderr

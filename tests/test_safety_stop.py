@@ -103,6 +103,10 @@ def test_the_time_limit_brings_a_moving_arm_to_rest_before_the_run_ends():
     probe = JointSpeeds()
     result = run_episode(load_scenario("pick_place", ["physics.time_limit_s=0.6"]), 3, [probe])
     assert result.outcome == "failed" and result.metrics["time_limit_reached"]
+    # the result says why it ended: the time limit, with its figures (not a null reason)
+    assert result.reason is not None and result.reason["kind"] == "time_limit"
+    assert "time_limit_s" in result.reason["message"] and result.reason["limit"] == 0.6
+    assert result.reason["value"] >= 0.6 - 1e-6
     moving = [speed for t, _, speed in probe.rows if 0.55 <= t <= 0.6]
     assert max(moving) > 0.5  # it was moving fast when the time ran out...
     assert result.metrics["rest_speed_rad_s"] < REST_RAD_S  # ...and ended still

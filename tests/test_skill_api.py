@@ -64,3 +64,25 @@ def test_the_completeness_check_sees_a_member_without_a_docstring():
     assert {"fresh", "documented", "bare"} <= members
     assert member_doc(_Grown, "fresh") == "" and member_doc(_Grown, "bare") == ""
     assert member_doc(_Grown, "documented") == "Has one."
+
+
+def test_every_skill_facing_type_has_a_section_listing_all_its_members():
+    # what `ctx` hands a skill beyond itself: the IK solver, poses, object handles, the
+    # blackboard (a pose's pydantic methods are pydantic's, documented there)
+    from orchestrator.skills.ik import IKSolver
+    from pydantic import BaseModel
+
+    from orchestrator.engine.blackboard import Blackboard
+    from orchestrator.world.pose import Pose
+    from orchestrator.world.world import ObjectHandle
+
+    page = PAGE.read_text()
+    for cls in (IKSolver, Pose, ObjectHandle, Blackboard):
+        sections = [s for s in SECTIONS if s.cls is cls]
+        assert len(sections) == 1, cls.__name__
+        listed = {m.name for m in sections[0].members}
+        members = public_members(cls) - set(dir(BaseModel))
+        assert members - listed == set(), (cls.__name__, "not on the page")
+        for name in listed:
+            assert f"| `{sections[0].prefix}{name}` |" in page
+    assert "| `ctx.start_pose` |" in page and "## `CheckParams`" in page

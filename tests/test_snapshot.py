@@ -170,7 +170,7 @@ def test_a_set_at_resume_changes_the_grasp_from_there(cli, grasp_snapshot):
         (["--seed", "3"], "a snapshot of seed 0, not seed 3"),
         (["--fault", "estop@1"], "--fault and --event shape a run from its start"),
         (["stack"], "it is a snapshot of scenario 'pick_place'"),
-        (["--break", "GRAPS"], "GRAPS: no state 'GRAPS' in machine 'pick_place' (valid: "),
+        (["--break", "GRAPS"], "no state 'GRAPS' in machine 'pick_place' (did you mean 'GRASP'?)"),
     ],
     ids=["scenario-path", "unknown-key", "wrong-type", "seed", "fault", "scenario", "break"],
 )  # fmt: skip

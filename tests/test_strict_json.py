@@ -54,7 +54,9 @@ def test_run_json(cli, monkeypatch):
 
 
 def test_faults_json(cli, monkeypatch):
-    row = SimpleNamespace(ok=True, to_dict=lambda: {"fault": "estop@1", "detect_s": NAN})
+    row = SimpleNamespace(
+        ok=True, blind=False, fault="estop@1", to_dict=lambda: {"fault": "estop@1", "detect_s": NAN}
+    )
     monkeypatch.setattr("orchestrator.batch.fault_matrix.run_matrix", lambda *a, **k: [row])
     res = cli("faults", "pick_place", "--json")
     assert res.exit_code == 0, res.stderr

@@ -65,6 +65,8 @@ class BatchConfig:
         allow_paths: Directories the scenario's includes may name (`--allow-path`).
         snapshot_on_failure: Keep, for each episode that does not succeed, the snapshot at
             its last state entry before the failure (`DIR/snapshots/seed_<S>.snap`).
+        skill_paths: `--skills` folders or files (absolute), registered in every worker
+            before it loads the scenario, as `run --skills` does in its process.
     """
 
     scenario: str
@@ -80,6 +82,7 @@ class BatchConfig:
     max_wall_s: float | None = DEFAULT_MAX_WALL_S
     allow_paths: tuple[str, ...] = ()
     snapshot_on_failure: bool = False
+    skill_paths: tuple[str, ...] = ()
 
     @property
     def seeds(self) -> range:

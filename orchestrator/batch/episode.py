@@ -18,6 +18,7 @@ from ..engine.runner import Observer, WallTimeExceeded, drive
 from ..engine.snapshot import EntryLog, last_entry_stop, local_skill_files, run_to, write_run
 from ..engine.snapshot.breaks import final_paths
 from ..exceptions import ConfigError
+from ..language.scenario_skills import register_user_skills
 from .memory import release_episode, rss_mb, worker_stamp
 from .task import NOT_WRITTEN, EpisodeTask, error_line, rrd_name, snapshot_name
 
@@ -35,6 +36,7 @@ def prepared_episode(task: EpisodeTask) -> Prepared:
         ConfigError: What `run --seed SEED` with the batch's `--set` would refuse.
     """
     key = (task.scenario, task.overrides, task.allow_paths)
+    register_user_skills(task.skill_paths)  # a worker forked before them, or a Ray worker
     if key not in _PREPARED:
         _PREPARED[key] = prepare(
             task.scenario, task.seed, task.overrides, allow_paths=task.allow_paths

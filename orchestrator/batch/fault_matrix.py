@@ -16,8 +16,19 @@ from dataclasses import asdict, dataclass
 
 from ..engine.prepare import prepare
 from ..engine.result import EXIT_CODES
+from ..language.load import LoadedScenario
+from ..language.machine import ESTOP, guard_entries
 
-__all__ = ["MATRICES", "MatrixRow", "RowResult", "expected", "matrix_for", "run_matrix"]
+__all__ = [
+    "DETECTED_BY",
+    "MATRICES",
+    "MatrixRow",
+    "RowResult",
+    "blind_kinds",
+    "expected",
+    "matrix_for",
+    "run_matrix",
+]
 
 
 @dataclass(frozen=True)
@@ -57,6 +68,9 @@ class RowResult:
     stop_distance_min_mm: float | None = None
     undetected: bool = False
     """A guard should have caught the fault and none did (the run ended without an abort)."""
+    blind: bool = False
+    """No guard of the scenario can catch this kind of fault (`DETECTED_BY`): whatever the
+    run did, the safety layer could not have seen it."""
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -192,6 +206,54 @@ _GENERIC_KINDS = (
 )
 
 
+DETECTED_BY: dict[str, tuple[str, ...]] = {
+    "estop": ("estop",),
+    "ft_dropout": ("sensor_health",),
+    "ft_bias": ("contact_force",),
+    "ft_spike": ("sensor_health",),
+    "ft_nan": ("sensor_health",),
+    "encoder_freeze": ("sensor_health",),
+    "encoder_noise": ("sensor_health",),
+    "encoder_nan": ("sensor_health",),
+    "actuator_saturate": ("sensor_health",),
+    "actuator_lost": ("sensor_health",),
+    "obstacle": ("collision",),
+    "slip": ("grasp_lost",),
+    "push": ("contact_force", "sensor_health"),
+}
+"""Fault kind -> the guards that catch it (the ones the bundled matrices expect; `estop` is
+every machine's built-in event). The perception faults are for the flow to handle: none."""
+
+
+def fault_kind(spec: str) -> str:
+    """The kind of a `--fault` spec (`ft_bias:force_n=[0,0,8]@GRASP+0.5` -> `ft_bias`)."""
+    return spec.split("@", 1)[0].split(":", 1)[0].strip()
+
+
+def scenario_guards(loaded: LoadedScenario) -> set[str]:
+    """Every guard a scenario can run: its own `guards:` and those of every machine level and
+    state, with the built-in `estop`."""
+    names = {name for _, name, _ in guard_entries(loaded.scenario.guards)} | {ESTOP}
+    for node in loaded.machine.nodes():
+        names |= {name for _, name, _ in guard_entries(node.guards)}
+        for state in node.states.values():
+            names |= {name for _, name, _ in guard_entries(state.guards or [])}
+    return names
+
+
+def blind_kinds(loaded: LoadedScenario, rows: list[MatrixRow]) -> dict[str, tuple[str, ...]]:
+    """The fault kinds of `rows` that no guard of the scenario can catch, each with the guards
+    that would (in the order of `rows`)."""
+    have = scenario_guards(loaded)
+    out: dict[str, tuple[str, ...]] = {}
+    for row in rows:
+        kind = fault_kind(row.fault)
+        need = DETECTED_BY.get(kind)
+        if need and not have.intersection(need):
+            out[kind] = need
+    return out
+
+
 def expected(row: MatrixRow, guard: str | None, outcome: str, detect_s: float | None) -> bool:
     """Whether a run of `row` that ended `outcome`, aborted by `guard` (None: no abort)
     `detect_s` [s] after the fault, is what the row expects."""
@@ -227,15 +289,17 @@ def run_matrix(
         ConfigError: If the scenario, an override or a row's fault is invalid.
     """
     # the front door of `run`: what `run --set` refuses is refused here, before any row runs
-    name = prepare(scenario, seed, overrides or []).loaded.name
+    plain = prepare(scenario, seed, overrides or []).loaded
+    matrix = matrix_for(plain.name)
+    blind = blind_kinds(plain, matrix)
     rows = []
-    for row in matrix_for(name):
+    for row in matrix:
         result = prepare(scenario, seed, overrides or [], [row.fault]).run_episode()
         m = result.metrics
         injected = m.get("faults") or []
         fault_t = injected[0]["t"] if injected else None
         abort_t = m.get("abort_t")
-        guard = result.reason["guard"] if result.reason else None
+        guard = (result.reason or {}).get("guard")  # a time limit names no guard
         detect = None if abort_t is None or fault_t is None else round(abort_t - fault_t, 4)
         ok = expected(row, guard, result.outcome, detect) if row.expect else None
         undetected = bool(row.expect) and guard is None and not ok
@@ -254,6 +318,7 @@ def run_matrix(
             within_s=row.within_s,
             stop_distance_min_mm=m.get("stop_distance_min_mm"),
             undetected=undetected,
+            blind=fault_kind(row.fault) in blind,
         )
         rows.append(done)
         if on_row is not None:

@@ -95,6 +95,7 @@ def run_batch(
                 config.max_wall_s,
                 allow,
                 config.snapshot_on_failure,
+                config.skill_paths,
             )
             for s in todo
         ]
@@ -135,6 +136,7 @@ def run_batch(
             scenario=loaded.name,
             scenario_ref=ref,
             overrides=config.overrides,
+            skill_paths=config.skill_paths,
             seed_base=config.seed_base,
             backend=backend.name,
             workers=backend.workers,

@@ -124,6 +124,7 @@ def rerun_command(
     rrd: Path | None = None,
     snapshot: Path | None = None,
     allow_paths: Iterable[str] = (),
+    skill_paths: Iterable[str] = (),
 ) -> str:
     """The shell command that runs one episode of the batch again, on its own: `run` prepares
     it as the batch's worker did (engine/prepare.py), so it reproduces the episode.
@@ -137,6 +138,7 @@ def rerun_command(
             at the last state entry before the failure, instead of running from the start.
         allow_paths: The batch's `--allow-path` directories (absolute): the scenario's files
             load from them again.
+        skill_paths: The batch's `--skills` paths (the command passes them on).
     """
     if snapshot is not None:  # the scenario named: its own code folders are imported
         parts = ["orchestrator", "run", ref, "--from", str(snapshot)]
@@ -146,6 +148,8 @@ def rerun_command(
             parts += ["--set", text]
         for path in allow_paths:
             parts += ["--allow-path", path]
+    for path in skill_paths:
+        parts += ["--skills", str(path)]
     if rrd is not None:
         parts += ["--rrd", str(rrd)]
     return shlex.join(parts)
@@ -165,6 +169,7 @@ def summarize(
     results: Path,
     rrd_dir: Path | None,
     allow_paths: Iterable[str] = (),
+    skill_paths: Iterable[str] = (),
 ) -> BatchSummary:
     """Summarize result lines (one per seed).
 
@@ -182,6 +187,7 @@ def summarize(
         rrd_dir: The batch directory when its episodes are recorded (the re-run command then
             saves `--rrd DIR/episodes/seed_<S>.rerun.rrd`, beside the episode's), else None.
         allow_paths: The batch's `--allow-path` directories (in the re-run command).
+        skill_paths: The batch's `--skills` paths (for the re-run command).
     """
     lines = sorted(lines, key=lambda ln: ln["seed"])
     overrides = list(overrides)
@@ -207,7 +213,9 @@ def summarize(
         )  # beside the saved recording, never over it
         line = next(ln for ln in lines if int(ln["seed"]) == seed)
         snapshot = results.parent / line["snapshot"] if line.get("snapshot") else None
-        command = rerun_command(scenario_ref, overrides, seed, rrd, snapshot, allow_paths)
+        command = rerun_command(
+            scenario_ref, overrides, seed, rrd, snapshot, allow_paths, skill_paths
+        )
     return BatchSummary(
         scenario=scenario,
         scenario_ref=scenario_ref,

@@ -45,6 +45,7 @@ class EpisodeTask:
         snapshot_on_failure: An episode that does not succeed is run again to the start of
             the tick of its last state entry before the failure, and that snapshot is kept in
             `out_dir/snapshots/` (engine/snapshot).
+        skill_paths: `--skills` folders or files (absolute) the worker registers first.
     """
 
     scenario: str
@@ -55,6 +56,7 @@ class EpisodeTask:
     max_wall_s: float | None = None
     allow_paths: tuple[str, ...] = ()
     snapshot_on_failure: bool = False
+    skill_paths: tuple[str, ...] = ()
 
     def rrd_path(self) -> Path:
         """Absolute path of this episode's recording."""

@@ -37,9 +37,13 @@ class Blackboard:
         self._values[key] = value
 
     def get(self, key: str, default: Any = None) -> Any:
+        """The value of `key`, or `default` if nothing wrote it (`ctx.blackboard[key]` reads
+        one that must be there: a missing key is an error naming the keys there are;
+        `ctx.blackboard[key] = value` writes one)."""
         return self._values.get(key, default)
 
     def as_dict(self) -> dict[str, Any]:
+        """A copy of every key and its value."""
         return dict(self._values)
 
     def resolve(self, value: Any) -> Any:

@@ -489,6 +489,18 @@ class Context:
             quat=q[h.qpos_adr + 3 : h.qpos_adr + 7].tolist(),
         )
 
+    def start_pose(self, name: str) -> Pose:
+        """Where a scene object started: its pose when the episode began (the scenario's `xy`
+        and `yaw_deg` plus this seed's `randomize` draw, standing on its surface). A parcel
+        of a conveyor or a shift, made during the run, has none: a SkillError."""
+        from ..world.randomization import object_poses
+
+        for obj, pos, quat in object_poses(self.scenario, self.world.seed):
+            if obj == name:
+                return Pose(pos=pos.tolist(), quat=quat.tolist())
+        self.object_handle(name)  # an unknown name: the error lists the valid ones
+        raise SkillError(f"{name!r} was not in the scene when the episode began")
+
     @property
     def cameras(self) -> CameraRig:
         """The scenario's cameras (the renderer opens on first use, not before)."""

@@ -201,6 +201,21 @@ class Episode:
         stop = self.end_stop
         return (stop.at_rest and ctx.t >= self.settle_until - 1e-9) or stop.timed_out()
 
+    def _limit_reason(self, final_state: str | None) -> dict[str, Any] | None:
+        """Why a run that reached `physics.time_limit_s` ended (`kind: time_limit`), else None:
+        the limit, the skills' clock when it was reached and the state it stopped in."""
+        if not self.timed_out:
+            return None
+        detail = self.executor.halt_detail
+        return {
+            "kind": "time_limit",
+            "message": f"the run reached its time limit (physics.time_limit_s = "
+            f"{self.time_limit_s:g} s of simulated time) in state {final_state}"
+            + (f": {detail}" if detail else ""),
+            "value": round(self.ctx.clock - self.clock0, 6),
+            "limit": self.time_limit_s,
+        }
+
     # -- the result -----------------------------------------------------------------------
     def result(
         self,
@@ -276,7 +291,7 @@ class Episode:
             seed=seed,
             outcome=outcome,  # type: ignore[arg-type]
             final_state=final_state,
-            reason=ex.violation.to_dict() if ex.violation else None,
+            reason=ex.violation.to_dict() if ex.violation else self._limit_reason(final_state),
             sim_time=round(ctx.t - t0, 6),
             wall_time=round(wall_time, 4),
             transitions=ex.transitions,

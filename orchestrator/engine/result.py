@@ -22,7 +22,11 @@ class RunResult(BaseModel):
     outcome: Outcome
     final_state: str | None
     reason: dict[str, Any] | None = Field(
-        default=None, description="The guard violation that aborted the run, else null."
+        default=None,
+        description="Why the run was cut short: the guard violation that aborted it (`guard`, "
+        "`message`, `value`, `limit`), or the time limit it reached (`kind: time_limit`, "
+        "`message`, `value` and `limit` in s of simulated time; outcome `failed`), or the "
+        "wall-clock limit (`kind: max_wall_s`; outcome `error`); null otherwise.",
     )
     sim_time: float = Field(description="Simulated time [s].")
     wall_time: float = Field(description="Wall time of the episode [s] (build + simulate).")

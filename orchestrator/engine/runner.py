@@ -225,6 +225,11 @@ def drive(
     result = episode.result(run.seed, time.perf_counter() - wall0, injector.injected)
     if wall_cut:
         result.metrics["error"] = wall_cut
+        if result.reason is None:
+            result.reason = {
+                "kind": "max_wall_s", "message": wall_cut, "value": round(
+                    time.perf_counter() - wall0, 3), "limit": max_wall_s,
+            }  # fmt: skip
     for obs in observers:
         obs.on_end(ctx, executor, result)
     ctx.close()

@@ -22,7 +22,11 @@ from pathlib import Path
 
 from ..robots import Controller
 from ..skills import Skill, SkillParams
-from ..success import SuccessCheck, Verdict
+from ..skills.ik import IKSolver
+from ..success import CheckParams, SuccessCheck, Verdict
+from ..world.pose import Pose
+from ..world.world import ObjectHandle
+from .blackboard import Blackboard
 from .context import Context
 
 __all__ = ["PAGE", "SECTIONS", "Member", "Section", "member_doc", "public_members", "skill_api"]
@@ -162,6 +166,7 @@ SECTIONS: tuple[Section, ...] = (
         "reach it.",
         (
             Member("object_pose", ANY, "~8 us (builds a Pose)"),
+            Member("start_pose", ANY, "~20 us (draws the scene's poses again; builds a Pose)"),
             Member("object_handle", ANY, "free (half sizes, ids)"),
             Member("perceived", ANY, "free without a perception fault"),
             Member("cameras", ANY, "a frame (`cameras.capture`) ~10 ms: not every tick"),
@@ -229,6 +234,92 @@ SECTIONS: tuple[Section, ...] = (
         ),
     ),
     Section(
+        "`ctx.ik`: the IK solver motion skills share",
+        IKSolver,
+        "ctx.ik.",
+        "Differential IK of the TCP on the robot's own kinematic model (mink's QP), with a "
+        "limiter that keeps its command within the joints' speed, acceleration and jerk. "
+        "Seed it from the measured joints (`reset(ctx.q)`), then call `step(pos, rot)` once "
+        "per control tick with the world pose the TCP should have and hand its result to "
+        "`ctx.controller.set_joint_target`; the bundled `move` skill "
+        "(orchestrator/skills/move.py) is the worked example. One solver serves every skill "
+        "of a run: a skill that uses it starts with `reset`. Joint vectors have shape "
+        "`(n,)` [rad].",
+        (
+            Member("reset", "start (before the first `step`)", "no QP solve"),
+            Member("step", "step: once per tick at most", "a QP solve, ~0.7 ms"),
+            Member("reference_step", "step: once per tick at most", "a QP solve, ~0.7 ms"),
+            Member("follow", "step: once per tick at most", "no QP solve"),
+            Member("hold", "step: once per tick at most", "no QP solve"),
+            Member("restart_from", ANY, "no QP solve"),
+            Member("set_posture", ANY, "no QP solve"),
+            Member("q", ANY),
+            Member("command", ANY),
+            Member("velocity", "read only"),
+            Member("acceleration", "read only"),
+            Member("reference_velocity", "read only"),
+            Member("error", ANY),
+            Member("lag", ANY),
+            Member("tcp_pose", ANY, "forward kinematics of the robot-only model"),
+            Member("limiter", "read only (its limits bound a joint move: `move_joints`)"),
+            Member("n", "read only"),
+            Member("dt", "read only"),
+            Member("base_pos", "read only"),
+            Member("robot", "read only"),
+            Member("posture_follows_reset", "whole-body solvers set it"),
+            Member("config", FRAMEWORK),
+            Member("frame_task", FRAMEWORK),
+            Member("posture_task", FRAMEWORK),
+            Member("tasks", FRAMEWORK),
+            Member("limits", FRAMEWORK),
+            Member("damping", FRAMEWORK),
+        ),
+    ),
+    Section(
+        "`Pose`: a position and an orientation",
+        Pose,
+        "pose.",
+        "`from orchestrator.world.pose import Pose`. What `ctx.object_pose`, "
+        "`ctx.start_pose` and the perception skills return, what a `type: pose` blackboard "
+        "key holds and what a motion's target becomes: a frozen pydantic model "
+        '(`Pose(pos=[0.5, 0.0, 0.3])`, `pose.model_copy(update={"pos": ...})`).',
+        (
+            Member("pos", ANY),
+            Member("quat", ANY),
+            Member("yaw", ANY, "~2 us"),
+            Member("coerce", ANY, "free for a Pose; a validation otherwise"),
+        ),
+    ),
+    Section(
+        "`ctx.object_handle(name)`: where a scene object is in the model",
+        ObjectHandle,
+        "handle.",
+        "Indices into `ctx.model` and `ctx.data` (ground truth: for success checks, guards "
+        "and the framework; a skill that perceives goes through `ctx.perceived`).",
+        (
+            Member("name", ANY),
+            Member("body_id", ANY),
+            Member("geom_id", ANY),
+            Member("qpos_adr", ANY),
+            Member("qvel_adr", ANY),
+            Member("half_size", ANY),
+        ),
+    ),
+    Section(
+        "`ctx.blackboard`: the values states share",
+        Blackboard,
+        "ctx.blackboard.",
+        "Keys are the machine's `blackboard:` declarations. `ctx.blackboard[key]` reads one "
+        "(a missing key is an error naming the keys there are), `ctx.blackboard[key] = "
+        "value` writes one (a skill writes only the keys its `into:` parameters name), `key "
+        "in ctx.blackboard` tests one.",
+        (
+            Member("get", ANY, "~0.1 us"),
+            Member("resolve", ANY, "~5 us"),
+            Member("as_dict", ANY, "a copy of every value"),
+        ),
+    ),
+    Section(
         "`SuccessCheck`: a success criterion of your own",
         SuccessCheck,
         "self.",
@@ -246,7 +337,7 @@ SECTIONS: tuple[Section, ...] = (
 )
 """The page, section by section."""
 
-_EXTRA = (SkillParams, Verdict)
+_EXTRA = (SkillParams, CheckParams, Verdict)
 """Classes shown by their docstring alone."""
 
 

@@ -33,12 +33,19 @@ def _clip_quoted(message: str) -> str:
     return _QUOTED.sub(lambda m: m.group()[0] + clip(m.group()[1:-1]) + m.group()[0], message)
 
 
+def closest(name: object, names: Iterable[str], cutoff: float = 0.7) -> str | None:
+    """The one of `names` closest to a misspelled `name` (difflib's ratio at least `cutoff`),
+    else None: every "did you mean" of the project comes from here."""
+    if not isinstance(name, str):
+        return None
+    close = difflib.get_close_matches(name, [str(n) for n in names], n=1, cutoff=cutoff)
+    return close[0] if close and close[0] != name else None
+
+
 def did_you_mean(name: object, names: Iterable[str], cutoff: float = 0.7) -> str:
     """` (did you mean 'X'?)` for the closest of `names` to a misspelled `name`, else ``."""
-    if not isinstance(name, str):
-        return ""
-    close = difflib.get_close_matches(name, [str(n) for n in names], n=1, cutoff=cutoff)
-    return f" (did you mean {close[0]!r}?)" if close and close[0] != name else ""
+    close = closest(name, names, cutoff)
+    return f" (did you mean {close!r}?)" if close is not None else ""
 
 
 def format_path(path: Iterable[str | int]) -> str:

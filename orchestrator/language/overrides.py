@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..exceptions import ConfigError
-from .diagnostics import Diagnostic
+from .diagnostics import Diagnostic, did_you_mean
 from .yamlio import parse_yaml
 
 __all__ = ["Override", "apply_override", "parcels_alias", "parse_override"]
@@ -65,9 +65,11 @@ def apply_override(data: dict, ov: Override, blackboard_keys: set[str]) -> Diagn
     if len(ov.path) == 1 and ov.path[0] not in data and ov.path[0] not in _SCENARIO_KEYS:
         key = ov.path[0]
         if key not in blackboard_keys:
+            valid = tuple(sorted(blackboard_keys | set(_SCENARIO_KEYS)))
             return ov.diag(
-                "not a blackboard key of this machine nor a scenario key",
-                tuple(sorted(blackboard_keys | set(_SCENARIO_KEYS))),
+                "not a blackboard key of this machine nor a scenario key"
+                + did_you_mean(key, valid),
+                valid,
             )
         data.setdefault("blackboard", {})[key] = ov.value
         return None

@@ -8,7 +8,7 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from .diagnostics import Diagnostic
+from .diagnostics import Diagnostic, did_you_mean
 from .yamlio import SourceMap
 
 __all__ = ["diagnostics_from_validation", "model_keys"]
@@ -108,8 +108,8 @@ def diagnostics_from_validation(
         valid: tuple[str, ...] = ()
         if kind == "extra_forbidden":
             model = _model_at(root, loc[:-1])
-            msg = f"unknown key {loc[-1]!r}"
             valid = model_keys(model) if model else ()
+            msg = f"unknown key {loc[-1]!r}{did_you_mean(loc[-1], valid)}"
         elif kind == "missing":
             msg = f"missing required key {loc[-1]!r}"
         elif kind == "literal_error":

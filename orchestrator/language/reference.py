@@ -39,10 +39,16 @@ DOCS_DIR = Path(__file__).resolve().parent.parent.parent / "docs"
 """Where the generated pages live in a clone."""
 _UNIT = re.compile(r"\s*\[([^\]]+)\]\.?$")
 """A unit at the end of a description: `Position tolerance [m].`"""
+_INNER_UNIT = re.compile(
+    r"(?<![`\w])\[((?:1/)?[A-Za-z%]+(?:[/*^·][A-Za-z0-9%]+)*(?:\^[0-9])?)\](?!`)"
+)
+"""A unit inside a description (`Speed limit [m/s] (capped by the base's).`): a bracketed
+word like `m`, `m/s`, `rad/s^2`, `N/m`, `1/rad` — not a list (`[x, y, z]`) or code."""
 
 
 _SUFFIX_UNITS = (
     ("_deg", "deg"),
+    ("_mm", "mm"),
     ("_rad", "rad"),
     ("_m", "m"),
     ("_s", "s"),
@@ -77,10 +83,16 @@ def param_rows(model: type[BaseModel]) -> list[ParamRow]:
         text = (field.description or "").strip()
         unit = ""
         match = _UNIT.search(text)
-        if match is not None:
+        inner = [m.group(1) for m in _INNER_UNIT.finditer(text)]
+        kind = _type_text(prop, schema.get("$defs", {}))
+        if match is not None and "," not in match.group(1):  # not a list: `[0, 0, -1]`
             unit, text = match.group(1), text[: match.start()].strip()
+        elif inner and kind != "any":  # the unit stated mid-sentence (each, if mixed)
+            unit = inner[0] if len(set(inner)) == 1 else ", ".join(inner)
         else:
             unit = next((u for suffix, u in _SUFFIX_UNITS if name.endswith(suffix)), "")
+        if kind == "str":
+            unit = ""  # a name (a blackboard key, a marker), whatever its value measures
         if field.is_required():
             default = "required"
         elif field.default_factory is not None:
@@ -90,7 +102,7 @@ def param_rows(model: type[BaseModel]) -> list[ParamRow]:
         rows.append(
             ParamRow(
                 name,
-                _type_text(prop, schema.get("$defs", {})),
+                kind,
                 unit,
                 default,
                 _range_text(prop),

@@ -28,7 +28,24 @@ from .diagnostics import Diagnostic, clip
 from .limits import InputLimits
 from .yamlio import SourceMap
 
-__all__ = ["hint_unimported", "register_scenario_skills"]
+__all__ = ["hint_unimported", "register_scenario_skills", "register_user_skills"]
+
+_USER_REGISTERED: set[str] = set()
+"""`--skills` paths this process registered (`register_user_skills`)."""
+
+
+def register_user_skills(paths: Sequence[str]) -> None:
+    """Register `--skills` folders or files, each once per process (a batch worker does it
+    before loading the scenario: one forked before the CLI registered them, or a Ray
+    worker, has not).
+
+    Raises:
+        SkillLoadError: A path cannot be loaded or defines neither skills nor checks.
+    """
+    for path in paths:
+        if path not in _USER_REGISTERED:
+            register_plugin_path(path)
+            _USER_REGISTERED.add(path)
 
 
 def register_scenario_skills(

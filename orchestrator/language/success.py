@@ -11,8 +11,8 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from ..success import CheckParams, check_kinds, get_check
-from .diagnostics import Diagnostic, did_you_mean
+from ..success import CheckParams, blackboard_fields, check_kinds, get_check
+from .diagnostics import Diagnostic, did_you_mean, format_path
 from .param_values import pose_problem
 from .pydantic_errors import diagnostics_from_validation
 from .refs import parse_ref
@@ -40,22 +40,38 @@ def validate_success(raw: Any, src: SourceMap, at: tuple = ("success",)) -> list
             hint = did_you_mean(kind, kinds)
             out.append(src.diag((*eat, "kind"), f"unknown success check {kind!r}{hint}", kinds))
             continue
-        cls = get_check(kind)
-        try:
-            cls.Params.model_validate(entry)
-        except ValidationError as exc:
-            out += diagnostics_from_validation(exc, cls.Params, src, entry, eat)
+        out += _params_problems(get_check(kind).Params, entry, src, eat)
     return out
 
 
+def _params_problems(
+    params: type[CheckParams], entry: dict[str, Any], src: SourceMap, at: tuple
+) -> list[Diagnostic]:
+    """What is wrong with an entry's parameters; one given as `$key` is validated when the run
+    reads it from the blackboard (`check_success_names` checks that the key exists)."""
+    later = set(blackboard_fields(params, entry))
+    now = {k: v for k, v in entry.items() if k not in later}
+    try:
+        params.model_validate(now)
+    except ValidationError as exc:
+        skip = {format_path((*at, name)) for name in later}  # a `$key` left out is no error
+        found = diagnostics_from_validation(exc, params, src, now, at)
+        return [d for d in found if d.path not in skip]
+    return []
+
+
 def typed_success(success: dict[str, Any]) -> dict[str, CheckParams | dict[str, Any]]:
-    """Each entry as its kind's `Params` (after `validate_success` found nothing wrong)."""
-    return {
-        name: get_check(
-            entry.kind if isinstance(entry, CheckParams) else entry["kind"]
-        ).Params.model_validate(entry if isinstance(entry, dict) else entry.model_dump())
-        for name, entry in success.items()
-    }
+    """Each entry as its kind's `Params` (after `validate_success` found nothing wrong); one
+    with `$key` parameters is kept as written, validated when the run has read them."""
+    out: dict[str, CheckParams | dict[str, Any]] = {}
+    for name, entry in success.items():
+        data = dict(entry) if isinstance(entry, CheckParams) else entry
+        params = get_check(str(data["kind"])).Params
+        if blackboard_fields(params, data):
+            out[name] = params.model_construct(**data)
+        else:
+            out[name] = params.model_validate(data)
+    return out
 
 
 def check_success_names(
@@ -83,10 +99,13 @@ def check_success_names(
             extra = info.json_schema_extra
             kind = extra.get("scene_ref") if isinstance(extra, dict) else None
             value = getattr(check, field)
-            if kind not in ("object", "target") or value is None:
-                continue
             at = ("success", name, field)
             ref = parse_ref(value)
+            if isinstance(value, str) and value[:1] == "$" and ref is None:
+                out.append(src.diag(at, f"{value!r} is not a blackboard read (`$key`)"))
+                continue
+            if (kind not in ("object", "target") and ref is None) or value is None:
+                continue
             if ref is not None:
                 if keys is not None and ref[0] not in keys:
                     out.append(

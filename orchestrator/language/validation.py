@@ -11,7 +11,7 @@ from pydantic import ValidationError
 from ..guards import GUARDS
 from ..skills import find_skill, get_skill, skill_names
 from .blackboard_types import all_finite, check_type, sample_value
-from .diagnostics import Diagnostic, did_you_mean
+from .diagnostics import Diagnostic, closest, did_you_mean
 from .loading import MachineNode, initial_values
 from .machine import (
     BLACKBOARD_TYPES,
@@ -314,7 +314,7 @@ def _check_state(
                 out.append(src.diag((*sat, "retry_on"), f"no outcome {outcome!r}", tuple(outcomes)))
     for outcome, target in st.transitions.items():
         if target not in node.states:
-            out.append(_unknown_state(src, (*sat, "transitions", outcome), target, names))
+            out.append(_unknown_target(node, (*sat, "transitions", outcome), target))
     out += validate_guards(st.guards, src, (*sat, "guards"))
     return out
 
@@ -377,6 +377,31 @@ def _check_graph(node: MachineNode) -> list[Diagnostic]:
                     src.diag((*at, "states", name), f"state {name!r} has no path to a final state")
                 )
     return out
+
+
+def _unknown_target(node: MachineNode, at: tuple, name: str) -> Diagnostic:
+    """A transition to an undeclared state. When the declared state closest to it is one
+    nothing leads to, the declaration is the likely typo (`FAILD: {final: failed}` beside
+    transitions to FAILED): the message says to rename it rather than to retarget the
+    transition to the misspelled name."""
+    names = tuple(node.states)
+    close = closest(name, names)
+    targets = [t for st in node.states.values() for t in st.transitions.values()]
+    reached = {*targets, node.initial, node.on_abort, *node.events.values()}
+    if close is None or close in reached:
+        return _unknown_state(node.source, at, name, names)
+    rename = f"rename the declaration {close!r} to {name!r}"
+    if targets.count(name) >= 2:  # several transitions agree: the declaration is the typo
+        message = (
+            f"unknown state {name!r}: {targets.count(name)} transitions lead to it but none is "
+            f"declared, and the declared {close!r} is reached by no transition: {rename}"
+        )
+    else:
+        message = (
+            f"unknown state {name!r} (did you mean {close!r}?); if the declaration is the "
+            f"typo, {rename}"
+        )
+    return node.source.diag(at, message, names)
 
 
 def _unknown_state(src: SourceMap, at: tuple, name: str, names: tuple[str, ...]) -> Diagnostic:
@@ -447,7 +472,11 @@ def _check_params(
             concrete[k] = v
             continue
         sub = _substitute(v, types)
-        if sub is None or (isinstance(sub, (list, dict)) and _contains_none(sub)):
+        if k not in cls.Params.model_fields and not any(
+            f.alias == k for f in cls.Params.model_fields.values()
+        ):
+            concrete[k] = v  # not a parameter of the skill: said so (with the closest one)
+        elif sub is None or (isinstance(sub, (list, dict)) and _contains_none(sub)):
             unknown_refs.add(k)  # untyped reference: checked when the state starts
         else:
             concrete[k] = sub
@@ -465,6 +494,9 @@ def _check_params(
         for d in diagnostics_from_validation(exc, cls.Params, src, params, path):
             leaf = d.path.split(".")[-1].split("[")[0]
             if "missing required key" in d.message and leaf in unknown_refs:
+                continue
+            if d.message.startswith("unknown key"):
+                out.append(d)
                 continue
             ref = parse_ref(params.get(leaf))
             if ref is not None and any(m in d.message for m in _RANGE_MESSAGES):

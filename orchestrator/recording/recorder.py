@@ -174,8 +174,11 @@ class RerunRecorder:
         if self._last_tick != ctx.tick:
             self._sample(ctx, executor)
         text = f"{result.outcome} in {result.final_state} after {result.sim_time:.3f} s"
-        if result.reason:
-            text += f", aborted by {result.reason.get('guard')}: {result.reason.get('message')}"
+        reason = result.reason
+        if reason and "guard" in reason:
+            text += f", aborted by {reason.get('guard')}: {reason.get('message')}"
+        elif reason:  # the time limit (or the wall-clock limit)
+            text += f", stopped by {reason.get('kind')}: {reason.get('message')}"
         self._events.add_text(ctx.tick, ctx.t, "result", text, _RESULT_LEVEL[result.outcome])
         self._flush()
         if self._on_event in ctx.listeners:

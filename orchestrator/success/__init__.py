@@ -3,6 +3,7 @@ a run. Adding one is a module here, a module in a folder of your own (a scenario
 `--skills`), or a plugin package (`orchestrator.success_checks` entry points)."""
 
 from .base import SCENE_OBJECT, SCENE_TARGET, CheckParams, SuccessCheck, Verdict
+from .params import blackboard_fields
 from .registry import (
     CHECKS,
     UnknownCheckError,
@@ -22,6 +23,7 @@ __all__ = [
     "SuccessCheck",
     "UnknownCheckError",
     "Verdict",
+    "blackboard_fields",
     "bundled_check_kinds",
     "check_kinds",
     "check_origin",

@@ -6,7 +6,6 @@ from typing import TYPE_CHECKING, ClassVar
 
 from pydantic import Field
 
-from ..world.randomization import object_poses
 from .base import SCENE_OBJECT, CheckParams, SuccessCheck, Verdict
 
 if TYPE_CHECKING:
@@ -35,15 +34,7 @@ class Held(SuccessCheck):
         p = self.params
         pos = ctx.object_pose(p.object).pos
         grasped = ctx.grasped_at.get(p.object)
-        start = (
-            grasped
-            if grasped is not None
-            else next(
-                pose
-                for name, pose, _ in object_poses(ctx.scenario, ctx.world.seed)
-                if name == p.object
-            )[2]
-        )
+        start = grasped if grasped is not None else ctx.start_pose(p.object).pos[2]
         lift = float(pos[2] - start)
         geom = ctx.world.objects[p.object].geom_id
         d, m = ctx.data, ctx.model

@@ -6,11 +6,12 @@ model holds validated parameters and must not depend on the engine.
 
 from __future__ import annotations
 
-from typing import Annotated
+from collections.abc import Mapping
+from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-__all__ = ["CheckParams", "Vec3"]
+__all__ = ["CheckParams", "Vec3", "blackboard_fields"]
 
 Vec3 = Annotated[
     list[Annotated[float, Field(ge=-10.0, le=10.0)]], Field(min_length=3, max_length=3)
@@ -28,3 +29,20 @@ class CheckParams(BaseModel):
     model_config = ConfigDict(defer_build=True, extra="forbid", allow_inf_nan=False)
 
     kind: str = Field(description="Which check: its registered `kind`.")
+
+
+def blackboard_fields(params: type[CheckParams], values: Mapping[str, Any]) -> list[str]:
+    """The parameters of an entry given as `$key` (`xy_tol_m: $tolerance`, `object: $object`):
+    read from the blackboard when the check runs, and validated then with the value read.
+    A `SCENE_TARGET` parameter is not among them: its check follows the `$key` itself (a
+    pose the flow wrote is a target as it is)."""
+    out = []
+    for name, value in values.items():
+        info = params.model_fields.get(name)
+        if name == "kind" or info is None or not (isinstance(value, str) and value[:1] == "$"):
+            continue
+        extra = info.json_schema_extra
+        if isinstance(extra, dict) and extra.get("scene_ref") == "target":
+            continue
+        out.append(name)
+    return out

@@ -57,9 +57,11 @@ class Pose(BaseModel):
     model_config = ConfigDict(defer_build=True, frozen=True, extra="forbid", allow_inf_nan=False)
 
     pos: list[float] = Field(min_length=3, max_length=3)
+    """Position in the world frame [m]: `[x, y, z]`."""
     quat: list[float] = Field(
         default_factory=lambda: [1.0, 0.0, 0.0, 0.0], min_length=4, max_length=4
     )
+    """Orientation, a unit quaternion `[w, x, y, z]` (default: the world's axes)."""
 
     @property
     def yaw(self) -> float:

@@ -50,11 +50,17 @@ class ObjectHandle:
     """Indices of one free object in the compiled model."""
 
     name: str
+    """The object's name in the scenario."""
     body_id: int
+    """Its body in `ctx.model` (`ctx.data.xpos[body_id]`)."""
     qpos_adr: int
+    """Where its free joint starts in `ctx.data.qpos`: position [m] (3), then quaternion (4)."""
     qvel_adr: int
+    """Where its free joint starts in `ctx.data.qvel`: linear [m/s] (3), angular [rad/s] (3)."""
     geom_id: int
+    """Its box geom in `ctx.model` (contacts name it)."""
     half_size: np.ndarray
+    """Half its edge lengths along its own axes [m], shape (3,)."""
 
 
 def robot_only_model(robot: str | Robot) -> mujoco.MjModel:

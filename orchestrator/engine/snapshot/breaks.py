@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 from ...exceptions import ConfigError
 from ...guards import GUARDS
-from ...language.diagnostics import Diagnostic
+from ...language.diagnostics import Diagnostic, did_you_mean
 from ...language.loading import MachineNode
 from ...language.machine import ESTOP, SAFE_STOP
 
@@ -121,14 +121,21 @@ def break_points(
         point = BreakPoint(option, state=name, nth=nth)
         if not name or not any(point.matches(p) for p in paths):
             problems.append(
-                _diag("--break", text, f"no state {name!r} in machine {machine.name!r}", paths)
+                _diag(
+                    "--break",
+                    text,
+                    f"no state {name!r} in machine {machine.name!r}"
+                    + did_you_mean(name, [*paths, *{p.rsplit(".", 1)[-1] for p in paths}]),
+                    paths,
+                )
             )
             continue
         points.append(point)
     valid_guards = (ANY_GUARD, ESTOP, *sorted(GUARDS))
     for text in guards:
         if text not in valid_guards:
-            problems.append(_diag("--break-on", text, "not a guard", valid_guards))
+            hint = did_you_mean(text, valid_guards)
+            problems.append(_diag("--break-on", text, "not a guard" + hint, valid_guards))
             continue
         points.append(BreakPoint(f"--break-on {text}", guard=text))
     if at_t is not None:
