@@ -59,6 +59,7 @@ from ..world.world import World
 from .blocked import Blocked
 from .guardrail import GoalRejected, check_goals
 from .inputs import parse_sets, refuse_non_inputs
+from .motion import MotionProbe
 from .protocol import PRIORITY, Command, Reply
 from .task import Task
 from .time_travel import TIME_TRAVEL, apply_time_travel, submit_time_travel
@@ -66,6 +67,10 @@ from .time_travel import TIME_TRAVEL, apply_time_travel, submit_time_travel
 __all__ = ["GRIPPER_SKILLS", "RECOVER", "Session"]
 
 RECOVER = "recover"
+MOTION_OPS = ("run", "recover", "resume", "restore", "reload")
+"""Commands that may set the arm moving: each one is checked against the latch (ESTOPPED,
+ERROR) when it is applied on the control loop, not only when it arrives (an e-stop may land
+in between: it is applied first and the command is then refused)."""
 """The bundled recovery machine the `recover` command runs."""
 GRIPPER_SKILLS = ("grasp", "release")
 """Skills during which the published state is GRASPING (else MOVING)."""
@@ -129,6 +134,9 @@ class Session:
         self.ctx = make_context(world, self.controller, Blackboard({}), seed, self.n_sub * dt)
         self.loop = StepLoop(self.ctx, self.n_sub)
         """Steps the world, task or not: the same code as `orchestrator run`'s."""
+        self.probe = MotionProbe(world.arm_dof)
+        """The arm's peak joint speed on every physics step (in the status: `arm_speed`)."""
+        self.loop.set_observers([self.probe])
         mujoco.mj_forward(world.model, world.data)
         self.publish: Publish = publish or (lambda leaf, msg: None)
         self.inbox: queue.SimpleQueue[tuple[int, int, Command, Any, int, float]] = (
@@ -382,6 +390,15 @@ class Session:
             "last_estop": self.last_estop,
         }
 
+    def published_status(self) -> dict[str, Any]:
+        """The periodic status: `status()` and the arm's peak joint speed on every physics
+        step since the previous one (`arm_speed`, live/motion.py)."""
+        return {**self.status(), "arm_speed": self.probe.window()}
+
+    def observers(self) -> list[Observer]:
+        """What watches the step loop: the task's recorder, if any, and the motion probe."""
+        return [o for o in (self._observer, self.probe) if o is not None]
+
     # -- the loop (one thread) ----------------------------------------------------------
     def run(self, stop: threading.Event | None = None) -> None:
         """Step the world until `shutdown` (or `stop` is set)."""
@@ -429,7 +446,7 @@ class Session:
         self.blocked.task_started()
         self.task = task
         self._observer = self.recorder(task) if self.recorder is not None else None
-        task.start([self._observer] if self._observer is not None else [])
+        task.start(self.observers())
         self.publish("events", {"event": "task_start", "task": task.id,
                                 "machine": task.machine_ref})  # fmt: skip
 
@@ -464,8 +481,23 @@ class Session:
         self._drop_queue(f"not started: {self.error}")
         self.publish("events", {"event": "internal_error", "message": self.error})
 
+    def _latched_refusal(self, cmd: Command, payload: Any) -> bool:
+        """Refuse, as it is applied, a command that may set the arm moving while the robot is
+        latched (ESTOPPED, ERROR): only `reset` unlatches. True if it was refused."""
+        if cmd.op not in MOTION_OPS or not (self.estopped or self.error):
+            return False
+        why = f"{cmd.op} refused when applied: the robot is {self.state} (send `reset` first)"
+        if isinstance(payload, Task):
+            self._pending.pop(payload.id, None)
+            self._task_end_rejected(payload, f"not started: {why}")
+        self.publish("events", {"event": "refused", "op": cmd.op, "reason": why,
+                                "client": cmd.client})  # fmt: skip
+        return True
+
     def _apply(self, cmd: Command, payload: Any, arrived: int, wall: float) -> None:
         op = cmd.op
+        if self._latched_refusal(cmd, payload):
+            return
         source = cmd.client if op == "estop" else f"command from {cmd.client or 'a client'}"
         task = self.task
         running = task is not None and task.executor is not None and not task.executor.done
@@ -501,10 +533,6 @@ class Session:
         elif op in TIME_TRAVEL:
             apply_time_travel(self, cmd, payload)
         elif op in ("run", "recover") and isinstance(payload, Task):
-            if self.estopped or self.error:
-                self._pending.pop(payload.id, None)
-                self._task_end_rejected(payload)
-                return
             if cmd.preempt:  # a controlled stop of what runs; the queue goes; this one next
                 why = f"preempted by task {payload.id}"
                 self._drop_queue(f"not started: {why}")
@@ -526,7 +554,7 @@ class Session:
         if task is None:
             return
         obs, self._observer = self._observer, None
-        self.loop.set_observers([])
+        self.loop.set_observers([self.probe])
         close = getattr(obs, "close", None)
         if close is not None:
             close()
@@ -538,7 +566,7 @@ class Session:
         records: its recording starts at the snapshot's time)."""
         self.task = task
         self._observer = self.recorder(task) if self.recorder is not None else None
-        task.resume([self._observer] if self._observer is not None else [])
+        task.resume(self.observers())
         self.publish("events", {"event": "task_start", "task": task.id,
                                 "machine": task.machine_ref, "restored": True})  # fmt: skip
 
@@ -608,7 +636,7 @@ class Session:
         result = task.result
         assert result is not None and task.executor is not None
         obs = self._observer
-        self.loop.set_observers([])  # the idle world is not recorded
+        self.loop.set_observers([self.probe])  # the idle world is not recorded
         if obs is not None:
             obs.on_end(self.ctx, task.executor, result)
             self._observer = None
@@ -629,7 +657,7 @@ class Session:
         self.rt_window.append((wall, self.ctx.t))
         if wall >= self._next_status:
             self._next_status = wall + STATUS_PERIOD_S
-            self.publish("status", self.status())
+            self.publish("status", self.published_status())
             self.publish("heartbeat", {"t": round(wall - self._wall0, 4), "tick": self.ticks})
 
     def _pace(self) -> None:

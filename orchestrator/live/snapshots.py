@@ -2,8 +2,10 @@
 
 `snapshot [NAME]` writes `<folder>/<NAME>.snap` at the start of the next control tick: the
 world, the controller, the step loop, the running task (its machine at every level, its
-skills mid-motion), the idle world's stop, and whether the session is e-stopped, in error or
-blocked. `restore NAME` puts one back at the start of a control tick: the running task and the
+skills mid-motion), the idle world's stop, and whether the session is blocked; never whether it
+is e-stopped or in error (the latch is the session's own: a restore neither sets nor clears
+it, and is refused while it holds, when it arrives and again when it is applied). `restore NAME`
+puts one back at the start of a control tick: the running task and the
 queue are dropped (their clients are told), and the task of the snapshot, if it had one,
 continues as a new task owned by whoever restored it. A snapshot is written and read as
 `orchestrator run`'s are (engine/snapshot: signed with the key of the user the session runs
@@ -38,7 +40,8 @@ _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 
 @dataclass
 class SessionState:
-    """What a session snapshot holds (everything the session's next ticks depend on)."""
+    """What a session snapshot holds (everything the session's next ticks depend on), except
+    the latch: whether the session is e-stopped or in error is never written nor read back."""
 
     world: World
     ctx: Context
@@ -46,8 +49,6 @@ class SessionState:
     loop: StepLoop
     task: Task | None
     idle_stop: SafetyStop | None
-    estopped: bool
-    error: str | None
     blocked: Blocked
 
 

@@ -47,6 +47,7 @@ class Session(Protocol):
     error: str | None
     estopped: bool
     idle_stop: Any
+    probe: Any
     loaded: LoadedScenario
     loop: StepLoop
     name: str
@@ -131,9 +132,9 @@ def apply_time_travel(session: Session, cmd: Command, payload: Any) -> None:
 
 
 def _snapshot(session: Session, path: Any) -> None:
-    state = SessionState(
+    state = SessionState(  # never the latch (ESTOPPED, ERROR): that is the session's own
         session.world, session.ctx, session.controller, session.loop, session.task,
-        session.idle_stop, session.estopped, session.error, session.blocked,
+        session.idle_stop, session.blocked,
     )  # fmt: skip
     try:
         size = write_session(path, state, session.loaded, session.name)
@@ -150,7 +151,9 @@ def _restore(
     session.drop_all(f"the session was restored from {path}")
     session.world, session.ctx, session.controller = state.world, state.ctx, state.controller
     session.loop, session.idle_stop, session.blocked = state.loop, state.idle_stop, state.blocked
-    session.estopped, session.error = state.estopped, state.error
+    # the latch is the session's, never the snapshot's: a restore keeps ESTOPPED and ERROR
+    # as they are (it is refused while either holds) and a snapshot does not carry them
+    session.loop.set_observers([session.probe])
     session.restarted_clock()
     task = state.task
     event: dict[str, Any] = {"event": "restore", "snapshot": str(path), "t": header.get("t"),
