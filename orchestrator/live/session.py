@@ -61,8 +61,9 @@ from .guardrail import GoalRejected, check_goals
 from .inputs import parse_sets, refuse_non_inputs
 from .motion import MotionProbe
 from .protocol import PRIORITY, Command, Reply
+from .snapshot_writer import SNAPSHOT_BYTES, SNAPSHOT_COUNT, SnapshotWriter
 from .task import Task
-from .time_travel import TIME_TRAVEL, apply_time_travel, submit_time_travel
+from .time_travel import TIME_TRAVEL, apply_time_travel, capture, submit_time_travel
 
 __all__ = ["GRIPPER_SKILLS", "RECOVER", "Session"]
 
@@ -95,6 +96,9 @@ class Session:
         allow_paths: Directories besides the scenario's tree a task's machine may come from.
         queue_limit: Tasks that may wait behind the running one (0: a `run` while busy is
             refused).
+        snapshot_dir: Where `snapshot` writes and `restore` reads.
+        snapshot_count: Snapshots the session may write in all (the cap).
+        snapshot_bytes: Bytes of snapshots the session may write in all (the cap).
 
     Raises:
         ConfigError: The scenario does not load.
@@ -112,9 +116,14 @@ class Session:
         allow_paths: Sequence[Path | str] = (),
         queue_limit: int = 0,
         snapshot_dir: Path | str | None = None,
+        snapshot_count: int = SNAPSHOT_COUNT,
+        snapshot_bytes: int = SNAPSHOT_BYTES,
     ) -> None:
         self.snapshot_dir = Path(snapshot_dir) if snapshot_dir is not None else Path("snapshots")
         """Where `snapshot` writes and `restore` reads (live/snapshots.py)."""
+        self.snapshots = SnapshotWriter(lambda path: capture(self, path), lambda: self.publish,
+                                        snapshot_count, snapshot_bytes)  # fmt: skip
+        """Writes snapshots off the loop, under the session's cap (live/snapshot_writer.py)."""
         self.recorder = recorder
         self.allow_paths = tuple(allow_paths)
         """Directories besides the scenario's tree that a task's machine may come from."""
@@ -413,6 +422,7 @@ class Session:
             self._after_tick()
             self._status_if_due()
             self._pace()
+        self.snapshots.close()
         self.publish("events", {"event": "shutdown"})
 
     def _start_next(self) -> None:
@@ -467,6 +477,8 @@ class Session:
                 self._apply(cmd, payload, tick, wall)
             except Exception as exc:  # a bug in one command must not end the session
                 self._internal_error(cmd, payload, exc)
+        # after the commands (an e-stop first): a snapshot captures the state they left
+        self.snapshots.tick(lambda: {"t": round(self.ctx.t, 6), "tick": self.ctx.tick})
 
     def _internal_error(self, cmd: Command, payload: Any, exc: Exception) -> None:
         """A command's effect failed: stop what runs under control and go to ERROR (until

@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from ..language.load import LoadedScenario
     from ..world.world import World
     from .blocked import Blocked
+    from .snapshot_writer import SnapshotWriter
 
 
 class Session(Protocol):
@@ -54,6 +55,7 @@ class Session(Protocol):
     publish: Callable[[str, dict[str, Any]], None]
     scenario_ref: str
     snapshot_dir: Path
+    snapshots: SnapshotWriter
     task: Task | None
     ticks: int
     world: World
@@ -66,10 +68,12 @@ class Session(Protocol):
     def resume_task(self, task: Task) -> None: ...
 
 
-__all__ = ["TIME_TRAVEL", "apply_time_travel", "submit_time_travel"]
+__all__ = ["TIME_TRAVEL", "apply_time_travel", "capture", "submit_time_travel"]
 
 TIME_TRAVEL = ("snapshot", "restore", "reload")
 """The commands this module handles."""
+RESTORE_WAIT_S = 30.0
+"""Longest a `restore` waits for the snapshot of its name still being written [s]."""
 
 
 def submit_time_travel(session: Session, cmd: Command) -> tuple[Reply, Any]:
@@ -85,6 +89,9 @@ def submit_time_travel(session: Session, cmd: Command) -> tuple[Reply, Any]:
             path = snapshot_file(session.snapshot_dir, name)
         except SnapshotError as exc:
             return Reply(accepted=False, reason=str(exc)), None
+        refused = session.snapshots.admit()
+        if refused is not None:
+            return Reply(accepted=False, reason=refused), None
         return Reply(accepted=True, snapshot=str(path)), path
     if op == "restore":
         if not cmd.snapshot:
@@ -94,6 +101,9 @@ def submit_time_travel(session: Session, cmd: Command) -> tuple[Reply, Any]:
             return Reply(accepted=False, reason=why), None
         try:
             path = snapshot_file(session.snapshot_dir, cmd.snapshot)
+            if not session.snapshots.wait_for(path, RESTORE_WAIT_S):
+                why = f"{path}: still being written after {RESTORE_WAIT_S} s; try again"
+                return Reply(accepted=False, reason=why), None
             state, header = read_session(path, session.loaded)
         except SnapshotError as exc:
             return Reply(accepted=False, reason=str(exc)), None
@@ -132,17 +142,19 @@ def apply_time_travel(session: Session, cmd: Command, payload: Any) -> None:
 
 
 def _snapshot(session: Session, path: Any) -> None:
+    """Hand the snapshot to the writer: it is captured at the start of a control tick and
+    written off the loop (live/snapshot_writer.py)."""
+    session.snapshots.add(path)
+
+
+def capture(session: Session, path: Path) -> int:
+    """Write the session's state as it is now to `path` (in the snapshot writer's child
+    process); returns the file's size [bytes]."""
     state = SessionState(  # never the latch (ESTOPPED, ERROR): that is the session's own
         session.world, session.ctx, session.controller, session.loop, session.task,
         session.idle_stop, session.blocked,
     )  # fmt: skip
-    try:
-        size = write_session(path, state, session.loaded, session.name)
-    except SnapshotError as exc:
-        session.publish("events", {"event": "snapshot_failed", "reason": str(exc)})
-        return
-    session.publish("events", {"event": "snapshot", "snapshot": str(path), "bytes": size,
-                               "t": round(session.ctx.t, 6), "tick": session.ctx.tick})  # fmt: skip
+    return write_session(path, state, session.loaded, session.name)
 
 
 def _restore(
