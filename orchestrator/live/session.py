@@ -56,6 +56,7 @@ from ..exceptions import ConfigError
 from ..language.load import load_scenario
 from ..language.machine import ESTOP, PAUSE, RESUME
 from ..world.world import World
+from . import machine_ref
 from .blocked import Blocked
 from .guardrail import GoalRejected, check_goals
 from .inputs import parse_sets, refuse_non_inputs
@@ -304,6 +305,8 @@ class Session:
             return f"the robot is {self.state}: send `reset` first", None
         machine = cmd.machine or self.loaded.scenario.machine
         overrides, refused = parse_sets(cmd.set)  # inputs only: never a scenario value
+        if refused is None and cmd.machine:  # one answer for missing and not allowed
+            refused = machine_ref.refusal(cmd.machine, self.loaded.path, self.allow_paths)
         if refused is not None:
             return refused, None
         try:

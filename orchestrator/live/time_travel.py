@@ -23,6 +23,7 @@ from ..engine.snapshot import SnapshotError
 from ..exceptions import ConfigError
 from ..language.load import load_scenario
 from ..language.loading import MachineNode
+from . import machine_ref
 from .protocol import Command, Reply
 from .snapshots import SessionState, read_session, snapshot_file, write_session
 from .task import Task
@@ -118,6 +119,9 @@ def _submit_reload(session: Session, cmd: Command) -> tuple[Reply, Any]:
     if task is None or task.executor is None or task.executor.done:
         why = "no task is running: the next `run` loads the machine file as it is then"
         return Reply(accepted=False, reason=why), None
+    refused = machine_ref.refusal(cmd.machine, session.loaded.path, session.allow_paths)
+    if refused is not None:  # one answer for missing and not allowed
+        return Reply(accepted=False, reason=refused), None
     try:
         loaded = load_scenario(
             session.scenario_ref, allow_paths=session.allow_paths, machine=cmd.machine
