@@ -7,9 +7,10 @@ a few milliseconds: the child's memory is a copy-on-write image of the session a
 between two ticks, so nothing the loop does afterwards can reach it). The child serializes,
 compresses, signs and writes the file (live/snapshots.py `write_session`) and reports its
 size or the error on a pipe; a reaper thread of the session waits for it and publishes the
-`snapshot` (or `snapshot_failed`) event. At most `MAX_WRITERS` children write at once and at
-most one is forked per control tick; further snapshots wait their turn in order (each is
-captured at the tick its writer is forked). A child that takes longer than `WRITE_TIMEOUT_S`
+`snapshot` (or `snapshot_failed`) event; the child runs at a low CPU priority
+(`WRITER_NICE`), so on a loaded machine the control loop is scheduled first. At most
+`MAX_WRITERS` children write at once and at most one is forked per control tick; further
+snapshots wait their turn in order (each is captured at the tick its writer is forked). A child that takes longer than `WRITE_TIMEOUT_S`
 is killed (`snapshot_failed`).
 
 The cap: a session writes at most `max_count` snapshots (accepted ones count from the moment
@@ -37,6 +38,7 @@ __all__ = [
     "SNAPSHOT_BYTES",
     "SNAPSHOT_COUNT",
     "WRITE_TIMEOUT_S",
+    "WRITER_NICE",
     "SnapshotWriter",
 ]
 
@@ -48,6 +50,8 @@ MAX_WRITERS = 2
 """Snapshot writers (child processes) at once."""
 WRITE_TIMEOUT_S = 120.0
 """Longest a writer may take before it is killed [s]."""
+WRITER_NICE = 15
+"""How much a writer lowers its CPU priority (`os.nice`): it yields to the control loop."""
 
 Capture = Callable[[Path], int]
 """Writes the session's state, as it is now, to the path; returns the file's size."""
@@ -170,6 +174,7 @@ class SnapshotWriter:
         try:
             signal.signal(signal.SIGINT, signal.SIG_DFL)
             signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            os.nice(WRITER_NICE)  # the control loop, not the writer, gets the CPU first
             msg: dict[str, Any] = {"bytes": self.capture(path)}
         except BaseException as exc:  # everything is reported: the parent publishes it
             msg, code = {"error": f"{type(exc).__name__}: {exc}"[:500]}, 1
