@@ -10,8 +10,8 @@ size or the error on a pipe; a reaper thread of the session waits for it and pub
 `snapshot` (or `snapshot_failed`) event; the child runs at a low CPU priority
 (`WRITER_NICE`), so on a loaded machine the control loop is scheduled first. At most
 `MAX_WRITERS` children write at once and at most one is forked per control tick; further
-snapshots wait their turn in order (each is captured at the tick its writer is forked). A child that takes longer than `WRITE_TIMEOUT_S`
-is killed (`snapshot_failed`).
+snapshots wait their turn in order (each is captured at the tick its writer is forked). A
+child that takes longer than `WRITE_TIMEOUT_S` is killed (`snapshot_failed`).
 
 The cap: a session writes at most `max_count` snapshots (accepted ones count from the moment
 they are accepted) and `max_bytes` bytes in all (written ones; a snapshot is refused when the
