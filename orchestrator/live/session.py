@@ -45,7 +45,6 @@ from pathlib import Path
 from typing import Any
 
 import mujoco
-import numpy as np
 
 from ..engine.blackboard import Blackboard
 from ..engine.episode import make_controller
@@ -63,6 +62,7 @@ from .inputs import parse_sets, refuse_non_inputs
 from .motion import MotionProbe
 from .protocol import PRIORITY, Command, Reply
 from .snapshot_writer import SNAPSHOT_BYTES, SNAPSHOT_COUNT, SnapshotWriter
+from .supervision import blocked_refusal, busy_reason, idle_refusal, status_message, watchdog
 from .task import Task
 from .time_travel import TIME_TRAVEL, apply_time_travel, capture, submit_time_travel
 
@@ -217,26 +217,8 @@ class Session:
 
     def busy(self, cmd: Command) -> str | None:
         """Why a `run` cannot be admitted under the queue policy now (None: it can). Cheap:
-        checked before a `run` is loaded, and again before it is queued."""
-        if cmd.preempt:
-            return None
-        running = self.task
-        waiting = [*self.tasks, *self._pending.values()]
-        if (running is not None) + len(waiting) <= self.queue_limit:
-            return None
-        if running is not None:
-            what = f"task {running.id} ({running.machine_ref}) is running"
-        else:
-            what = f"task {waiting[0].id} ({waiting[0].machine_ref}) is about to start"
-        if self.queue_limit == 0:
-            return (
-                f"busy: {what} (queue policy: reject while busy); send with --preempt to "
-                "stop it under control and run this one, or serve with --queue N"
-            )
-        return (
-            f"busy: {what} and {self.queue_limit} task(s) wait (serve --queue "
-            f"{self.queue_limit}); send with --preempt to replace them"
-        )
+        checked before a `run` is loaded, and again before it is queued (live/supervision.py)."""
+        return busy_reason(self, cmd)
 
     def submit(self, cmd: Command) -> Reply:
         """Check a command and queue it: the answer is immediate, the effect comes at the
@@ -266,7 +248,7 @@ class Session:
             if reply.accepted:
                 self._enqueue(cmd, payload)
             return reply
-        why = self._refuse(op)
+        why = idle_refusal(self, op)
         if why is not None:
             return Reply(accepted=False, reason=why)
         if op == "reset":  # a `run` right behind it is applied after it: accept that too
@@ -289,17 +271,6 @@ class Session:
         arrived = (self.ticks, time.perf_counter())
         self.inbox.put((PRIORITY[cmd.op], next(self._order), cmd, payload, *arrived))
 
-    def _refuse(self, op: str) -> str | None:
-        running = self.task is not None and self.task.executor is not None
-        paused = running and self.task.executor.paused  # type: ignore[union-attr]
-        if op in ("pause", "stop") and not running and not self.tasks:
-            return f"no task is running (state {self.state})"
-        if op == "resume" and not paused:
-            return f"nothing is paused (state {self.state})"
-        if op == "reset" and not (self.estopped or self.error):
-            return f"nothing to reset: the robot is {self.state}"
-        return None
-
     def _prepare(self, cmd: Command) -> tuple[str | None, Task | None]:
         if (self.estopped or self.error) and not self._reset_pending:
             return f"the robot is {self.state}: send `reset` first", None
@@ -319,7 +290,7 @@ class Session:
         refused = refuse_non_inputs(loaded.machine, keys)
         if refused is not None:
             return refused, None
-        refused = self._refuse_blocked(loaded.machine.recovery)
+        refused = blocked_refusal(self, loaded.machine.recovery)
         if refused is not None:
             return refused, None
         q_arm = self.world.data.qpos[self.world.arm_qpos].copy()
@@ -329,22 +300,6 @@ class Session:
         except GoalRejected as exc:
             return f"goal rejected: {exc}", None
         return None, Task(next(self._ids), loaded, self.ctx, machine, self.loop)
-
-    def _refuse_blocked(self, recovery: bool) -> str | None:
-        """While BLOCKED only a recovery machine may start, and only if moving can help."""
-        if self.blocked.violation is None or self.task is not None:
-            return None  # a running task's end is checked again before the next one starts
-        if not recovery:
-            return (
-                f"the robot is BLOCKED: {self.blocked.why()}: every task would abort at once; "
-                "send `recover` first (it backs the arm out, every guard active)"
-            )
-        if not self.blocked.recoverable:
-            return (
-                f"the robot is BLOCKED: {self.blocked.why()}: moving the arm cannot undo "
-                "this (a fault, not a place); find its cause and restart the session"
-            )
-        return None
 
     # -- the published state ------------------------------------------------------------
     @property
@@ -368,39 +323,8 @@ class Session:
         return "GRASPING" if skill in GRIPPER_SKILLS else "MOVING"
 
     def status(self) -> dict[str, Any]:
-        """The status message (also the `status` command's answer)."""
-        task = self.task
-        wall = time.perf_counter()
-        rt = None
-        if len(self.rt_window) >= 2:
-            (w0, s0), (w1, s1) = self.rt_window[0], self.rt_window[-1]
-            rt = round((s1 - s0) / (w1 - w0), 4) if w1 > w0 else None
-        return {
-            "session": self.name,
-            "epoch": self.epoch,
-            "state": self.state,
-            "task": None
-            if task is None
-            else {
-                "id": task.id,
-                "machine": task.machine_ref,
-                "leaf": task.leaf,
-                "client": task.client,
-            },
-            "queued": len(self.tasks),
-            "queue_limit": self.queue_limit,
-            "last_result": self.last_result,
-            "error": self.error,
-            "sim_time": round(self.ctx.t, 4),
-            "wall_time": round(wall - self._wall0, 4),
-            "realtime_factor": rt,
-            "speed": self.speed,
-            "watchdog_s": self.watchdog_s,
-            "tcp": np.round(self.ctx.tcp_pos, 5).tolist(),
-            "blocked": self.blocked.to_dict(),
-            "scene": self.scene,
-            "last_estop": self.last_estop,
-        }
+        """The status message (also the `status` command's answer; live/supervision.py)."""
+        return status_message(self)
 
     def published_status(self) -> dict[str, Any]:
         """The periodic status: `status()` and the arm's peak joint speed on every physics
@@ -601,33 +525,8 @@ class Session:
             self._task_end_rejected(self.tasks.popleft(), reason)
 
     def _watchdog(self) -> None:
-        """While a task runs, its owner must prove it is alive every `watchdog_s` (counted
-        from the task's start at the latest): an idle robot needs no supervisor, and only
-        the owner's heartbeats count. A waiting task whose owner is silent that long (since
-        it was accepted at the latest) is dropped before it moves anything."""
-        limit = self.watchdog_s
-        if not limit:
-            return
-        now = time.perf_counter()
-        for waiting in list(self.tasks):
-            silent = now - max(waiting.beat_wall or 0.0, waiting.accepted_wall)
-            if silent >= limit and waiting is not self.task:
-                self.tasks.remove(waiting)
-                self._task_end_rejected(waiting, f"not started: its owner "
-                                        f"({waiting.client or 'a client'}) sent no heartbeat "
-                                        f"for {silent:.3f} s (watchdog {limit} s)")  # fmt: skip
-        task = self.task
-        if self.error or task is None or task.executor is None or task.executor.done:
-            return
-        silent = now - max(task.beat_wall or 0.0, task.wall0)
-        if silent < limit:
-            return
-        owner = task.client or "a client"
-        self.error = (f"watchdog: no heartbeat from task {task.id}'s owner ({owner}) for "
-                      f"{silent:.3f} s (limit {limit} s)")  # fmt: skip
-        self._drop_queue(f"not started: {self.error}")
-        task.executor.trip("watchdog", self.error, round(silent, 4), limit)
-        self.publish("events", {"event": "watchdog", "message": self.error})
+        """The owner's heartbeats (live/supervision.py `watchdog`)."""
+        watchdog(self)
 
     def _tick(self) -> None:
         """One control tick: the task's (machine, end of task, physics), or the idle world's
