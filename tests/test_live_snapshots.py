@@ -93,7 +93,7 @@ def test_the_bytes_cap_refuses_by_name_once_reached(tmp_path):
     assert "cap of" in reply.reason and "--snapshot-mb" in reply.reason
 
 
-def test_a_restore_waits_for_its_snapshot_being_written_and_the_latch_is_not_in_it(tmp_path):
+def test_an_estopped_snapshot_does_not_latch_the_session_it_is_restored_in(tmp_path):
     events: list[dict] = []
     session = _session(tmp_path, events)
     assert session.submit(Command(op="run")).accepted
@@ -105,7 +105,8 @@ def test_a_restore_waits_for_its_snapshot_being_written_and_the_latch_is_not_in_
     assert session.submit(Command(op="reset")).accepted
     _step(session, 1)
     assert session.state != "ESTOPPED"
-    reply = session.submit(Command(op="restore", snapshot="stopped"))  # waits for the writer
+    _written(events, 1)
+    reply = session.submit(Command(op="restore", snapshot="stopped"))
     assert reply.accepted, reply.reason
     _step(session, 1)
     assert session.state != "ESTOPPED"  # an e-stopped snapshot does not latch the session

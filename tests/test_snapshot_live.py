@@ -111,6 +111,7 @@ def test_a_session_snapshot_restores_the_task_where_it_was(tmp_path, files):
     _step(session, 200)
     first = session.last_result
     assert first is not None
+    assert session.snapshots.wait_for(tmp_path / "snaps" / "second_hold.snap", 120.0)
     reply = session.submit(Command(op="restore", snapshot="second_hold", client="me"))
     assert reply.accepted, reply.reason
     _step(session, 200)

@@ -73,8 +73,9 @@ __all__ = ["TIME_TRAVEL", "apply_time_travel", "capture", "submit_time_travel"]
 
 TIME_TRAVEL = ("snapshot", "restore", "reload")
 """The commands this module handles."""
-RESTORE_WAIT_S = 30.0
-"""Longest a `restore` waits for the snapshot of its name still being written [s]."""
+RESTORE_WAIT_S = 2.0
+"""Longest a `restore` waits for the snapshot of its name still being written [s] (it holds
+up the command thread: short, then refused; an e-stop has its own path)."""
 
 
 def submit_time_travel(session: Session, cmd: Command) -> tuple[Reply, Any]:
@@ -103,7 +104,8 @@ def submit_time_travel(session: Session, cmd: Command) -> tuple[Reply, Any]:
         try:
             path = snapshot_file(session.snapshot_dir, cmd.snapshot)
             if not session.snapshots.wait_for(path, RESTORE_WAIT_S):
-                why = f"{path}: still being written after {RESTORE_WAIT_S} s; try again"
+                why = (f"{path}: still being written after {RESTORE_WAIT_S} s; restore it "
+                       "once the `snapshot` event says it is written")  # fmt: skip
                 return Reply(accepted=False, reason=why), None
             state, header = read_session(path, session.loaded)
         except SnapshotError as exc:
