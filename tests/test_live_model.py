@@ -102,6 +102,7 @@ RACE = [  # a pick, its snapshot, a restore, and an e-stop landing while the res
 ]
 
 
+@pytest.mark.slow  # the default suite has the same race in tests/test_live_latch.py
 def test_the_race_script_keeps_the_latch(server):
     settle(server)
     violations = replay(server, RACE)
