@@ -1187,6 +1187,18 @@ def serve(
             "(made when the first snapshot is written).",
         ),
     ] = Path("snapshots"),
+    snapshot_count: Annotated[
+        int,
+        typer.Option(
+            "--snapshot-count", min=1, help="Snapshots the session may write in all (the cap)."
+        ),
+    ] = 100,
+    snapshot_mb: Annotated[
+        float,
+        typer.Option(
+            "--snapshot-mb", min=0.001, help="Megabytes of snapshots the session may write in all."
+        ),
+    ] = 2048.0,
     listen: Annotated[
         list[str] | None,
         typer.Option(
@@ -1284,6 +1296,8 @@ def serve(
             allow_paths=_allowed(allow_path),
             queue_limit=queue,
             snapshot_dir=snapshots,
+            snapshot_count=snapshot_count,
+            snapshot_bytes=round(snapshot_mb * 2**20),
         )
     except ConfigError as exc:
         _fail_config(exc)

@@ -113,6 +113,7 @@ def test_a_session_snapshot_restores_the_world_where_it_was_and_the_arm_holds(tm
     q, t = session.ctx.q.copy(), session.ctx.t
     _step(session, 200)
     assert session.last_result is not None
+    assert session.snapshots.wait_for(tmp_path / "snaps" / "second_hold.snap", 120.0)
     session.ctx.data.qpos[0] += 0.3  # the world moved on since
     reply = session.submit(Command(op="restore", snapshot="second_hold", client="me"))
     assert reply.accepted, reply.reason

@@ -13,6 +13,7 @@ the worker takes the next: no input and no bug ends the channel.
 
 from __future__ import annotations
 
+import json
 import queue
 import sys
 import threading
@@ -37,7 +38,7 @@ def answer(query: Any, reply: Reply, **qos: Any) -> None:
     """Reply to `query` (with Zenoh `qos`: priority, express) and finalize it (the client's
     `get` returns at once); a client that has gone away is no error."""
     try:
-        query.reply(query.key_expr, reply.model_dump_json(), **qos)
+        query.reply(query.key_expr, _encoded(reply), **qos)
     except Exception:  # the querier left, or the session is closing: nobody to tell
         pass
     finally:
@@ -45,6 +46,15 @@ def answer(query: Any, reply: Reply, **qos: Any) -> None:
             query.drop()
         except Exception:
             pass
+
+
+def _encoded(reply: Reply) -> str:
+    """`reply` as JSON; text that cannot be encoded (a lone surrogate quoted from a client)
+    is escaped rather than the answer lost."""
+    try:
+        return reply.model_dump_json()
+    except ValueError:
+        return json.dumps(reply.model_dump(), ensure_ascii=True, default=str)
 
 
 def payload_of(query: Any) -> bytes | None:

@@ -12,6 +12,7 @@ as such before anything else is looked at.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 from ..language.diagnostics import Diagnostic
 from ..language.inputs import machine_inputs
@@ -43,10 +44,40 @@ def parse_sets(sets: Sequence[str]) -> tuple[list[Override], str | None]:
         key = ".".join(ov.path)
         if len(ov.path) != 1 or ov.path[0] in Scenario.model_fields or ov.path[0] == "parcels":
             return [], f"`{key}` is a scenario value, not an input: {_LIMITS_RULE}"
+        out_of_range = _out_of_range(ov.value)
+        if out_of_range is not None:
+            return [], f"{key}: {out_of_range} is out of range (at most {MAX_ABS:g} in size)"
         if not is_finite(ov.value):
             return [], f"{key} = {ov.value!r}: not finite"
+        if ov.value is None:
+            return [], (
+                f"{key}=null: give a value of the type the machine declares for it (a pose or "
+                "position [x, y, z], a name...); a live task's input cannot be left unset"
+            )
         out.append(ov)
     return out, None
+
+
+MAX_ABS = 1e15
+"""Largest magnitude of a number in a `--set` value (a metre, a second or a count never
+comes near it; an integer beyond it cannot even become a float)."""
+
+
+def _out_of_range(value: Any) -> str | None:
+    """The first number in `value` (nested lists and mappings) too large, as a short text."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, int | float):
+        if isinstance(value, int) and abs(value) > MAX_ABS:
+            digits = len(str(abs(value))) if value.bit_length() < 14_000 else "thousands of"
+            return f"an integer of {digits} digits"
+        return None
+    items = value.values() if isinstance(value, dict) else value if isinstance(value, list) else ()
+    for item in items:
+        found = _out_of_range(item)
+        if found is not None:
+            return found
+    return None
 
 
 def refuse_non_inputs(machine: MachineNode, keys: Sequence[str]) -> str | None:

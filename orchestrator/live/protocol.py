@@ -54,7 +54,7 @@ class Command(BaseModel):
             snapshot folder (live/snapshots.py). `reload` names its file in `machine`.
     """
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)  # `"preempt": "yes"` is no bool
 
     op: Literal[
         "run", "stop", "estop", "reset", "pause", "resume", "status", "shutdown", "recover",

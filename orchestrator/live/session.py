@@ -45,7 +45,6 @@ from pathlib import Path
 from typing import Any
 
 import mujoco
-import numpy as np
 
 from ..engine.blackboard import Blackboard
 from ..engine.episode import make_controller
@@ -56,16 +55,24 @@ from ..engine.step import StepLoop
 from ..exceptions import ConfigError
 from ..language.load import load_scenario
 from ..language.machine import ESTOP, PAUSE, RESUME
+from . import machine_ref
 from .blocked import Blocked
 from .guardrail import GoalRejected, check_goals
 from .inputs import parse_sets, refuse_non_inputs
+from .motion import MotionProbe
 from .protocol import PRIORITY, Command, Reply
+from .snapshot_writer import SNAPSHOT_BYTES, SNAPSHOT_COUNT, SnapshotWriter
+from .supervision import blocked_refusal, busy_reason, idle_refusal, status_message, watchdog
 from .task import Task
-from .time_travel import TIME_TRAVEL, apply_time_travel, submit_time_travel
+from .time_travel import TIME_TRAVEL, apply_time_travel, capture, submit_time_travel
 
 __all__ = ["GRIPPER_SKILLS", "RECOVER", "Session"]
 
 RECOVER = "recover"
+MOTION_OPS = ("run", "recover", "resume", "restore", "reload")
+"""Commands that may set the arm moving: each one is checked against the latch (ESTOPPED,
+ERROR) when it is applied on the control loop, not only when it arrives (an e-stop may land
+in between: it is applied first and the command is then refused)."""
 """The bundled recovery machine the `recover` command runs."""
 GRIPPER_SKILLS = ("grasp", "release")
 """Skills during which the published state is GRASPING (else MOVING)."""
@@ -90,6 +97,9 @@ class Session:
         allow_paths: Directories besides the scenario's tree a task's machine may come from.
         queue_limit: Tasks that may wait behind the running one (0: a `run` while busy is
             refused).
+        snapshot_dir: Where `snapshot` writes and `restore` reads.
+        snapshot_count: Snapshots the session may write in all (the cap).
+        snapshot_bytes: Bytes of snapshots the session may write in all (the cap).
 
     Raises:
         ConfigError: The scenario does not load.
@@ -107,9 +117,14 @@ class Session:
         allow_paths: Sequence[Path | str] = (),
         queue_limit: int = 0,
         snapshot_dir: Path | str | None = None,
+        snapshot_count: int = SNAPSHOT_COUNT,
+        snapshot_bytes: int = SNAPSHOT_BYTES,
     ) -> None:
         self.snapshot_dir = Path(snapshot_dir) if snapshot_dir is not None else Path("snapshots")
         """Where `snapshot` writes and `restore` reads (live/snapshots.py)."""
+        self.snapshots = SnapshotWriter(lambda path: capture(self, path), lambda: self.publish,
+                                        snapshot_count, snapshot_bytes)  # fmt: skip
+        """Writes snapshots off the loop, under the session's cap (live/snapshot_writer.py)."""
         self.recorder = recorder
         self.allow_paths = tuple(allow_paths)
         """Directories besides the scenario's tree that a task's machine may come from."""
@@ -131,6 +146,9 @@ class Session:
         self.ctx = make_context(world, self.controller, Blackboard({}), seed, self.n_sub * dt)
         self.loop = StepLoop(self.ctx, self.n_sub)
         """Steps the world, task or not: the same code as `orchestrator run`'s."""
+        self.probe = MotionProbe(world.arm_dof)
+        """The arm's peak joint speed on every physics step (in the status: `arm_speed`)."""
+        self.loop.set_observers([self.probe])
         mujoco.mj_forward(world.model, world.data)
         self.publish: Publish = publish or (lambda leaf, msg: None)
         self.inbox: queue.SimpleQueue[tuple[int, int, Command, Any, int, float]] = (
@@ -201,26 +219,8 @@ class Session:
 
     def busy(self, cmd: Command) -> str | None:
         """Why a `run` cannot be admitted under the queue policy now (None: it can). Cheap:
-        checked before a `run` is loaded, and again before it is queued."""
-        if cmd.preempt:
-            return None
-        running = self.task
-        waiting = [*self.tasks, *self._pending.values()]
-        if (running is not None) + len(waiting) <= self.queue_limit:
-            return None
-        if running is not None:
-            what = f"task {running.id} ({running.machine_ref}) is running"
-        else:
-            what = f"task {waiting[0].id} ({waiting[0].machine_ref}) is about to start"
-        if self.queue_limit == 0:
-            return (
-                f"busy: {what} (queue policy: reject while busy); send with --preempt to "
-                "stop it under control and run this one, or serve with --queue N"
-            )
-        return (
-            f"busy: {what} and {self.queue_limit} task(s) wait (serve --queue "
-            f"{self.queue_limit}); send with --preempt to replace them"
-        )
+        checked before a `run` is loaded, and again before it is queued (live/supervision.py)."""
+        return busy_reason(self, cmd)
 
     def submit(self, cmd: Command) -> Reply:
         """Check a command and queue it: the answer is immediate, the effect comes at the
@@ -250,7 +250,7 @@ class Session:
             if reply.accepted:
                 self._enqueue(cmd, payload)
             return reply
-        why = self._refuse(op)
+        why = idle_refusal(self, op)
         if why is not None:
             return Reply(accepted=False, reason=why)
         if op == "reset":  # a `run` right behind it is applied after it: accept that too
@@ -273,22 +273,13 @@ class Session:
         arrived = (self.ticks, time.perf_counter())
         self.inbox.put((PRIORITY[cmd.op], next(self._order), cmd, payload, *arrived))
 
-    def _refuse(self, op: str) -> str | None:
-        running = self.task is not None and self.task.executor is not None
-        paused = running and self.task.executor.paused  # type: ignore[union-attr]
-        if op in ("pause", "stop") and not running and not self.tasks:
-            return f"no task is running (state {self.state})"
-        if op == "resume" and not paused:
-            return f"nothing is paused (state {self.state})"
-        if op == "reset" and not (self.estopped or self.error):
-            return f"nothing to reset: the robot is {self.state}"
-        return None
-
     def _prepare(self, cmd: Command) -> tuple[str | None, Task | None]:
         if (self.estopped or self.error) and not self._reset_pending:
             return f"the robot is {self.state}: send `reset` first", None
         machine = cmd.machine or self.loaded.scenario.machine
         overrides, refused = parse_sets(cmd.set)  # inputs only: never a scenario value
+        if refused is None and cmd.machine:  # one answer for missing and not allowed
+            refused = machine_ref.refusal(cmd.machine, self.loaded.path, self.allow_paths)
         if refused is not None:
             return refused, None
         try:
@@ -301,7 +292,7 @@ class Session:
         refused = refuse_non_inputs(loaded.machine, keys)
         if refused is not None:
             return refused, None
-        refused = self._refuse_blocked(loaded.machine.recovery)
+        refused = blocked_refusal(self, loaded.machine.recovery)
         if refused is not None:
             return refused, None
         q_arm = self.world.data.qpos[self.world.arm_qpos].copy()
@@ -311,22 +302,6 @@ class Session:
         except GoalRejected as exc:
             return f"goal rejected: {exc}", None
         return None, Task(next(self._ids), loaded, self.ctx, machine, self.loop)
-
-    def _refuse_blocked(self, recovery: bool) -> str | None:
-        """While BLOCKED only a recovery machine may start, and only if moving can help."""
-        if self.blocked.violation is None or self.task is not None:
-            return None  # a running task's end is checked again before the next one starts
-        if not recovery:
-            return (
-                f"the robot is BLOCKED: {self.blocked.why()}: every task would abort at once; "
-                "send `recover` first (it backs the arm out, every guard active)"
-            )
-        if not self.blocked.recoverable:
-            return (
-                f"the robot is BLOCKED: {self.blocked.why()}: moving the arm cannot undo "
-                "this (a fault, not a place); find its cause and restart the session"
-            )
-        return None
 
     # -- the published state ------------------------------------------------------------
     @property
@@ -350,39 +325,17 @@ class Session:
         return "GRASPING" if skill in GRIPPER_SKILLS else "MOVING"
 
     def status(self) -> dict[str, Any]:
-        """The status message (also the `status` command's answer)."""
-        task = self.task
-        wall = time.perf_counter()
-        rt = None
-        if len(self.rt_window) >= 2:
-            (w0, s0), (w1, s1) = self.rt_window[0], self.rt_window[-1]
-            rt = round((s1 - s0) / (w1 - w0), 4) if w1 > w0 else None
-        return {
-            "session": self.name,
-            "epoch": self.epoch,
-            "state": self.state,
-            "task": None
-            if task is None
-            else {
-                "id": task.id,
-                "machine": task.machine_ref,
-                "leaf": task.leaf,
-                "client": task.client,
-            },
-            "queued": len(self.tasks),
-            "queue_limit": self.queue_limit,
-            "last_result": self.last_result,
-            "error": self.error,
-            "sim_time": round(self.ctx.t, 4),
-            "wall_time": round(wall - self._wall0, 4),
-            "realtime_factor": rt,
-            "speed": self.speed,
-            "watchdog_s": self.watchdog_s,
-            "tcp": np.round(self.ctx.tcp_pos, 5).tolist(),
-            "blocked": self.blocked.to_dict(),
-            "scene": self.scene,
-            "last_estop": self.last_estop,
-        }
+        """The status message (also the `status` command's answer; live/supervision.py)."""
+        return status_message(self)
+
+    def published_status(self) -> dict[str, Any]:
+        """The periodic status: `status()` and the arm's peak joint speed on every physics
+        step since the previous one (`arm_speed`, live/motion.py)."""
+        return {**self.status(), "arm_speed": self.probe.window()}
+
+    def observers(self) -> list[Observer]:
+        """What watches the step loop: the task's recorder, if any, and the motion probe."""
+        return [o for o in (self._observer, self.probe) if o is not None]
 
     # -- the loop (one thread) ----------------------------------------------------------
     def run(self, stop: threading.Event | None = None) -> None:
@@ -398,6 +351,7 @@ class Session:
             self._after_tick()
             self._status_if_due()
             self._pace()
+        self.snapshots.close()
         self.publish("events", {"event": "shutdown"})
 
     def _start_next(self) -> None:
@@ -431,7 +385,7 @@ class Session:
         self.blocked.task_started()
         self.task = task
         self._observer = self.recorder(task) if self.recorder is not None else None
-        task.start([self._observer] if self._observer is not None else [])
+        task.start(self.observers())
         self.publish("events", {"event": "task_start", "task": task.id,
                                 "machine": task.machine_ref})  # fmt: skip
 
@@ -452,6 +406,8 @@ class Session:
                 self._apply(cmd, payload, tick, wall)
             except Exception as exc:  # a bug in one command must not end the session
                 self._internal_error(cmd, payload, exc)
+        # after the commands (an e-stop first): a snapshot captures the state they left
+        self.snapshots.tick(lambda: {"t": round(self.ctx.t, 6), "tick": self.ctx.tick})
 
     def _internal_error(self, cmd: Command, payload: Any, exc: Exception) -> None:
         """A command's effect failed: stop what runs under control and go to ERROR (until
@@ -466,8 +422,23 @@ class Session:
         self._drop_queue(f"not started: {self.error}")
         self.publish("events", {"event": "internal_error", "message": self.error})
 
+    def _latched_refusal(self, cmd: Command, payload: Any) -> bool:
+        """Refuse, as it is applied, a command that may set the arm moving while the robot is
+        latched (ESTOPPED, ERROR): only `reset` unlatches. True if it was refused."""
+        if cmd.op not in MOTION_OPS or not (self.estopped or self.error):
+            return False
+        why = f"{cmd.op} refused when applied: the robot is {self.state} (send `reset` first)"
+        if isinstance(payload, Task):
+            self._pending.pop(payload.id, None)
+            self._task_end_rejected(payload, f"not started: {why}")
+        self.publish("events", {"event": "refused", "op": cmd.op, "reason": why,
+                                "client": cmd.client})  # fmt: skip
+        return True
+
     def _apply(self, cmd: Command, payload: Any, arrived: int, wall: float) -> None:
         op = cmd.op
+        if self._latched_refusal(cmd, payload):
+            return
         source = cmd.client if op == "estop" else f"command from {cmd.client or 'a client'}"
         task = self.task
         running = task is not None and task.executor is not None and not task.executor.done
@@ -503,10 +474,6 @@ class Session:
         elif op in TIME_TRAVEL:
             apply_time_travel(self, cmd, payload)
         elif op in ("run", "recover") and isinstance(payload, Task):
-            if self.estopped or self.error:
-                self._pending.pop(payload.id, None)
-                self._task_end_rejected(payload)
-                return
             if cmd.preempt:  # a controlled stop of what runs; the queue goes; this one next
                 why = f"preempted by task {payload.id}"
                 self._drop_queue(f"not started: {why}")
@@ -528,7 +495,7 @@ class Session:
         if task is None:
             return
         obs, self._observer = self._observer, None
-        self.loop.set_observers([])
+        self.loop.set_observers([self.probe])
         close = getattr(obs, "close", None)
         if close is not None:
             close()
@@ -540,7 +507,7 @@ class Session:
         records: its recording starts at the snapshot's time)."""
         self.task = task
         self._observer = self.recorder(task) if self.recorder is not None else None
-        task.resume([self._observer] if self._observer is not None else [])
+        task.resume(self.observers())
         self.publish("events", {"event": "task_start", "task": task.id,
                                 "machine": task.machine_ref, "restored": True})  # fmt: skip
 
@@ -560,33 +527,8 @@ class Session:
             self._task_end_rejected(self.tasks.popleft(), reason)
 
     def _watchdog(self) -> None:
-        """While a task runs, its owner must prove it is alive every `watchdog_s` (counted
-        from the task's start at the latest): an idle robot needs no supervisor, and only
-        the owner's heartbeats count. A waiting task whose owner is silent that long (since
-        it was accepted at the latest) is dropped before it moves anything."""
-        limit = self.watchdog_s
-        if not limit:
-            return
-        now = time.perf_counter()
-        for waiting in list(self.tasks):
-            silent = now - max(waiting.beat_wall or 0.0, waiting.accepted_wall)
-            if silent >= limit and waiting is not self.task:
-                self.tasks.remove(waiting)
-                self._task_end_rejected(waiting, f"not started: its owner "
-                                        f"({waiting.client or 'a client'}) sent no heartbeat "
-                                        f"for {silent:.3f} s (watchdog {limit} s)")  # fmt: skip
-        task = self.task
-        if self.error or task is None or task.executor is None or task.executor.done:
-            return
-        silent = now - max(task.beat_wall or 0.0, task.wall0)
-        if silent < limit:
-            return
-        owner = task.client or "a client"
-        self.error = (f"watchdog: no heartbeat from task {task.id}'s owner ({owner}) for "
-                      f"{silent:.3f} s (limit {limit} s)")  # fmt: skip
-        self._drop_queue(f"not started: {self.error}")
-        task.executor.trip("watchdog", self.error, round(silent, 4), limit)
-        self.publish("events", {"event": "watchdog", "message": self.error})
+        """The owner's heartbeats (live/supervision.py `watchdog`)."""
+        watchdog(self)
 
     def _tick(self) -> None:
         """One control tick: the task's (machine, end of task, physics), or the idle world's
@@ -610,7 +552,7 @@ class Session:
         result = task.result
         assert result is not None and task.executor is not None
         obs = self._observer
-        self.loop.set_observers([])  # the idle world is not recorded
+        self.loop.set_observers([self.probe])  # the idle world is not recorded
         if obs is not None:
             obs.on_end(self.ctx, task.executor, result)
             self._observer = None
@@ -631,7 +573,7 @@ class Session:
         self.rt_window.append((wall, self.ctx.t))
         if wall >= self._next_status:
             self._next_status = wall + STATUS_PERIOD_S
-            self.publish("status", self.status())
+            self.publish("status", self.published_status())
             self.publish("heartbeat", {"t": round(wall - self._wall0, 4), "tick": self.ticks})
 
     def _pace(self) -> None:

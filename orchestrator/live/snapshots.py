@@ -3,15 +3,19 @@
 `snapshot [NAME]` writes `<folder>/<NAME>.snap` at the start of the next control tick: the
 world's state as data (engine/snapshot/world_state.py: MuJoCo's integration state, the random
 generators, the controller's, the IK's and the context's plain data) and, in the header, the
-task that was running, if any. `restore NAME` builds a world from the session's scenario and
-seed the way the session built its own and puts the recorded state on it; the arm then holds
-where it is. The running task and the queue are dropped (their clients are told); the task of
-the snapshot is not resumed (a session snapshot holds the world, not a task's code: the
-`restore` event says which task it was). A latched state (e-stop, error) never comes from a
-snapshot. Files are written and read as `orchestrator run`'s are (engine/snapshot/snapfile.py:
-bounded reads, data only, signed with the key of the user the session runs as, refused if
-another version or another scenario wrote it). Names are plain (letters, digits, `_`, `-`,
-`.`; no path): a client never names a file outside the session's folder.
+task that was running, if any. The loop only captures it; a writer off the loop serializes,
+compresses and writes it, under a per-session cap on count and bytes (live/snapshot_writer.py).
+`restore NAME` builds a world from the session's scenario and seed the way the session built
+its own and puts the recorded state on it; the arm then holds where it is. The running task
+and the queue are dropped (their clients are told); the task of the snapshot is not resumed (a
+session snapshot holds the world, not a task's code: the `restore` event says which task it
+was). A latched state (e-stop, error) never comes from a snapshot: the latch is the session's
+own, a restore neither sets nor clears it, and is refused while it holds, when it arrives and
+again when it is applied. Files are written and read as `orchestrator run`'s are
+(engine/snapshot/snapfile.py: bounded reads, data only, signed with the key of the user the
+session runs as, refused if another version or another scenario wrote it). Names are plain
+(letters, digits, `_`, `-`, `.`; no path): a client never names a file outside the session's
+folder.
 """
 
 from __future__ import annotations
@@ -49,7 +53,8 @@ _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 
 @dataclass
 class SessionState:
-    """What a session snapshot holds (everything the session's next ticks depend on)."""
+    """What a session snapshot holds (everything the session's next ticks depend on), except
+    the latch: whether the session is e-stopped or in error is never written nor read back."""
 
     world: World
     ctx: Context
@@ -57,8 +62,6 @@ class SessionState:
     loop: StepLoop
     task: Task | None
     idle_stop: SafetyStop | None
-    estopped: bool
-    error: str | None
     blocked: Blocked
 
 
@@ -140,6 +143,5 @@ def read_session(path: Path, loaded: LoadedScenario) -> tuple[SessionState, dict
     mujoco.mj_forward(world.model, world.data)
     apply_world(tree, arrays, ctx, str(path))
     controller.hold(ctx.q)  # no task comes back: the arm holds where it is
-    state = SessionState(world, ctx, controller, loop, None, None, False, None,
-                         Blocked(loaded, ctx))  # fmt: skip
+    state = SessionState(world, ctx, controller, loop, None, None, Blocked(loaded, ctx))
     return state, header

@@ -23,6 +23,7 @@ from ..engine.snapshot import SnapshotError
 from ..exceptions import ConfigError
 from ..language.load import load_scenario
 from ..language.loading import MachineNode
+from . import machine_ref
 from .protocol import Command, Reply
 from .snapshots import SessionState, read_session, snapshot_file, write_session
 from .task import Task
@@ -33,6 +34,7 @@ if TYPE_CHECKING:
     from ..language.load import LoadedScenario
     from ..world.world import World
     from .blocked import Blocked
+    from .snapshot_writer import SnapshotWriter
 
 
 class Session(Protocol):
@@ -47,12 +49,14 @@ class Session(Protocol):
     error: str | None
     estopped: bool
     idle_stop: Any
+    probe: Any
     loaded: LoadedScenario
     loop: StepLoop
     name: str
     publish: Callable[[str, dict[str, Any]], None]
     scenario_ref: str
     snapshot_dir: Path
+    snapshots: SnapshotWriter
     task: Task | None
     ticks: int
     world: World
@@ -65,10 +69,13 @@ class Session(Protocol):
     def resume_task(self, task: Task) -> None: ...
 
 
-__all__ = ["TIME_TRAVEL", "apply_time_travel", "submit_time_travel"]
+__all__ = ["TIME_TRAVEL", "apply_time_travel", "capture", "submit_time_travel"]
 
 TIME_TRAVEL = ("snapshot", "restore", "reload")
 """The commands this module handles."""
+RESTORE_WAIT_S = 2.0
+"""Longest a `restore` waits for the snapshot of its name still being written [s] (it holds
+up the command thread: short, then refused; an e-stop has its own path)."""
 
 
 def submit_time_travel(session: Session, cmd: Command) -> tuple[Reply, Any]:
@@ -84,6 +91,9 @@ def submit_time_travel(session: Session, cmd: Command) -> tuple[Reply, Any]:
             path = snapshot_file(session.snapshot_dir, name)
         except SnapshotError as exc:
             return Reply(accepted=False, reason=str(exc)), None
+        refused = session.snapshots.admit()
+        if refused is not None:
+            return Reply(accepted=False, reason=refused), None
         return Reply(accepted=True, snapshot=str(path)), path
     if op == "restore":
         if not cmd.snapshot:
@@ -93,6 +103,10 @@ def submit_time_travel(session: Session, cmd: Command) -> tuple[Reply, Any]:
             return Reply(accepted=False, reason=why), None
         try:
             path = snapshot_file(session.snapshot_dir, cmd.snapshot)
+            if not session.snapshots.wait_for(path, RESTORE_WAIT_S):
+                why = (f"{path}: still being written after {RESTORE_WAIT_S} s; restore it "
+                       "once the `snapshot` event says it is written")  # fmt: skip
+                return Reply(accepted=False, reason=why), None
             state, header = read_session(path, session.loaded)
         except SnapshotError as exc:
             return Reply(accepted=False, reason=str(exc)), None
@@ -107,6 +121,9 @@ def _submit_reload(session: Session, cmd: Command) -> tuple[Reply, Any]:
     if task is None or task.executor is None or task.executor.done:
         why = "no task is running: the next `run` loads the machine file as it is then"
         return Reply(accepted=False, reason=why), None
+    refused = machine_ref.refusal(cmd.machine, session.loaded.path, session.allow_paths)
+    if refused is not None:  # one answer for missing and not allowed
+        return Reply(accepted=False, reason=refused), None
     try:
         loaded = load_scenario(
             session.scenario_ref, allow_paths=session.allow_paths, machine=cmd.machine
@@ -131,17 +148,19 @@ def apply_time_travel(session: Session, cmd: Command, payload: Any) -> None:
 
 
 def _snapshot(session: Session, path: Any) -> None:
-    state = SessionState(
+    """Hand the snapshot to the writer: it is captured at the start of a control tick and
+    written off the loop (live/snapshot_writer.py)."""
+    session.snapshots.add(path)
+
+
+def capture(session: Session, path: Path) -> int:
+    """Write the session's state as it is now to `path` (in the snapshot writer's child
+    process); returns the file's size [bytes]."""
+    state = SessionState(  # never the latch (ESTOPPED, ERROR): that is the session's own
         session.world, session.ctx, session.controller, session.loop, session.task,
-        session.idle_stop, session.estopped, session.error, session.blocked,
+        session.idle_stop, session.blocked,
     )  # fmt: skip
-    try:
-        size = write_session(path, state, session.loaded, session.name)
-    except SnapshotError as exc:
-        session.publish("events", {"event": "snapshot_failed", "reason": str(exc)})
-        return
-    session.publish("events", {"event": "snapshot", "snapshot": str(path), "bytes": size,
-                               "t": round(session.ctx.t, 6), "tick": session.ctx.tick})  # fmt: skip
+    return write_session(path, state, session.loaded, session.name)
 
 
 def _restore(
@@ -150,7 +169,9 @@ def _restore(
     session.drop_all(f"the session was restored from {path}")
     session.world, session.ctx, session.controller = state.world, state.ctx, state.controller
     session.loop, session.idle_stop, session.blocked = state.loop, state.idle_stop, state.blocked
-    session.estopped, session.error = state.estopped, state.error
+    # the latch is the session's, never the snapshot's: a restore keeps ESTOPPED and ERROR
+    # as they are (it is refused while either holds) and a snapshot does not carry them
+    session.loop.set_observers([session.probe])
     session.restarted_clock()
     task = state.task
     event: dict[str, Any] = {"event": "restore", "snapshot": str(path), "t": header.get("t"),

@@ -83,6 +83,35 @@ def _depth(text: str) -> int:
     return deepest
 
 
+def _no_surrogates(value: Any, where: str) -> None:
+    """Refuse a lone UTF-16 surrogate (`\\ud800` in JSON) in any key or string: it is no
+    character, and no answer that quotes it could be encoded."""
+    if isinstance(value, str):
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError as exc:
+            code = ord(value[exc.start])
+            raise MalformedCommand(
+                f"{where or 'command'}: lone surrogate U+{code:04X} at character {exc.start}: "
+                "text must be valid Unicode (surrogates only come in pairs)"
+            ) from None
+    elif isinstance(value, dict):
+        for k, v in value.items():
+            _no_surrogates(k, f"{where + '.' if where else ''}key")
+            _no_surrogates(v, f"{where + '.' if where else ''}{_loc(k) if _utf8(k) else 'key'}")
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _no_surrogates(v, f"{where}[{i}]")
+
+
+def _utf8(text: str) -> bool:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
 def decode_command(payload: bytes | None) -> Command:
     """Decode one command payload.
 
@@ -117,10 +146,15 @@ def decode_command(payload: bytes | None) -> Command:
         ) from None
     except RecursionError:  # the depth scan makes this unreachable; kept as a last line
         raise MalformedCommand(f"nested too deeply: more than {MAX_DEPTH} levels") from None
+    except MalformedCommand:  # a duplicate key, NaN: named where it was found
+        raise
+    except ValueError:  # Python's own cap on the digits of an integer (4300)
+        raise MalformedCommand("a number is out of range: too many digits") from None
     if not isinstance(obj, dict):
         raise MalformedCommand(
             f'a command is one JSON object, not {type(obj).__name__}: e.g. {{"op": "status"}}'
         )
+    _no_surrogates(obj, "")
     try:
         return Command.model_validate(obj)
     except ValidationError as exc:
