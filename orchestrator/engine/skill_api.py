@@ -99,6 +99,11 @@ SECTIONS: tuple[Section, ...] = (
             Member("stop", "called once, on exit", "yours"),
             Member("explain", "called before `stop` after a failure outcome or a timeout", "yours"),
             Member("written_keys", FRAMEWORK, "free"),
+            Member(
+                "snapshot_state",
+                "called when a run snapshot is written or checked (override: state of your own)",
+                "yours: plain data only",
+            ),
         ),
     ),
     Section(
