@@ -15,12 +15,15 @@ import time
 from pathlib import Path
 
 import pytest
+import yaml
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
+from yaml.scanner import ScannerError
 
 from orchestrator.batch.exceptions import BatchError
 from orchestrator.batch.lock import LOCK, BatchLock
 from orchestrator.engine.runner import WallTimeExceeded, run_episode
+from orchestrator.language import yamlio
 from orchestrator.language.load import load_scenario
 
 from .hostile import (
@@ -198,6 +201,35 @@ def test_bad_run_invocations_exit_2_before_simulating(cli, args, fragment):
     assert fragment in res.stderr + res.stdout
     assert "Traceback" not in res.stderr
     assert time.perf_counter() - t0 < HANG_S  # nothing was simulated
+
+
+class _CappedParser(yaml.SafeLoader):
+    """A YAML parser with its own nesting cap (100 flow levels), met while its scanner reads
+    ahead, as some PyYAML and libyaml builds have: the cap must not be what the user sees."""
+
+    def fetch_flow_collection_start(self, TokenClass):  # noqa: N803 - PyYAML's name
+        if self.flow_level >= 100:
+            mark = self.get_mark()
+            raise ScannerError("while scanning", mark, "exceeded max depth of 100", mark)
+        super().fetch_flow_collection_start(TokenClass)
+
+
+@pytest.mark.parametrize("opening", ["[", "{a: "])
+def test_deep_flow_nesting_is_refused_by_our_limit_before_a_parsers_own_cap(
+    cli, monkeypatch, opening
+):
+    """Ours is the first nesting check whatever PyYAML's build does: a run of 3000 openings on
+    one line (the scanner reads ahead past 100 before any event) still gets the max_depth
+    message, at the 65th level, naming the limit."""
+    monkeypatch.setattr(yamlio, "_LOADER", _CappedParser)
+    closing = "]" if opening == "[" else "}"
+    value = opening * 3000 + "1" + closing * 3000
+    res = cli("run", "pick_place", "--fault", f"push:force_n={value}@0")
+    assert res.exception is None, repr(res.exception)
+    assert res.exit_code == 2, res.stdout
+    out = res.stderr + res.stdout
+    assert "nested deeper than 64 levels (limit max_depth" in out, out[-400:]
+    assert "exceeded max depth" not in out
 
 
 def test_rrd_pointing_at_a_directory_is_refused_before_the_episode_runs(cli, tmp_path):

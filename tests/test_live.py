@@ -58,6 +58,18 @@ class Served:
             time.sleep(0.02)
         raise AssertionError(f"state {self.status()['state']}, never {state}")
 
+    def wait_sim_time(self, seconds: float, timeout: float = 120.0) -> dict:
+        """The status once the session's simulated time has advanced `seconds` [s]: a wait
+        in wall time would see a session slowed by a loaded machine not got that far."""
+        t0 = self.status()["sim_time"]
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            status = self.status()
+            if status["sim_time"] >= t0 + seconds:
+                return status
+            time.sleep(0.02)
+        raise AssertionError(f"simulated time stuck at {self.status()['sim_time']} s")
+
     def close(self) -> None:
         try:
             self.client.shutdown()
@@ -136,10 +148,9 @@ def test_pause_holds_a_task_and_resume_lets_it_succeed(served):
     served.wait_state("MOVING")
     assert served.client.pause().accepted
     served.wait_state("PAUSED")
-    time.sleep(0.5)  # the hold: the ramp down has long ended
+    served.wait_sim_time(0.5)  # the hold: the ramp down has long ended (simulated time)
     a = np.asarray(served.status()["tcp"])
-    time.sleep(0.5)
-    status = served.status()
+    status = served.wait_sim_time(0.5)
     assert status["state"] == "PAUSED" and status["task"]["id"] == reply.task
     assert np.linalg.norm(np.asarray(status["tcp"]) - a) < 1e-3  # held within 1 mm
     res = served.send("resume")
@@ -159,14 +170,16 @@ def test_pause_without_a_task_is_refused(served):
 
 
 def test_a_silent_client_trips_the_watchdog():
-    s = Served("w", "--speed", "1", "--watchdog", "0.3")
+    # a watchdog of 1 s: a loaded machine may hold the heartbeat thread for a few tenths of a
+    # second; the pick (~3.3 s simulated, paced at real time) outlasts the 1.2 s + 1 s here
+    s = Served("w", "--speed", "1", "--watchdog", "1")
     try:
         with Client("w", [s.endpoint], heartbeat_s=0.05, name="planner") as alive:
-            reply, _ = alive.run("reach", ["target=[0.45, -0.25, 0.55]"])
+            reply, _ = alive.run("pick_place")
             assert reply.accepted
             s.wait_state("MOVING")
-            time.sleep(0.5)  # heartbeats flow: no trip
-            assert s.status()["state"] == "MOVING"
+            time.sleep(1.2)  # heartbeats flow: no trip
+            assert s.status()["state"] in ("MOVING", "GRASPING")
             alive.stop_heartbeats()
             status = s.wait_state("ERROR", timeout=10)
         assert "watchdog" in status["error"]

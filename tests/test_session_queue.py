@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import re
-import time
+import types
 
 import pytest
 
@@ -11,6 +11,32 @@ from orchestrator.live.protocol import Command
 from orchestrator.live.session import Session
 
 REACH = ["target=[0.45, -0.25, 0.55]"]
+
+
+class WallClock:
+    """The wall clock the session and its tasks read, moved on by the test: a watchdog judged
+    on it trips when the test says time has passed, not when a loaded machine happened to
+    hold the test's thread for a fifth of a second."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def perf_counter(self) -> float:
+        return self.now
+
+    def advance(self, seconds: float) -> None:
+        self.now += seconds
+
+
+@pytest.fixture
+def wall(monkeypatch) -> WallClock:
+    from orchestrator.live import session, task
+
+    clock = WallClock()
+    fake = types.SimpleNamespace(perf_counter=clock.perf_counter)
+    monkeypatch.setattr(session, "time", fake)
+    monkeypatch.setattr(task, "time", fake)
+    return clock
 
 
 def _cmd(op: str, **kw) -> Command:
@@ -120,41 +146,42 @@ def _run_owned(session: Session, owner: str) -> str:
     return reply.task
 
 
-def test_a_bystanders_heartbeats_do_not_keep_a_silent_owners_task_alive():
+def test_a_bystanders_heartbeats_do_not_keep_a_silent_owners_task_alive(wall):
     session, events = _session(watchdog_s=0.2)
-    t0 = time.perf_counter()
     task = _run_owned(session, "owner-token")  # started: the owner's silence counts from here
-    while session.error is None and time.perf_counter() - t0 < 5.0:
+    t0 = wall.now
+    while session.error is None and wall.now - t0 < 5.0:
         session.heartbeat("bystander-token")
         session.heartbeat("")
+        wall.advance(0.01)
         _cycle(session)
-        time.sleep(0.005)
-    tripped = time.perf_counter() - t0
-    assert session.error is not None and 0.2 <= tripped < 2.0  # loose above: a loaded CI
+    tripped = wall.now - t0
+    assert session.error is not None and 0.2 <= tripped <= 0.2 + 0.01 + 1e-9
     assert session.error.startswith(f"watchdog: no heartbeat from task {task}'s owner (planner)")
     assert len(events.of("watchdog")) == 1
 
 
-def test_the_owners_heartbeats_keep_its_task_alive():
+def test_the_owners_heartbeats_keep_its_task_alive(wall):
     session, _ = _session(watchdog_s=0.2)
     _run_owned(session, "owner-token")
-    t0 = time.perf_counter()
-    while time.perf_counter() - t0 < 0.6 and session.task is not None:
+    t0 = wall.now
+    while wall.now - t0 < 0.6 and session.task is not None:
         session.heartbeat("owner-token")
+        wall.advance(0.01)
         _cycle(session)
-        time.sleep(0.005)
+    assert wall.now - t0 >= 0.6 - 1e-9, "the task ended before the watchdog was tried"
     assert session.error is None
 
 
-def test_a_queued_task_whose_owner_fell_silent_is_dropped_unstarted():
+def test_a_queued_task_whose_owner_fell_silent_is_dropped_unstarted(wall):
     session, events = _session(watchdog_s=0.2, queue_limit=1)
     running = _run_owned(session, "a")
     queued = session.submit(_cmd("run", machine="home", owner="b", client="gone")).task
-    t0 = time.perf_counter()
-    while time.perf_counter() - t0 < 0.5:
+    t0 = wall.now
+    while wall.now - t0 < 0.5:
         session.heartbeat("a")
+        wall.advance(0.01)
         _cycle(session)
-        time.sleep(0.005)
     assert session.task.id == running and not session.tasks and session.error is None
     (end,) = [m for m in events.of("task_end") if m["task"] == queued]
     assert end["result"] is None

@@ -7,7 +7,8 @@ interpreter runs the command in-process and then reports which heavy libraries i
 mink or OpenCV at its top again makes this fail, naming the library. Validating a machine
 imports only the modules of the skills it uses and no scenario model (`language/machines.py`
 holds its entry point), `--version` and a clean `validate` print plain lines without rich, and
-the installed entry points are read once per process.
+the installed entry points are read once per process by the project (a library's own reads,
+which vary with its version, are not counted).
 bench/startup.py measures what the rules save (docs/performance.md, "Start-up").
 """
 
@@ -49,7 +50,10 @@ import importlib.metadata, json, sys
 reads = []
 read = importlib.metadata.entry_points
 def counted(**params):
-    reads.append(params)
+    # the project's own reads only: libraries (typer's, pydantic's plugins...) read entry
+    # points too, as often as their version does
+    if sys._getframe(1).f_globals.get("__name__", "").startswith("orchestrator."):
+        reads.append(params)
     return read(**params)
 importlib.metadata.entry_points = counted
 from orchestrator.cli import main

@@ -429,6 +429,53 @@ def _position(text: str, index: int) -> tuple[int, int]:
     return text.count("\n", 0, index) + 1, index - line_start + 1
 
 
+_BRACKET = re.compile(r"[\[\]{}]")
+
+
+def _flow_depth_candidate(text: str, max_depth: int) -> int | None:
+    """Where `text` may open its `max_depth + 1`-th nested flow collection: the offset just past
+    the first `[` or `{` at which the brackets counted so far (quotes and comments ignored) run
+    deeper than `max_depth`, or None when they never do.
+
+    A YAML scanner reads ahead on a line (up to 1024 characters, to tell whether a key follows)
+    before the first collection's event reaches `_Assembler`: a long run of `[[[[…` meets the
+    parser's own nesting cap, if its build has one, before the assembler counts 65 levels.
+    The count here can only overestimate (a bracket inside a quoted or plain string counts
+    too); `_refuse_deep_prefix` confirms it.
+    """
+    if text.count("[") + text.count("{") <= max_depth:
+        return None
+    depth = 0
+    for m in _BRACKET.finditer(text):
+        if m.group() in "[{":
+            depth += 1
+            if depth > max_depth:
+                return m.end()
+        elif depth:
+            depth -= 1
+    return None
+
+
+def _refuse_deep_prefix(prefix: str, source: SourceMap, limits: InputLimits) -> None:
+    """Raise the max_depth message if `prefix` (the text up to `_flow_depth_candidate`) really
+    nests deeper than `limits.max_depth`: its events reach the assembler before the parser reads
+    further. Anything else the prefix does (it ends mid-document) is left to the full parse."""
+    assembler = _Assembler(SourceMap(source.file), limits)
+    loader = _LOADER(prefix)
+    try:
+        while True:
+            event = loader.get_event()
+            if event is None or type(event) is yaml.StreamEndEvent:
+                return
+            assembler.feed(event)
+    except _Fatal as exc:
+        raise ConfigError([exc.diag]) from None
+    except yaml.YAMLError:
+        return
+    finally:
+        loader.dispose()
+
+
 def parse_yaml(text: str, file: str, limits: InputLimits | None = None) -> YamlDocument:
     """Parse YAML `text`; every problem raises ConfigError naming `file:line:col`."""
     limits = limits or current_limits()
@@ -449,6 +496,9 @@ def parse_yaml(text: str, file: str, limits: InputLimits | None = None) -> YamlD
                 )
             ]
         )
+    deep = _flow_depth_candidate(text, limits.max_depth)
+    if deep is not None:
+        _refuse_deep_prefix(text[:deep], source, limits)
     assembler = _Assembler(source, limits)
     loader = _LOADER(text)
     feed = assembler.feed
