@@ -30,12 +30,12 @@ class WallClock:
 
 @pytest.fixture
 def wall(monkeypatch) -> WallClock:
-    from orchestrator.live import session, task
+    from orchestrator.live import session, supervision, task
 
     clock = WallClock()
     fake = types.SimpleNamespace(perf_counter=clock.perf_counter)
-    monkeypatch.setattr(session, "time", fake)
-    monkeypatch.setattr(task, "time", fake)
+    for module in (session, supervision, task):  # every module that reads the wall clock
+        monkeypatch.setattr(module, "time", fake)
     return clock
 
 
