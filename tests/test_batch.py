@@ -333,6 +333,7 @@ def test_a_dead_worker_is_replaced_and_its_episode_retried_once(tmp_path):
 
 
 # -- resume after SIGKILL -----------------------------------------------------------------
+@pytest.mark.slow  # a batch killed and resumed (~12 s)
 def test_sigkill_then_resume_runs_every_seed_exactly_once(tmp_path, cli_process):
     out = tmp_path / "b"
     n = 6  # killed after 2 or 3 (an episode takes seconds): the resume runs the rest

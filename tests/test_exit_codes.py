@@ -63,8 +63,10 @@ def test_a_batch_with_an_error_episode_exits_1(cli, tmp_path):
 
 @pytest.mark.parametrize(
     "args",
-    [("list",), ("validate", "pick_place"), ("run", "pick_place", "--json", "--set",
-     "physics.time_limit_s=0.2")],
+    [("list",),  # the default suite; the other two (~2 s each) in the slow one
+     pytest.param(("validate", "pick_place"), marks=pytest.mark.slow),
+     pytest.param(("run", "pick_place", "--json", "--set", "physics.time_limit_s=0.2"),
+                  marks=pytest.mark.slow)],
 )  # fmt: skip
 def test_a_closed_stdout_exits_with_the_pipe_code_and_no_traceback(args):
     # the reader is gone before the command writes a byte (`| head -c1` that already exited)

@@ -122,6 +122,7 @@ def test_the_rerun_command_of_an_aborted_episode_reproduces_it(cli, cli_process,
     assert rerun == episode
 
 
+@pytest.mark.slow  # a batch, a snapshot and its resume (~5 s)
 def test_the_rerun_command_of_a_failed_episode_resumes_its_snapshot_and_reproduces_it(
     cli, cli_process, tmp_path
 ):

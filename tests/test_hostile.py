@@ -444,6 +444,7 @@ def stuck_run(task) -> dict:
     return {"scenario": "fake", "seed": task.seed, "outcome": "succeeded", "metrics": {}}
 
 
+@pytest.mark.slow  # waits out a wall limit (~9 s)
 def test_a_worker_stuck_past_the_wall_limit_is_killed_and_the_batch_goes_on(tmp_path, monkeypatch):
     from orchestrator.batch import BatchConfig, run_batch
     from orchestrator.batch.backends import local

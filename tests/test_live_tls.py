@@ -129,8 +129,9 @@ def _without_valid_certificate(served: Served, case: str) -> tuple[Credentials, 
 
 @pytest.mark.parametrize(
     "case",
-    ["no certificate", "another CA", "self-signed", "expired", "valid certificate, wrong key",
-     "no TLS"],
+    ["no certificate", "another CA",  # the default suite; the other kinds (~2 s each): slow
+     *(pytest.param(c, marks=pytest.mark.slow)
+       for c in ("self-signed", "expired", "valid certificate, wrong key", "no TLS"))],
 )  # fmt: skip
 def test_a_client_without_a_valid_certificate_can_neither_reset_restore_nor_run(served, case):
     assert served.op.estop().accepted

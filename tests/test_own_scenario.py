@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from orchestrator.batch.fault_matrix import blind_kinds, matrix_for
 from orchestrator.batch.summary import rerun_command
 from orchestrator.language.load import load_scenario
@@ -33,6 +35,7 @@ def _doc_files(tmp_path: Path) -> Path:
 # the CLI runs in its own process here: a check folder registered in this one would stay
 
 
+@pytest.mark.slow  # a batch in a process of its own (~7 s)
 def test_batch_takes_skills_for_its_workers_and_its_rerun_command(cli_process, tmp_path):
     scenario = _doc_files(tmp_path)
     out = tmp_path / "b"

@@ -403,6 +403,7 @@ def test_only_the_tip_reaches_the_buried_nodule(complication_run, seed):
     assert probe.touched["probe_tip"] > 1.0  # it ran into it, and that is what the guard saw
 
 
+@pytest.mark.slow  # a surgical complication run (~7 s)
 def test_a_force_ceiling_watches_the_safety_response_itself():
     # SAFE_HOLD backs the probe out; 0.2 s in, the wrist feels 20 N (above the scenario's
     # 10 N ceiling): the response ends, the arm is stopped again and held

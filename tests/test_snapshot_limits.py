@@ -160,6 +160,7 @@ def test_break_on_a_full_disk_says_so_and_leaves_no_file(tmp_path):
     assert list((tmp_path / "out").iterdir()) == []
 
 
+@pytest.mark.slow  # a whole batch twice (~11 s): the default suite stays under 3 min
 def test_a_batch_on_a_full_disk_stops_with_a_message_and_resume_runs_the_rest(tmp_path):
     out = tmp_path / "batch"
     args = ["batch", "reach_random", "-n", "4", "--workers", "1", "--record", "none",
@@ -176,6 +177,7 @@ def test_a_batch_on_a_full_disk_stops_with_a_message_and_resume_runs_the_rest(tm
     assert [p.name for p in out.iterdir() if p.name.endswith(".tmp")] == []
 
 
+@pytest.mark.slow  # a batch (~5 s): the default suite stays under 3 min
 def test_a_batch_that_cannot_snapshot_a_failure_says_so_and_records_why(tmp_path):
     out = tmp_path / "batch"
     out.mkdir()
