@@ -111,6 +111,7 @@ def run_header(run: RunState, stop: dict[str, Any], skill_paths: list[str]) -> d
         "t": round(ctx.t, 6),
         "tick": ctx.tick,
         "state": run.executor.leaf if run.started else None,
+        "at": {"tick": ctx.tick, "before_start": not run.started},
         "break": stop,
         "skill_paths": skill_paths,
         "versions": versions(),
@@ -148,6 +149,7 @@ _RUN_KEYS: dict[str, tuple[type, ...]] = {
     "t": (int, float),
     "tick": (int,),
     "state": (str, type(None)),
+    "at": (dict,),
     "break": (dict,),
     "skill_paths": (list,),
     "versions": (dict,),
@@ -209,10 +211,13 @@ def check_header(snap: SnapshotFile) -> dict[str, Any]:
             raise SnapshotError(f"{path}: the header's recipe.{key} is not a list of texts")
     if not all(isinstance(v, str) for v in h["skill_paths"]):
         raise SnapshotError(f"{path}: the header's skill_paths is not a list of files")
-    b = h["break"]
-    if not (isinstance(b.get("tick"), int) and isinstance(b.get("before_start"), bool)):
-        raise SnapshotError(f"{path}: the header's break has no tick and before_start")
-    if isinstance(h["seed"], bool) or h["seed"] < 0 or b["tick"] < 0 or h["tick"] < 0:
+    at = h["at"]
+    tick = at.get("tick")
+    if not (isinstance(tick, int) and not isinstance(tick, bool)) or not isinstance(
+        at.get("before_start"), bool
+    ):
+        raise SnapshotError(f"{path}: the header's at has no tick and before_start")
+    if isinstance(h["seed"], bool) or h["seed"] < 0 or tick < 0 or h["tick"] < 0:
         raise SnapshotError(f"{path}: the header's seed or tick is negative")
     return h
 
@@ -246,8 +251,8 @@ def rebuild_run(snap: SnapshotFile, loaded: Any) -> RunState:
         recorded = decode(json.loads(raw.tobytes()), arrays)
     except (ValueError, UnicodeDecodeError, RecursionError) as exc:
         raise SnapshotError(f"{snap.path}: broken snapshot state: {str(exc)[:200]}") from None
-    b = h["break"]
-    stop = Stop(b["tick"], b["before_start"], str(b.get("reason", "")), str(b.get("option", "")))
+    b, at = h["break"], h["at"]
+    stop = Stop(at["tick"], at["before_start"], str(b.get("reason", "")), str(b.get("option", "")))
     run = new_run(loaded, h["seed"])
     if not run_to(run, stop):
         raise SnapshotError(
