@@ -127,9 +127,8 @@ def test_a_batch_keeps_each_failures_snapshot_and_reruns_from_it(tmp_path, cli):
         assert line["snapshot"] == f"snapshots/seed_{seed}.snap"
         assert line["snapshot_state"] == "entry of TRANSPORT"  # the last entry before
     path = tmp_path / "batch" / "snapshots" / "seed_0.snap"
-    assert summary.rerun_command == f"orchestrator run pick_place --from {path} --rrd " + str(
-        tmp_path / "batch" / "episodes" / "seed_0.rerun.rrd"
-    )
+    # record="none": the command names no recording (a folder the batch never made)
+    assert summary.rerun_command == f"orchestrator run pick_place --from {path}"
     res = cli("run", "--from", str(path), "--json")
     assert res.exit_code == 3  # aborted, as in the batch
     got, want = res.json, lines[0]
