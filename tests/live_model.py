@@ -262,14 +262,21 @@ def settle(server: LiveServer, timeout: float = 60.0) -> None:
     from orchestrator.live.client import Client
 
     with Client(server.name, [server.endpoint], name="settle", heartbeat_s=None) as c:
-        c.estop()
+        c.estop()  # applied at the next tick: IDLE counts only once the latch was seen
+        latched = False
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             status = c.status()
-            if status["state"] == "IDLE" and status["task"] is None and not status["queued"]:
-                return
             if status["state"] in LATCHED:
+                latched = True
                 c.reset()
+            elif (
+                latched
+                and status["state"] == "IDLE"
+                and status["task"] is None
+                and (not status["queued"])
+            ):
+                return
             time.sleep(0.1)
     raise AssertionError("the session did not come back to IDLE")
 

@@ -8,12 +8,15 @@ stateful test then fails.
 
 from __future__ import annotations
 
+import traceback
+
 import pytest
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, rule, run_state_machine_as_test
 
 from orchestrator.engine.snapshot.signing import KEY_ENV
+from orchestrator.live.session import Session
 
 from .live_model import OPS, SNAPSHOTS, STATS, Driver, replay, settle
 from .live_server import LiveServer
@@ -104,3 +107,22 @@ def test_the_race_script_keeps_the_latch(server):
     settle(server)
     violations = replay(server, RACE)
     assert not violations, violations
+
+
+@pytest.mark.slow
+def test_the_model_catches_the_restore_race_when_it_is_reintroduced(server, monkeypatch):
+    """The mutation: the latch is no longer checked when a command is applied (only when it
+    arrives, as before issue 39). The same script, and random interleavings, then fail."""
+    monkeypatch.setattr(Session, "_latched_refusal", lambda self, cmd, payload: False)
+    settle(server)
+    violations = replay(server, RACE)
+    assert violations, "the model did not see the restore undo the e-stop"
+    assert any("moved while ESTOPPED" in v or "restore applied while" in v for v in violations)
+    settle(server)
+    try:  # Hypothesis may raise a group of the distinct failures it found
+        _run(server, examples=30, steps=30)
+    except BaseException as exc:  # noqa: BLE001 (the failure is what is tested)
+        text = "".join(traceback.format_exception(exc))
+    else:
+        pytest.fail("the stateful test passed with the restore race re-introduced")
+    assert "protocol violations" in text and "while ESTOPPED" in text

@@ -135,3 +135,30 @@ def test_restore_refuses_a_path_or_a_missing_snapshot(tmp_path, name, message):
     session = _session(tmp_path, [])
     reply = session.submit(Command(op="restore", snapshot=name))
     assert not reply.accepted and message in reply.reason
+
+
+def test_a_snapshot_taken_after_an_estop_restores_with_the_brakes_as_they_were(tmp_path):
+    """An e-stop's hold engages the joints' holding brakes (MuJoCo friction loss in the model):
+    they are the world's state, recorded and put back, not a different model (found by the
+    live protocol's model test: every snapshot after an e-stop was refused as 'another model')."""
+    events: list[dict] = []
+    session = _session(tmp_path, events)
+    assert session.submit(Command(op="estop")).accepted
+    _step(session, 30)
+    braked = set(session.world.braked)
+    assert braked, "the e-stop's hold engages the brakes"
+    friction = session.ctx.model.dof_frictionloss.copy()
+    assert session.submit(Command(op="reset")).accepted
+    _step(session, 5)
+    reply = session.submit(Command(op="snapshot", snapshot="after_estop"))
+    assert reply.accepted, reply.reason
+    _step(session, 1)
+    assert session.snapshots.wait_for(tmp_path / "snaps" / "after_estop.snap", 120.0)
+    reply = session.submit(Command(op="restore", snapshot="after_estop", client="me"))
+    assert reply.accepted, reply.reason
+    _step(session, 1)
+    assert session.world.braked == braked
+    assert np.array_equal(session.ctx.model.dof_frictionloss, friction)
+    assert session.submit(Command(op="run", machine="home")).accepted  # brakes released
+    _step(session, 3)
+    assert not session.world.braked

@@ -69,11 +69,17 @@ def mujoco_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
     return out
 
 
+BRAKE_FIELDS = ("dof_frictionloss", "dof_solimp", "dof_solref")
+"""Model arrays a run changes as it goes: the holding brakes (world/world.py `engage_brake`)
+are MuJoCo's friction loss made rigid. They are the world's state, recorded and put back
+with it (world_state.py), not part of the model's identity."""
+
+
 def model_digest(model: mujoco.MjModel) -> str:
-    """SHA-256 of every array of `model` (by name, in name order)."""
+    """SHA-256 of every array of `model` (by name, in name order) but `BRAKE_FIELDS`."""
     h = hashlib.sha256()
     for name in sorted(dir(model)):
-        if name.startswith("_"):
+        if name.startswith("_") or name in BRAKE_FIELDS:
             continue
         try:
             value = getattr(model, name)

@@ -22,7 +22,7 @@ from ...skills.plain_state import attributes
 from ..context import Context
 from .data import decode, encode, objects, plain_state
 from .errors import SnapshotError
-from .state import model_digest, mujoco_state
+from .state import BRAKE_FIELDS, model_digest, mujoco_state
 
 __all__ = ["apply_world", "capture_world"]
 
@@ -40,6 +40,9 @@ def capture_world(ctx: Context) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """The world of `ctx` as (JSON tree, arrays)."""
     tree: dict[str, Any] = {"model_sha256": model_digest(ctx.model), "mujoco": {"$array": "mj"}}
     arrays = {"mj": mujoco_state(ctx.model, ctx.data)}
+    for field in BRAKE_FIELDS:  # the holding brakes engaged now (an e-stop's hold)
+        arrays[f"brake/{field}"] = np.array(getattr(ctx.model, field))
+    tree["braked"] = sorted(int(j) for j in ctx.world.braked)
     rngs = {p: o.bit_generator.state for p, o in objects(ctx) if isinstance(o, np.random.Generator)}
     tree["generators"], _ = encode(rngs, "g/")
     for name, obj in _parts(ctx).items():
@@ -63,6 +66,15 @@ def apply_world(tree: Any, arrays: dict[str, np.ndarray], ctx: Context, where: s
         size = mujoco.mj_stateSize(ctx.model, _INTEGRATION)
         if not isinstance(mj, np.ndarray) or mj.dtype != np.float64 or mj.shape != (size,):
             raise ValueError("MuJoCo's state is not of this model's size")
+        for field in BRAKE_FIELDS:
+            now, value = getattr(ctx.model, field), arrays.get(f"brake/{field}")
+            if value is None or value.shape != now.shape or value.dtype != now.dtype:
+                raise ValueError(f"no holding-brake state {field} of this model's shape")
+            now[...] = value
+        braked = state.get("braked", [])
+        if not isinstance(braked, list) or not all(isinstance(j, int) for j in braked):
+            raise ValueError("the braked joints are not a list of joint indices")
+        ctx.world.braked = set(braked)  # `release_brakes` releases what is engaged
         mujoco.mj_setState(ctx.model, ctx.data, mj, _INTEGRATION)
         mujoco.mj_forward(ctx.model, ctx.data)
         rngs = state["generators"]
