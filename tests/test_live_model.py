@@ -102,6 +102,35 @@ RACE = [  # a pick, its snapshot, a restore, and an e-stop landing while the res
 ]
 
 
+SILENT_OWNER_ESTOPPED = [  # found by the long profile: a silent owner's e-stopped task
+    # tripped the watchdog after the reset, so the session went ESTOPPED -> ERROR
+    {"client": 0, "op": "reset", "name": "m0", "delay": 0.0},
+    {"client": 1, "op": "reset", "name": "m0", "delay": 0.0},
+    {"client": 1, "op": "reset", "name": "m0", "delay": 0.3},
+    {"client": 0, "op": "reset", "name": "m1", "delay": 0.01},
+    {"client": 1, "op": "preempt", "name": "m1", "delay": 0.01},
+    {"client": 1, "op": "restore", "name": "m0", "delay": 0.1},
+    {"client": 0, "op": "reload", "name": "m0", "delay": 0.01},
+    {"client": 0, "op": "heartbeat", "name": "m1", "delay": 0.0},
+    {"client": 1, "op": "reset", "name": "m0", "delay": 0.03},
+    {"client": 0, "op": "run", "name": "m0", "delay": 0.3},
+    {"client": 1, "op": "estop", "name": "m0", "delay": 0.1},
+    {"client": 0, "op": "pause", "name": "m1", "delay": 0.03},
+    {"client": 0, "op": "heartbeat", "name": "m0", "delay": 0.003},
+    {"client": 0, "op": "restore", "name": "m1", "delay": 0.03},
+    {"client": 1, "op": "estop", "name": "m0", "delay": 0.03},
+    {"client": 1, "op": "reset", "name": "m0", "delay": 0.0},
+    {"client": 0, "op": "run", "name": "m1", "delay": 0.3},
+]
+
+
+@pytest.mark.slow
+def test_an_estopped_task_of_a_silent_owner_does_not_trip_the_watchdog(server):
+    settle(server)
+    violations = replay(server, SILENT_OWNER_ESTOPPED)
+    assert not violations, violations
+
+
 @pytest.mark.slow  # the default suite has the same race in tests/test_live_latch.py
 def test_the_race_script_keeps_the_latch(server):
     settle(server)

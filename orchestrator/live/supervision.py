@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..language.machine import ESTOP
 from .protocol import Command
 
 __all__ = ["blocked_refusal", "busy_reason", "idle_refusal", "status_message", "watchdog"]
@@ -61,6 +62,9 @@ def watchdog(session: Any) -> None:
     task = session.task
     if session.error or task is None or task.executor is None or task.executor.done:
         return
+    stopped = task.executor.violation
+    if session.estopped or (stopped is not None and stopped.guard == ESTOP):
+        return  # an e-stopped task is held and ends: its owner's silence moves nothing
     silent = now - max(task.beat_wall or 0.0, task.wall0)
     if silent < limit:
         return
