@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import hashlib
 import io
 import json
 import os
@@ -167,12 +168,21 @@ class MachineDrawing:
         from orchestrator.language.load import load_machine
 
         out = IMAGES / f"{self.name}.png"
-        subprocess.run(
-            ["dot", "-Tpng", "-Gdpi=96", "-o", str(out)],
-            input=to_dot(load_machine(self.machine)).encode(),
-            check=True,
-        )
+        source = to_dot(load_machine(self.machine))
+        subprocess.run(["dot", "-Tpng", "-Gdpi=96", "-o", str(out)], input=source.encode(), check=True)
+        # what the drawing was made from: tests/test_doc_images.py fails once the machine changes
+        digest_file(self.name).write_text(dot_digest(source) + "\n")
         return out
+
+
+def dot_digest(source: str) -> str:
+    """The SHA-256 of a machine's DOT source (`orchestrator graph M --format dot`)."""
+    return hashlib.sha256(source.encode()).hexdigest()
+
+
+def digest_file(name: str) -> Path:
+    """Where the DOT source's digest of drawing `name` is kept, beside its PNG."""
+    return IMAGES / f"{name}.dot.sha256"
 
 
 Scene = ViewerShot | LiveShot | SpawnShot | MachineDrawing
