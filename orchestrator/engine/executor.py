@@ -654,9 +654,7 @@ class Executor:
     def _bind_checks(self) -> None:
         """What the physics step calls: the active guards as one bank (guards/bank.py), which
         tests their envelopes at once and runs their full checks only when a value leaves."""
-        self.guard_bank = (
-            GuardBank(self.active_guards, self.ctx) if self.active_guards else None
-        )
+        self.guard_bank = GuardBank(self.active_guards, self.ctx) if self.active_guards else None
         self.active_checks = (self.guard_bank.check,) if self.guard_bank is not None else ()
 
     # -- lifecycle ----------------------------------------------------------------------
