@@ -12,8 +12,14 @@ interquartile range; the load average is printed with it.
 It also times one `GuardBank.check` per physics step mid-episode both ways (best of 5
 repeats: the least disturbed by other processes) against the run's CPU time per step.
 
-Only meaningful on a checkout that still has the compiled envelope test (`GuardBank` built
-with `compiled=True|False`); on one without, it says so and measures nothing.
+It needs a checkout that still has the compiled envelope test (before issue 41 removed it
+on this measurement); on one without, it says so and measures nothing. To run it on the
+last commit that had it, as measured for BENCHMARKS.md (the extension built by this venv):
+
+    git archive 0d89b57 | tar -x -C /tmp/base && cd /tmp/base
+    for d in robots machines scenarios skills; do cp -r $d orchestrator/; done
+    python setup.py build_ext --inplace   # the old extension, with its Envelope
+    PYTHONPATH=/tmp/base python /path/to/bench/guards_envelope.py --pairs 10
 """
 
 from __future__ import annotations
@@ -90,7 +96,12 @@ def main() -> None:
     parser.add_argument("--pairs", type=int, default=10, help="Paired runs (seeds).")
     parser.add_argument("--scenario", default="pick_place")
     args = parser.parse_args()
-    compiled = bank._compiled  # type: ignore[attr-defined]
+    compiled = getattr(bank, "_compiled", None)
+    if compiled is None:
+        raise SystemExit(
+            "this checkout has no compiled envelope test (removed in issue 41): run this bench "
+            "on one that has, e.g. with PYTHONPATH pointing at an export of commit 0d89b57"
+        )
 
     def python_only(*_args, **_kwargs):  # the envelope tested by GuardBank.inside
         return None
