@@ -48,7 +48,6 @@ HOT: list[tuple[str, str, str]] = [
     ("orchestrator.robots.controller", "Controller", "compute"),
     ("orchestrator.world.sensors", "JointEncoders", "read"),
     ("orchestrator.guards.bank", "GuardBank", "inside"),
-    ("orchestrator.guards.bank", "GuardBank", "_check_compiled"),
     ("orchestrator.engine.context", "Context", "wrist_force_norm_sq"),
     ("orchestrator.engine.context", "Context", "true_wrist_force_norm_sq"),
     ("orchestrator.engine.trace_truth", "TraceTruth", "on_step"),
@@ -181,7 +180,7 @@ def main() -> None:
         episode = partial(_hand_written, overhead.HandWritten, loaded.scenario, args.seed)
     # on the compiled path (orchestrator/world/native.py) the context's wrist-force readings
     # are C methods bound per instance: time the true force there; the measured one is read
-    # inside the bank's compiled check (its row includes it)
+    # inside the bank's envelope test (its row includes it)
     make = runner.make_context
 
     def made(*a: Any, **k: Any) -> Any:

@@ -23,7 +23,7 @@ from pydantic import ValidationError
 
 from ..exceptions import ConfigError, SkillError
 from ..guards import get_guard
-from ..guards.bank import Addresses, GuardBank
+from ..guards.bank import GuardBank
 from ..guards.base import Guard, Violation
 from ..guards.easing import Eased
 from ..language.diagnostics import Diagnostic
@@ -574,8 +574,6 @@ class Executor:
         self.entry_listeners: list[Callable[[str, int | None], None]] = []
         """Called with (dotted path, retry number or None) as every state is entered, nested
         machines and parallel states included, and SAFE_STOP (a snapshot's break points)."""
-        self._addresses = Addresses()
-        """Where the guards' watched views start in memory, for every bank of the episode."""
         self._guards: dict[tuple[int, str | None], list[Guard]] = {}
         """The guards of each machine level and state, by (`id(level)`, state or None)."""
         self._levels: list[MachineNode] = []
@@ -656,9 +654,7 @@ class Executor:
     def _bind_checks(self) -> None:
         """What the physics step calls: the active guards as one bank (guards/bank.py), which
         tests their envelopes at once and runs their full checks only when a value leaves."""
-        self.guard_bank = (
-            GuardBank(self.active_guards, self.ctx, self._addresses) if self.active_guards else None
-        )
+        self.guard_bank = GuardBank(self.active_guards, self.ctx) if self.active_guards else None
         self.active_checks = (self.guard_bank.check,) if self.guard_bank is not None else ()
 
     # -- lifecycle ----------------------------------------------------------------------

@@ -166,11 +166,17 @@ class StepLoop:
                 if violation is not None:
                     assert executor is not None
                     executor.abort(violation)
-                    checks = executor.active_checks  # none while the safety response runs
+                    checks = executor.active_checks  # the safety response's guards only
                     stop = executor.stop
                     if injector is not None:
                         due = injector.next_t
                     break
+        # what the loop bound once still holds: only an abort and a fault falling due change
+        # the guards, the actuator fault and the next fault's time, both handled above (tests:
+        # tests/test_guard_step_loop.py)
+        assert executor is None or checks == executor.active_checks, "guards changed mid-tick"
+        assert fault is ctx.actuator_fault, "an actuator fault was set outside fire_due()"
+        assert injector is None or due == injector.next_t, "a fault was scheduled mid-tick"
         self.max_force_sq = max_force_sq
         ctx.tick += 1
         return self.diverged(executor.leaf if executor is not None else "")

@@ -7,6 +7,7 @@ from .base import Guard
 from .collision import Collision
 from .contact_force import ContactForce
 from .grasp_lost import GraspLost
+from .joint_acceleration import JointAcceleration
 from .joint_limits import JointLimits
 from .joint_torque import JointTorque
 from .joint_velocity import JointVelocity
@@ -26,6 +27,7 @@ GUARDS: dict[str, type[Guard]] = {
         SensorHealth,
         Collision,
         JointVelocity,
+        JointAcceleration,
         JointTorque,
         GraspLost,
     )
@@ -61,6 +63,7 @@ __all__ = [
     "Collision",
     "ContactForce",
     "GraspLost",
+    "JointAcceleration",
     "JointTorque",
     "JointVelocity",
     "SensorHealth",

@@ -84,6 +84,14 @@ class Guard(abc.ABC):
     def __init__(self, params: GuardParams) -> None:
         self.params = params
 
+    @classmethod
+    def robot_problems(cls, params: GuardParams, robot: type) -> list[tuple[str, str]]:
+        """What the robot class `robot` cannot take of `params`, as (key, message) pairs: a
+        per-joint list of the wrong length, a limit above its datasheet. Checked when a
+        scenario is loaded (reported with its file and line, exit 2) and again by `bind`.
+        None by default."""
+        return []
+
     def bind(self, ctx: Context) -> None:  # noqa: B027 - optional hook
         """Prepare for a run (look up indices, read limits from the model)."""
 

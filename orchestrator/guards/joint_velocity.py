@@ -8,6 +8,7 @@ import numpy as np
 from pydantic import Field, PositiveFloat
 
 from .base import Envelope, Guard, GuardParams, Violation
+from .per_joint import arm_view, envelope_bounds, first_beyond, resolve_limits
 
 if TYPE_CHECKING:
     from ..engine.context import Context
@@ -37,42 +38,48 @@ class JointVelocity(Guard):
 
     params: JointVelocityParams
 
+    @classmethod
+    def robot_problems(cls, params: GuardParams, robot: type) -> list[tuple[str, str]]:
+        p = cls.Params.model_validate(params)
+        assert isinstance(p, JointVelocityParams)
+        n = len(robot.arm_joints)  # type: ignore[attr-defined]
+        if p.limits_rad_s is not None and len(p.limits_rad_s) != n:
+            return [
+                (
+                    "limits_rad_s",
+                    f"limits_rad_s needs {n} values (one per arm joint), got {len(p.limits_rad_s)}",
+                )
+            ]
+        return []
+
     def bind(self, ctx: Context) -> None:
-        n = ctx.robot.n_arm
-        limits = self.params.limits_rad_s
-        if limits is None:
-            limits = ctx.robot.joint_velocity_limits().tolist()
-        if len(limits) != n:
-            raise ValueError(
-                f"limits_rad_s needs {n} values (one per arm joint), got {len(limits)}"
-            )
-        self._lim = [v * self.params.scale for v in limits]
-        self._qd = ctx.data.qvel[ctx.world.arm_dof[0] : ctx.world.arm_dof[-1] + 1]
-        if len(self._qd) != n:  # the arm's dofs are not contiguous
-            self._qd = None
+        self._lim = resolve_limits(
+            self.params.limits_rad_s,
+            ctx.robot.joint_velocity_limits().tolist(),
+            self.params.scale,
+            "limits_rad_s",
+            "rad/s",
+        )
         self._dofs = ctx.world.arm_dof
+        self._qd = arm_view(ctx.data.qvel, self._dofs)
 
     def check(self, ctx: Context) -> Violation | None:
         qd = (self._qd if self._qd is not None else ctx.data.qvel[self._dofs]).tolist()
-        for v, lim in zip(qd, self._lim, strict=True):  # the fast path
-            if v > lim or v < -lim:
-                break
-        else:
+        i = first_beyond(qd, self._lim)
+        if i is None:
             return None
-        for i, (v, lim) in enumerate(zip(qd, self._lim, strict=True)):
-            if v > lim or v < -lim:
-                return Violation(
-                    self.name,
-                    f"joint {i + 1} at {v:.3f} rad/s exceeds its limit {lim:.3f} rad/s",
-                    round(v, 5),
-                    round(lim, 5),
-                )
-        return None
+        v, lim = qd[i], self._lim[i]
+        return Violation(
+            self.name,
+            f"joint {i + 1} at {v:.3f} rad/s exceeds its limit {lim:.3f} rad/s",
+            round(v, 5),
+            round(lim, 5),
+        )
 
     def envelope(self, ctx: Context) -> Envelope | None:
         if self._qd is None:
             return None
-        return Envelope(bounds=((self._qd, [-v for v in self._lim], self._lim),))
+        return Envelope(bounds=((self._qd, *envelope_bounds(self._lim)),))
 
     def monitored(self, ctx: Context) -> tuple[float, float]:
         qd = np.abs(ctx.data.qvel[self._dofs]) / np.asarray(self._lim)

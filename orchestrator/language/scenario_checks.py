@@ -99,12 +99,17 @@ def check_scene_names(
                     )
         return found
 
+    robot = ROBOTS.get(scenario.robot.name)
+
     def guards(src: SourceMap, at: tuple, refs) -> list[Diagnostic]:
         found = []
         for pos, name, params in guard_entries(refs):
             if name in GUARDS and isinstance(params, dict):
                 gat = (*at, pos, name) if isinstance(pos, int) else (*at, pos)
                 found += check(src, gat, GUARDS[name].Params, params)
+                if robot is not None:  # per-joint limits against the robot's datasheet
+                    for key, message in GUARDS[name].robot_problems(params, robot):
+                        found.append(src.diag((*gat, key), message))
         return found
 
     out = guards(source, ("guards",), scenario.guards)

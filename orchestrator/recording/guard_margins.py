@@ -94,6 +94,7 @@ KINDS: dict[str, Normalizer] = {
     "sensor_health": Normalizer("upper"),
     "joint_torque": Normalizer("upper"),
     "joint_velocity": Normalizer("upper"),
+    "joint_acceleration": Normalizer("upper"),
     "path_deviation": Normalizer("upper"),
     "collision": Normalizer("upper"),  # contacts counted against 0: any contact is >= 1.0
     "grasp_lost": Normalizer("lower"),

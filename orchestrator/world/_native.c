@@ -1,6 +1,6 @@
 /* The per-physics-step arithmetic of the framework in C: an optional speed-up.
 
-   Three types, each the exact twin of a pure-Python path (the fallback when this module is
+   Two types, each the exact twin of a pure-Python path (the fallback when this module is
    not built; tests hold both to the same results, bit for bit):
 
    * FtNoise    - world/realism.py `WristForceNoise.offset`: the wrist sensor's white noise
@@ -9,9 +9,9 @@
                   `true_wrist_force_norm_sq`: the raw sensor reading rotated into the world
                   frame, the hand's weight and the sensor's bias removed, noise added,
                   one reading per simulated instant (world/step_clock.py `StepClock.t`).
-   * Envelope   - guards/bank.py `GuardBank.inside`: every active guard's envelope (views that
-                  must read zero, bounded views, pairs that must read equal, scalars) tested
-                  in one call.
+
+   The guards' envelope test has no twin here: measured, it made no difference a run could see
+   (bench/guards_envelope.py), so guards/bank.py's Python is its one definition.
 
    The arithmetic is written in the order Python evaluates it and compiled without
    floating-point contraction (-ffp-contract=off): no fused multiply-add, so every result
@@ -515,263 +515,6 @@ static PyTypeObject WristForceType = {
     .tp_getset = wf_getset,
 };
 
-/* ---------------------------------------------------------------- Envelope --------- */
-
-static const char zeros[64];
-
-typedef struct {
-    const char *p;
-    Py_ssize_t n, stride, itemsize;
-} Span;
-
-typedef struct {
-    const char *a, *b;
-    Py_ssize_t n, sa, sb;
-    int as_bytes;
-} Pair;
-
-typedef struct {
-    PyObject *read; /* a WristForce (read in C) or any () -> float */
-    double limit;
-} Scalar;
-
-typedef struct {
-    PyObject_HEAD
-    PyObject *keep;
-    Span *zero, *bounded;
-    Py_ssize_t n_zero, n_bounded;
-    double *lo, *hi;
-    Py_ssize_t n_values;
-    Pair *equal;
-    Py_ssize_t n_equal;
-    Scalar *scalars;
-    Py_ssize_t n_scalars;
-} Envelope;
-
-static int parse_spans(PyObject *list, Span **out, Py_ssize_t *n, Py_ssize_t *n_values) {
-    PyObject *fast = PySequence_Fast(list, "spans must be a sequence");
-    if (fast == NULL) return -1;
-    *n = PySequence_Fast_GET_SIZE(fast);
-    *out = PyMem_Calloc(*n ? *n : 1, sizeof(Span));
-    if (*out == NULL) {
-        Py_DECREF(fast);
-        PyErr_NoMemory();
-        return -1;
-    }
-    for (Py_ssize_t i = 0; i < *n; i++) {
-        Py_ssize_t addr, len, stride, itemsize;
-        if (!PyArg_ParseTuple(PySequence_Fast_GET_ITEM(fast, i), "nnnn", &addr, &len, &stride,
-                              &itemsize)) {
-            Py_DECREF(fast);
-            return -1;
-        }
-        (*out)[i] = (Span){(const char *)addr, len, stride, itemsize};
-        if (n_values) *n_values += len;
-    }
-    Py_DECREF(fast);
-    return 0;
-}
-
-static int parse_doubles(PyObject *list, double **out, Py_ssize_t n) {
-    PyObject *fast = PySequence_Fast(list, "bounds must be a sequence");
-    if (fast == NULL) return -1;
-    if (PySequence_Fast_GET_SIZE(fast) != n) {
-        Py_DECREF(fast);
-        PyErr_Format(PyExc_ValueError, "expected %zd bounds", n);
-        return -1;
-    }
-    *out = PyMem_Calloc(n ? n : 1, sizeof(double));
-    if (*out == NULL) {
-        Py_DECREF(fast);
-        PyErr_NoMemory();
-        return -1;
-    }
-    for (Py_ssize_t i = 0; i < n; i++) {
-        (*out)[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(fast, i));
-        if ((*out)[i] == -1.0 && PyErr_Occurred()) {
-            Py_DECREF(fast);
-            return -1;
-        }
-    }
-    Py_DECREF(fast);
-    return 0;
-}
-
-static int env_init(Envelope *self, PyObject *args, PyObject *kwds) {
-    static char *kw[] = {"zero", "bounded", "lo", "hi", "equal", "scalars", "keep", NULL};
-    PyObject *zero, *bounded, *lo, *hi, *equal, *scalars, *keep;
-    if (self->keep != NULL) {
-        PyErr_SetString(PyExc_RuntimeError, "an Envelope is initialised once");
-        return -1;
-    }
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOOO", kw, &zero, &bounded, &lo, &hi,
-                                     &equal, &scalars, &keep))
-        return -1;
-    self->keep = Py_NewRef(keep);
-    self->n_values = 0;
-    if (parse_spans(zero, &self->zero, &self->n_zero, NULL) < 0 ||
-        parse_spans(bounded, &self->bounded, &self->n_bounded, &self->n_values) < 0 ||
-        parse_doubles(lo, &self->lo, self->n_values) < 0 ||
-        parse_doubles(hi, &self->hi, self->n_values) < 0)
-        return -1;
-    for (Py_ssize_t i = 0; i < self->n_zero; i++) {
-        if (self->zero[i].itemsize > (Py_ssize_t)sizeof zeros) {
-            PyErr_SetString(PyExc_ValueError, "zero views' items must be at most 64 bytes");
-            return -1;
-        }
-    }
-    for (Py_ssize_t i = 0; i < self->n_bounded; i++) {
-        if (self->bounded[i].itemsize != 8) {
-            PyErr_SetString(PyExc_ValueError, "bounded views must be float64");
-            return -1;
-        }
-    }
-    PyObject *fast = PySequence_Fast(equal, "equal must be a sequence");
-    if (fast == NULL) return -1;
-    self->n_equal = PySequence_Fast_GET_SIZE(fast);
-    self->equal = PyMem_Calloc(self->n_equal ? self->n_equal : 1, sizeof(Pair));
-    for (Py_ssize_t i = 0; self->equal != NULL && i < self->n_equal; i++) {
-        Py_ssize_t a, b, n, sa, sb;
-        int as_bytes;
-        if (!PyArg_ParseTuple(PySequence_Fast_GET_ITEM(fast, i), "nnnnnp", &a, &sa, &b, &sb, &n,
-                              &as_bytes)) {
-            Py_DECREF(fast);
-            return -1;
-        }
-        self->equal[i] = (Pair){(const char *)a, (const char *)b, n, sa, sb, as_bytes};
-    }
-    Py_DECREF(fast);
-    if (self->equal == NULL) {
-        PyErr_NoMemory();
-        return -1;
-    }
-    fast = PySequence_Fast(scalars, "scalars must be a sequence");
-    if (fast == NULL) return -1;
-    self->n_scalars = PySequence_Fast_GET_SIZE(fast);
-    self->scalars = PyMem_Calloc(self->n_scalars ? self->n_scalars : 1, sizeof(Scalar));
-    for (Py_ssize_t i = 0; self->scalars != NULL && i < self->n_scalars; i++) {
-        PyObject *read;
-        double limit;
-        if (!PyArg_ParseTuple(PySequence_Fast_GET_ITEM(fast, i), "Od", &read, &limit)) {
-            Py_DECREF(fast);
-            return -1;
-        }
-        self->scalars[i] = (Scalar){Py_NewRef(read), limit};
-    }
-    Py_DECREF(fast);
-    if (self->scalars == NULL) {
-        PyErr_NoMemory();
-        return -1;
-    }
-    return 0;
-}
-
-/* Garbage-collector support: a scalar's reader is a method of the episode's Context (or its
-   WristForce), which reaches the executor that holds this bank: a reference cycle. */
-static int env_traverse(Envelope *self, visitproc visit, void *arg) {
-    for (Py_ssize_t i = 0; self->scalars != NULL && i < self->n_scalars; i++)
-        Py_VISIT(self->scalars[i].read);
-    Py_VISIT(self->keep);
-    return 0;
-}
-
-static int env_clear(Envelope *self) {
-    /* nothing is read any more: the views go with `keep` */
-    self->n_zero = self->n_bounded = self->n_equal = 0;
-    for (Py_ssize_t i = 0; self->scalars != NULL && i < self->n_scalars; i++)
-        Py_CLEAR(self->scalars[i].read);
-    self->n_scalars = 0;
-    Py_CLEAR(self->keep);
-    return 0;
-}
-
-static void env_dealloc(Envelope *self) {
-    PyObject_GC_UnTrack(self);
-    for (Py_ssize_t i = 0; self->scalars != NULL && i < self->n_scalars; i++)
-        Py_XDECREF(self->scalars[i].read);
-    PyMem_Free(self->zero);
-    PyMem_Free(self->bounded);
-    PyMem_Free(self->lo);
-    PyMem_Free(self->hi);
-    PyMem_Free(self->equal);
-    PyMem_Free(self->scalars);
-    Py_XDECREF(self->keep);
-    Py_TYPE(self)->tp_free((PyObject *)self);
-}
-
-
-/* 1 inside, 0 outside, -1 error; tested in the order of `GuardBank.inside`. */
-static int env_inside(Envelope *self) {
-    for (Py_ssize_t i = 0; i < self->n_zero; i++) {
-        const Span *s = &self->zero[i];
-        for (Py_ssize_t k = 0; k < s->n; k++) {
-            if (memcmp(s->p + k * s->stride, zeros, s->itemsize) != 0) return 0;
-        }
-    }
-    const double *lo = self->lo, *hi = self->hi;
-    for (Py_ssize_t i = 0; i < self->n_bounded; i++) {
-        const Span *s = &self->bounded[i];
-        for (Py_ssize_t k = 0; k < s->n; k++) {
-            double v = *(const double *)(s->p + k * s->stride);
-            if (!(*lo <= v && v <= *hi)) return 0; /* NaN: never inside */
-            lo++;
-            hi++;
-        }
-    }
-    for (Py_ssize_t i = 0; i < self->n_equal; i++) {
-        const Pair *e = &self->equal[i];
-        for (Py_ssize_t k = 0; k < e->n; k++) {
-            const char *a = e->a + k * e->sa, *b = e->b + k * e->sb;
-            if (e->as_bytes ? memcmp(a, b, 8) != 0 : *(const double *)a != *(const double *)b)
-                return 0;
-        }
-    }
-    for (Py_ssize_t i = 0; i < self->n_scalars; i++) {
-        const Scalar *s = &self->scalars[i];
-        double v;
-        if (Py_IS_TYPE(s->read, &WristForceType)) {
-            WristForce *wf = (WristForce *)s->read;
-            double now;
-            if (wf_now(wf, &now) < 0) return -1;
-            v = wf_norm_sq(wf, now);
-            if (v < 0.0 && PyErr_Occurred()) return -1;
-        } else {
-            PyObject *r = PyObject_CallNoArgs(s->read);
-            if (r == NULL) return -1;
-            v = PyFloat_AsDouble(r);
-            Py_DECREF(r);
-            if (v == -1.0 && PyErr_Occurred()) return -1;
-        }
-        if (!(v <= s->limit)) return 0;
-    }
-    return 1;
-}
-
-static PyObject *env_call(Envelope *self, PyObject *unused) {
-    int r = env_inside(self);
-    if (r < 0) return NULL;
-    return Py_NewRef(r ? Py_True : Py_False);
-}
-
-static PyMethodDef env_methods[] = {
-    {"inside", (PyCFunction)env_call, METH_NOARGS,
-     "Every watched value inside every envelope (NaN never is)."},
-    {NULL}};
-
-static PyTypeObject EnvelopeType = {
-    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "orchestrator.world._native.Envelope",
-    .tp_basicsize = sizeof(Envelope),
-    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
-    .tp_traverse = (traverseproc)env_traverse,
-    .tp_clear = (inquiry)env_clear,
-    .tp_free = PyObject_GC_Del,
-    .tp_doc = "Envelope(zero, bounded, lo, hi, equal, scalars, keep): GuardBank.inside in C.",
-    .tp_new = PyType_GenericNew,
-    .tp_init = (initproc)env_init,
-    .tp_dealloc = (destructor)env_dealloc,
-    .tp_methods = env_methods,
-};
-
 /* ---------------------------------------------------------------- module ----------- */
 
 static struct PyModuleDef module = {
@@ -782,13 +525,12 @@ static struct PyModuleDef module = {
 PyMODINIT_FUNC PyInit__native(void) {
     t_str = PyUnicode_InternFromString("t");
     if (t_str == NULL || PyType_Ready(&FtNoiseType) < 0 ||
-        PyType_Ready(&WristForceType) < 0 || PyType_Ready(&EnvelopeType) < 0)
+        PyType_Ready(&WristForceType) < 0)
         return NULL;
     PyObject *m = PyModule_Create(&module);
     if (m == NULL) return NULL;
     if (PyModule_AddObjectRef(m, "FtNoise", (PyObject *)&FtNoiseType) < 0 ||
-        PyModule_AddObjectRef(m, "WristForce", (PyObject *)&WristForceType) < 0 ||
-        PyModule_AddObjectRef(m, "Envelope", (PyObject *)&EnvelopeType) < 0) {
+        PyModule_AddObjectRef(m, "WristForce", (PyObject *)&WristForceType) < 0) {
         Py_DECREF(m);
         return NULL;
     }
