@@ -156,15 +156,16 @@ def test_progress_bar_shows_done_total_and_live_success_rate():
 # -- the command line ---------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def cli_batch(tmp_path_factory) -> tuple[Any, Path]:
-    """`batch` from the command line: seeds 20-22 on 2 workers, its result and its folder (also
-    the 2-worker side of the determinism check below: a batch starts its own worker processes)."""
+    """`batch` from the command line: seeds 20-22 on 2 workers, recording as by default (the
+    failures: none here), its result and its folder (also the 2-worker side of the determinism
+    check below: a batch starts its own worker processes)."""
     from typer.testing import CliRunner
 
     from orchestrator.cli import app
 
     out = tmp_path_factory.mktemp("cli_batch") / "b"
     args = ["batch", "pick_place", "-n", str(SEEDS), "--seed-base", "20", "--workers", "2",
-            "--out", str(out), "--json", "--record", "none"]  # fmt: skip
+            "--out", str(out), "--json"]  # fmt: skip
     return CliRunner().invoke(app, args), out
 
 
@@ -468,7 +469,7 @@ def recording():
         pytest.skip(f"orchestrator.recording is not available yet: {exc}")
 
 
-def test_failures_are_recorded_and_successes_are_not(recording, cli, tmp_path):
+def test_failures_are_recorded_and_successes_are_not(recording, cli, tmp_path, cli_batch):
     out = tmp_path / "fail"
     res = cli(
         "batch",
@@ -490,10 +491,11 @@ def test_failures_are_recorded_and_successes_are_not(recording, cli, tmp_path):
     assert res.json["rerun_command"].endswith(
         f"--rrd {out}/episodes/seed_0.rerun.rrd"
     )  # never over the saved one
-    out = tmp_path / "ok"
-    res = cli("batch", "pick_place", "-n", "1", "--workers", "1", "--out", str(out), "--json")
+    res, out = cli_batch  # 3 successes, recorded as by default
     assert res.exit_code == 0, res.stderr
-    assert "rrd" not in _lines(out / "results.jsonl")[0]
+    lines = _lines(out / "results.jsonl")
+    assert len(lines) == 3 and all(ln["outcome"] == "succeeded" for ln in lines)
+    assert not any("rrd" in ln for ln in lines)
     assert not (out / "episodes").exists()
     out = tmp_path / "all"
     res = cli(
