@@ -154,24 +154,25 @@ def test_progress_bar_shows_done_total_and_live_success_rate():
 
 
 # -- the command line ---------------------------------------------------------------------
-def test_batch_writes_a_line_per_episode_and_a_summary(cli, tmp_path, pick_place):
-    out = tmp_path / "b"
-    res = cli(
-        "batch",
-        "pick_place",
-        "-n",
-        "3",
-        "--seed-base",
-        "5",
-        "--workers",
-        "2",
-        "--out",
-        str(out),
-        "--json",
-        "--record",
-        "none",
-    )
+@pytest.fixture(scope="module")
+def cli_batch(tmp_path_factory) -> tuple[Any, Path]:
+    """`batch` from the command line: seeds 20-22 on 2 workers, recording as by default (the
+    failures: none here), its result and its folder (also the 2-worker side of the determinism
+    check below: a batch starts its own worker processes)."""
+    from typer.testing import CliRunner
+
+    from orchestrator.cli import app
+
+    out = tmp_path_factory.mktemp("cli_batch") / "b"
+    args = ["batch", "pick_place", "-n", str(SEEDS), "--seed-base", "20", "--workers", "2",
+            "--out", str(out), "--json"]  # fmt: skip
+    return CliRunner().invoke(app, args), out
+
+
+def test_batch_writes_a_line_per_episode_and_a_summary(cli_batch):
+    res, out = cli_batch
     assert res.exit_code == 0, res.stderr
+    assert res.exception is None or isinstance(res.exception, SystemExit), res.exception
     summary = json.loads(res.stdout)
     assert summary == json.loads((out / "summary.json").read_text())
     assert summary["episodes"] == summary["succeeded"] == 3
@@ -179,7 +180,7 @@ def test_batch_writes_a_line_per_episode_and_a_summary(cli, tmp_path, pick_place
     assert summary["failing_seeds"] == [] and summary["rerun_command"] is None
     assert summary["cycle_time_s"]["p50"] > 0 and summary["episodes_per_s"] > 0
     lines = _lines(out / "results.jsonl")
-    assert sorted(ln["seed"] for ln in lines) == [5, 6, 7]
+    assert sorted(ln["seed"] for ln in lines) == [20, 21, 22]
     for line in lines:
         assert tuple(line)[: len(RESULT_KEYS)] == RESULT_KEYS
         assert line["scenario"] == "pick_place" and line["outcome"] == "succeeded"
@@ -390,9 +391,10 @@ def _batch(tmp_path: Path, name: str, **kw: Any) -> dict[int, dict[str, Any]]:
 
 
 @pytest.fixture(scope="module")
-def local_results(tmp_path_factory) -> dict[int, dict[int, dict[str, Any]]]:
+def local_results(tmp_path_factory, cli_batch) -> dict[int, dict[int, dict[str, Any]]]:
+    """Seeds 20-22 on one worker, and on two (the command line's batch above)."""
     tmp = tmp_path_factory.mktemp("determinism")
-    return {w: _batch(tmp, f"w{w}", workers=w) for w in (1, 2)}
+    return {1: _batch(tmp, "w1", workers=1), 2: _by_seed(cli_batch[1] / "results.jsonl")}
 
 
 def test_results_do_not_depend_on_the_worker_count(local_results, pick_place):
@@ -467,7 +469,7 @@ def recording():
         pytest.skip(f"orchestrator.recording is not available yet: {exc}")
 
 
-def test_failures_are_recorded_and_successes_are_not(recording, cli, tmp_path):
+def test_failures_are_recorded_and_successes_are_not(recording, cli, tmp_path, cli_batch):
     out = tmp_path / "fail"
     res = cli(
         "batch",
@@ -489,10 +491,11 @@ def test_failures_are_recorded_and_successes_are_not(recording, cli, tmp_path):
     assert res.json["rerun_command"].endswith(
         f"--rrd {out}/episodes/seed_0.rerun.rrd"
     )  # never over the saved one
-    out = tmp_path / "ok"
-    res = cli("batch", "pick_place", "-n", "1", "--workers", "1", "--out", str(out), "--json")
+    res, out = cli_batch  # 3 successes, recorded as by default
     assert res.exit_code == 0, res.stderr
-    assert "rrd" not in _lines(out / "results.jsonl")[0]
+    lines = _lines(out / "results.jsonl")
+    assert len(lines) == 3 and all(ln["outcome"] == "succeeded" for ln in lines)
+    assert not any("rrd" in ln for ln in lines)
     assert not (out / "episodes").exists()
     out = tmp_path / "all"
     res = cli(

@@ -141,7 +141,7 @@ MUTATIONS = settings(
 )
 
 
-@MUTATIONS
+@settings(MUTATIONS, max_examples=60)  # the slow suite tries 2500 more, drawn afresh each run
 @given(mutation=hostile_mutations())
 def test_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory, cli, mutation):
     _check_mutation(tmp_path_factory.mktemp("hostile"), cli, *mutation)

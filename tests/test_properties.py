@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 import yaml
 from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
@@ -164,9 +165,7 @@ def mutations(draw) -> tuple[str, str]:
     return which, "".join(lines)
 
 
-@SETTINGS
-@given(mutation=mutations())
-def test_mutated_bundled_files_exit_2_or_run_never_a_traceback(tmp_path_factory, cli, mutation):
+def _run_mutation(tmp_path_factory, cli, mutation) -> None:
     which, text = mutation
     root = tmp_path_factory.mktemp("mut")
     for name, original in BUNDLED.items():
@@ -193,6 +192,20 @@ def test_mutated_bundled_files_exit_2_or_run_never_a_traceback(tmp_path_factory,
         assert res.stderr.strip(), "exit 2 without a message"
     else:
         assert res.json["outcome"] in ("succeeded", "failed", "aborted")
+
+
+@settings(SETTINGS, max_examples=20)
+@given(mutation=mutations())
+def test_mutated_bundled_files_exit_2_or_run_never_a_traceback(tmp_path_factory, cli, mutation):
+    """20 mutations (each a run of up to 8 s simulated); the slow suite tries 60."""
+    _run_mutation(tmp_path_factory, cli, mutation)
+
+
+@pytest.mark.slow
+@SETTINGS
+@given(mutation=mutations())
+def test_60_mutated_bundled_files_exit_2_or_run_never_a_traceback(tmp_path_factory, cli, mutation):
+    _run_mutation(tmp_path_factory, cli, mutation)
 
 
 def test_a_mutation_that_breaks_the_machine_is_reported(cli, tmp_path):

@@ -4,6 +4,8 @@ and what it costs."""
 
 from __future__ import annotations
 
+import functools
+
 import pytest
 from orchestrator.skills import Skill
 
@@ -15,6 +17,18 @@ from orchestrator.engine.skill_api import (
     public_members,
     skill_api,
 )
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _parse_each_class_once():
+    """`member_doc` parses its class's source module for every member it is asked about
+    (`inspect.getsource` reads and parses the whole file): ~100 members, seconds per test.
+    The source does not change during the run, so each class is parsed once here."""
+    from orchestrator.engine import skill_api as module
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(module, "_attribute_docs", functools.cache(module._attribute_docs))
+        yield
 
 
 def test_the_page_is_not_stale():

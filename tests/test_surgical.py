@@ -13,6 +13,8 @@ from orchestrator.language.load import load_scenario
 from orchestrator.world import World, robot_only_model
 from orchestrator.world.pose import rotation_of
 
+from .test_physical_honesty import NoduleContacts, StepProbe, _complication
+
 DEFAULT_SEEDS = [
     0,
     pytest.param(7, marks=pytest.mark.slow),
@@ -92,9 +94,16 @@ def _recorded(surgical, seed: int):
 
 
 @pytest.fixture(scope="module")
-def seed0(surgical):
-    """Seed 0's episode and its recorder, shared by the tests that read it (~4 s each)."""
-    return _recorded(surgical, 0)
+def seed0_probed(surgical):
+    """Seed 0's episode, its recorder and a per-physics-step probe (which reads no sensor),
+    shared by the tests that read it (an episode: ~7 s CPU)."""
+    rec, probe = Recorder(), StepProbe()
+    return run_episode(surgical, 0, [rec, probe]), rec, probe
+
+
+@pytest.fixture(scope="module")
+def seed0(seed0_probed):
+    return seed0_probed[:2]
 
 
 @pytest.mark.parametrize("seed", DEFAULT_SEEDS)
@@ -134,18 +143,41 @@ def test_surgical_flow_over_20_seeds(surgical):
     assert within >= 19
 
 
+def test_surgical_figures_are_measured_against_the_true_incision(seed0):
+    result, _ = seed0
+    m = result.metrics
+    assert result.outcome == "succeeded" and result.success["incision_traced"]
+    # every physics step against the incision through the phantom's true pose: within the
+    # write-up's 0.1 mm; the tip trails its setpoint along the path (not a path error)
+    assert m["true_cross_track_max_mm"] <= 0.1
+    assert m["true_cross_track_rms_mm"] <= 0.05
+    assert 0.3 < m["along_track_lag_mean_mm"] < 3.0
+
+
+def test_surgical_arm_stays_within_the_pandas_acceleration_limits(seed0_probed):
+    _, _, probe = seed0_probed
+    assert probe.accel <= 1.0, f"joint acceleration {probe.accel:.2f}x limit at {probe.accel_at}"
+
+
 @pytest.mark.slow  # in the default run: pick_place's bit-for-bit test, the wrist sensor's noise
 def test_same_seed_gives_the_same_result_bit_for_bit(surgical, seed0):
     a = seed0[0].to_json_dict()
-    b = _recorded(surgical, 0)[0].to_json_dict()  # the same seed again, the same observer
+    b = run_episode(surgical, 0, [Recorder(), StepProbe()]).to_json_dict()  # the same observers
     a.pop("wall_time"), b.pop("wall_time")
     assert a == b
 
 
 @pytest.fixture(scope="module")
-def complication_run(complication):
-    """The complication's seed 0 and its recorder, shared by the tests that read it."""
-    return _recorded(complication, 0)
+def complication_probed(complication):
+    """The complication's seed 0, its recorder, a per-physics-step probe and the nodule's
+    contacts (neither of the last two reads a sensor), shared by the tests that read it."""
+    rec, probe, nodule = Recorder(), StepProbe(), NoduleContacts()
+    return run_episode(complication, 0, [rec, probe, nodule]), rec, probe, nodule
+
+
+@pytest.fixture(scope="module")
+def complication_run(complication_probed):
+    return complication_probed[:2]
 
 
 @pytest.mark.slow  # in the default run: the same run's result below, and `run`'s exit 3 in test_cli
@@ -200,6 +232,29 @@ def test_complication_stops_the_arm_in_150_ms_then_holds_and_backs_out(complicat
     rise = back[-1][2][2] - hold[-1][2][2]
     assert rise == pytest.approx(0.02, abs=0.003)
     assert back[-1][3] < 0.1
+
+
+def test_safe_hold_releases_the_nodule(complication_probed):
+    result, _, probe, _ = complication_probed
+    assert result.outcome == "aborted"
+    t_abort = result.metrics["abort_t"]
+    after = [f for t, f in probe.forces if t >= t_abort + 0.3]
+    assert after, "the run ended at the abort"
+    # the hold stops pushing: the tip rests on the tissue below the 2 N it traced with
+    assert max(after) < 2.5, f"still {max(after):.2f} N on the nodule 0.3 s after the abort"
+
+
+@pytest.mark.parametrize("seed", [0, pytest.param(11, marks=pytest.mark.slow)])
+def test_only_the_tip_reaches_the_buried_nodule(complication_probed, seed):
+    # the nodule is buried 0.5 mm under the surface (tests/test_tissue.py): the ball tip
+    # pressed ~2 mm in meets it, the shaft (which ends at the tip's centre) never does
+    if seed == 0:
+        result, _, _, probe = complication_probed
+    else:
+        result, _, probe = _complication(seed)
+    assert result.outcome == "aborted" and result.reason["guard"] == "contact_force"
+    assert set(probe.touched) == {"probe_tip"}, probe.touched
+    assert probe.touched["probe_tip"] > 1.0  # it ran into it, and that is what the guard saw
 
 
 def test_setup_fails_without_the_instrument():
