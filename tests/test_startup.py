@@ -24,6 +24,7 @@ HEAVY = ("mujoco", "pinocchio", "mink", "qpsolvers", "scipy", "cv2", "ruckig", "
 """Libraries a command that simulates nothing must not import."""
 SCENARIO_SIDE = (
     "orchestrator.language.scenario",
+    "orchestrator.language.scene",
     "orchestrator.language.faults",
     "orchestrator.language.load",
     "orchestrator.language.scenario_checks",
