@@ -16,8 +16,10 @@ To add a command: write its function in the module of its group (or a new module
 package), typed with `Annotated[..., typer.Option(...)]` (shared options from `options.py`),
 refusing bad input with `errors.fail` / `errors.fail_config` (exit 2, one clean line), and
 register it below with one line: the order of `COMMANDS` is the order of `orchestrator --help`.
-A command imports what it needs inside its function: `--version` and the reading commands
-must not load physics (tests/test_startup.py).
+A new kind for `show` or `list` (`show robot`) is not a command: add it to `SHOWS` or `LISTS`
+and its branch in inspect.py. A new group of subcommands is a `typer.Typer` added below with
+`app.add_typer` (as `snapshot` is). A command imports what it needs inside its function:
+`--version` and the reading commands must not load physics (tests/test_startup.py).
 
 No module of this package has `from __future__ import annotations`: typer reads the parameter
 annotations of every command each time the CLI starts (even for `--version`); as strings, each

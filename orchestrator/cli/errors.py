@@ -22,6 +22,8 @@ def fail(message: str) -> None:
 
 
 def fail_config(exc: ConfigError, what: str = "nothing was simulated") -> None:
+    """Every diagnostic of `exc` (file:line, key, value, fix), a count and `what` did not
+    happen; exit 2."""
     from ..language.diagnostics import collapse
 
     diagnostics = collapse(exc.diagnostics)  # one mistake said once, with where else it is
@@ -34,5 +36,6 @@ def fail_config(exc: ConfigError, what: str = "nothing was simulated") -> None:
 
 
 def live_error(exc: Exception, code: int = EXIT_INVALID) -> None:
+    """A live command refused or failed: one line, exit `code` (2, or 5: the session lost)."""
     err.print(f"error: {exc}", markup=False, soft_wrap=True)
     raise typer.Exit(code)

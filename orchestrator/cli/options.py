@@ -29,8 +29,6 @@ AllowPathOption = Annotated[
         "Repeatable.",
     ),
 ]
-
-
 SkillPaths = Annotated[
     list[Path] | None,
     typer.Option(
@@ -40,6 +38,7 @@ SkillPaths = Annotated[
     ),
 ]
 
+# -- the options of a live session's clients (send, watch, ask; serve's --connect) --------
 
 Endpoints = Annotated[
     list[str] | None,
