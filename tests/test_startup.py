@@ -116,7 +116,8 @@ def test_reading_commands_load_no_physics_ik_or_vision_library(tmp_path: Path):
 
 def test_the_commands_annotations_are_objects_not_strings():
     """typer reads every command's parameter annotations at each start; written as strings
-    (`from __future__ import annotations` in the cli package) each is compiled and evaluated again."""
+    (`from __future__ import annotations` in the cli package) each is compiled and evaluated
+    again."""
     from orchestrator.cli import app
 
     commands = [*app.registered_commands]
