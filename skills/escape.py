@@ -44,18 +44,20 @@ class EscapeParams(SkillParams):
 
 
 class Escape(Skill):
-    """Find the way out for a recovery: first the joints, every arm joint past its range (the
-    model's, narrowed by the `margin_rad` of the scenario's `joint_limits` guard: a controlled
-    stop that ends a joint-limit abort overshoots the limit) turned back `joint_margin_rad`
-    inside it, the others kept; then a TCP pose, orientation kept, `clearance_m` away from
+    """Find the way out for a recovery: a TCP pose, orientation kept, `clearance_m` away from
     every contact of the arm (a link with anything; a finger with anything but a free object,
     which fingers may hold) along the contacts' normals, and along the measured wrist force
     when it exceeds `force_n` (what the hand presses on pushes it away); then moved inside the
-    box of the scenario's `workspace` guard by `margin_m`.
+    box of the scenario's `workspace` guard by `margin_m`. Once nothing is touched or pressed
+    and the TCP is inside, the joints: each arm joint past its range (the model's, narrowed by
+    the `margin_rad` of the scenario's `joint_limits` guard: the controlled stop that ends a
+    joint-limit abort overshoots the limit) turned back `joint_margin_rad` inside it, the
+    others kept (turned first, a joint could press the hand into what it touches).
 
-    Outcomes: `joints` (a joint is past its range: the joint angles to turn back to are in
-    `joints_into`), `clear` (nothing touched, nothing pressed, the TCP inside the box: the
-    TCP's own pose is written to `into`), `out` (the pose to back off to is in `into`).
+    Outcomes: `out` (the pose to back off to is in `into`), `joints` (free, but a joint is past
+    its range: the joint angles to turn back to are in `joints_into`), `clear` (nothing
+    touched, nothing pressed, the TCP inside the box, every joint within its range: the TCP's
+    own pose is written to `into`).
     """
 
     name: ClassVar[str] = "escape"
@@ -69,13 +71,6 @@ class Escape(Skill):
         import mujoco
 
         p = self.params
-        unwind = _unwound(ctx, p.joint_margin_rad)
-        if unwind is not None:
-            q, goal, past = unwind
-            ctx.blackboard[p.joints_into] = goal.tolist()
-            ctx.log("skill", f"escape: joints {past} past their range: turning "
-                    f"{np.round(q, 4).tolist()} back to {np.round(goal, 4).tolist()}")  # fmt: skip
-            return "joints"
         tcp = ctx.tcp_pos.copy()
         away = _away_from_contacts(ctx)
         force = ctx.wrist_force()
@@ -95,6 +90,13 @@ class Escape(Skill):
         mujoco.mju_mat2Quat(quat, ctx.tcp_rot.flatten())
         ctx.blackboard[p.into] = Pose(pos=goal.tolist(), quat=quat.tolist())
         if not (touching or outside):
+            unwind = _unwound(ctx, p.joint_margin_rad)
+            if unwind is not None:
+                q, goal, past = unwind
+                ctx.blackboard[p.joints_into] = goal.tolist()
+                turn = f"{np.round(q, 4).tolist()} back to {np.round(goal, 4).tolist()}"
+                ctx.log("skill", f"escape: joints {past} past their range: turning {turn}")
+                return "joints"
             ctx.log("skill", "escape: clear (no contact, no force, inside the workspace)")
             return "clear"
         ctx.log(

@@ -247,7 +247,7 @@ def test_a_joint_stopped_past_its_range_is_turned_back_by_recover(tmp_path):
         session._after_tick()
     result = session.last_result
     assert result["machine"] == "recover" and result["outcome"] == "succeeded", result
-    assert [t["to"] for t in result["transitions"]] == ["UNWIND", "THEN_OUT", "DONE"]
+    assert [t["to"] for t in result["transitions"]] == ["UNWIND", "VERIFY_JOINTS", "DONE"]
     assert session.state == "IDLE" and session.status()["blocked"] is None
     model = session.world.model
     lower = float(model.jnt_range[model.joint("panda_joint2").id, 0])
