@@ -25,6 +25,10 @@ DELAYS = (0.0, 0.0, 0.0, 0.003, 0.01, 0.03, 0.1, 0.3)
 """Seconds after a command before the next: zeros put several in one control tick (10 ms)."""
 WATCHDOG_S = 0.5
 """Client 1 beats only when the script says so: its tasks may trip the watchdog (ERROR)."""
+SNAPSHOT_CAP = 5000
+"""The module's session writes ~2 snapshots an interleaving; at the default cap (100) the
+long profile used it up, and the race script's `snapshot` was then refused and its `restore`
+read an older file of the same name (tests/test_live_snapshots.py tests the cap)."""
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +37,8 @@ def server(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         mp.delenv(KEY_ENV, raising=False)
         mp.setenv("XDG_CONFIG_HOME", str(folder / "config"))
-        srv = LiveServer(folder, name="model", speed=1.0, watchdog_s=WATCHDOG_S)
+        srv = LiveServer(folder, name="model", speed=1.0, watchdog_s=WATCHDOG_S,
+                         snapshot_count=SNAPSHOT_CAP)  # fmt: skip
         yield srv
         srv.close()
 
