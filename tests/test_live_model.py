@@ -26,6 +26,9 @@ DELAYS = (0.0, 0.0, 0.0, 0.003, 0.01, 0.03, 0.1, 0.3)
 """Seconds after a command before the next: zeros put several in one control tick (10 ms)."""
 WATCHDOG_S = 0.5
 """Client 1 beats only when the script says so: its tasks may trip the watchdog (ERROR)."""
+FOUND: list[str] = []
+"""The report of every violation the state machine met (Hypothesis then replays and shrinks:
+on a real-time system a replay can differ, and it may end in `Flaky` instead)."""
 SNAPSHOT_CAP = 5000
 """The module's session writes ~2 snapshots an interleaving; at the default cap (100) the
 long profile used it up, and the race script's `snapshot` was then refused and its `restore`
@@ -64,11 +67,15 @@ def protocol_machine(srv: LiveServer) -> type[RuleBasedStateMachine]:
 
         @invariant()
         def protocol_holds(self) -> None:
-            assert not self.driver.check(), self.driver.report()
+            if self.driver.check():
+                FOUND.append(self.driver.report())
+            assert not self.driver.violations, self.driver.report()
 
         def teardown(self) -> None:
             try:
-                assert not self.driver.finish(), self.driver.report()
+                if self.driver.finish():
+                    FOUND.append(self.driver.report())
+                assert not self.driver.violations, self.driver.report()
             finally:
                 self.driver.close()
 
@@ -180,10 +187,11 @@ def test_the_model_catches_the_restore_race_when_it_is_reintroduced(server, monk
     assert violations, "the model did not see the restore undo the e-stop"
     assert any("moved while ESTOPPED" in v or "restore applied while" in v for v in violations)
     settle(server)
-    try:  # Hypothesis may raise a group of the distinct failures it found
+    FOUND.clear()
+    try:  # Hypothesis may raise a group of the distinct failures it found, or `Flaky`
         _run(server, examples=30, steps=30)
     except BaseException as exc:  # noqa: BLE001 (the failure is what is tested)
         text = "".join(traceback.format_exception(exc))
     else:
         pytest.fail("the stateful test passed with the restore race re-introduced")
-    assert "protocol violations" in text and "while ESTOPPED" in text
+    assert any("while ESTOPPED" in report for report in FOUND), text[-3000:]
