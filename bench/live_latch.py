@@ -16,24 +16,17 @@ e-stop) or before it (applied, then stopped by the e-stop). Then `reset`, and th
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from live_feed import LiveBench, emit
 
-REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
-
-from orchestrator.live.client import Client  # noqa: E402
-from orchestrator.live.protocol import config_for, key  # noqa: E402
-from tests.live_attacks import Served, wait_for  # noqa: E402
-from tests.live_server import SETTLE_S, motion_while_latched  # noqa: E402
+from orchestrator.live.client import Client
+from tests.live_attacks import wait_for
+from tests.live_server import SETTLE_S, motion_while_latched
 
 
 def _restore(client: Client, replies: dict[str, Any]) -> None:
@@ -46,25 +39,8 @@ def main() -> None:
     ap.add_argument("--lag", type=float, default=20.0, help="ms from the restore to the e-stop")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
-    folder = Path(tempfile.mkdtemp(prefix="latch-"))
-    os.environ.setdefault("XDG_CONFIG_HOME", str(folder / "config"))
-    served = Served("latch", "--speed", "1", "--watchdog", "0", "--snapshots", str(folder))
-    import zenoh
-
-    z = zenoh.open(config_for(connect=[served.endpoint]))
-    lock = threading.Lock()
-    feed: dict[str, list[dict[str, Any]]] = {"events": [], "status": []}
-
-    def on(field: str) -> Any:
-        def take(sample: Any) -> None:
-            with lock:
-                feed[field].append(json.loads(sample.payload.to_string()))
-
-        return take
-
-    subs = [z.declare_subscriber(key("latch", "events"), on("events")),
-            z.declare_subscriber(key("latch", "status"), on("status"))]  # fmt: skip
-    time.sleep(0.3)
+    bench = LiveBench("latch")
+    served = bench.served
     rows = []
     try:
         with Client("latch", [served.endpoint], name="guard") as guard:
@@ -73,15 +49,14 @@ def main() -> None:
             wait_for(lambda: c.status()["state"] in ("MOVING", "GRASPING"), 60.0)
             time.sleep(0.5)
             assert c.command("snapshot", snapshot="mid").accepted
-            wait_for(lambda: any(e["event"] == "snapshot" for e in list(feed["events"])), 60.0)
+            wait_for(lambda: any(e["event"] == "snapshot" for e in bench.feed()[0]), 60.0)
             assert c.stop().accepted
             wait_for(lambda: c.status()["state"] == "IDLE", 60.0)
             for _ in range(args.trials):
                 assert c.run()[0].accepted
                 wait_for(lambda: c.status()["state"] in ("MOVING", "GRASPING"), 60.0)
                 time.sleep(0.3)
-                with lock:
-                    feed["events"].clear(), feed["status"].clear()
+                bench.clear()
                 replies: dict[str, Any] = {}
                 sender = threading.Thread(target=_restore, args=(c, replies))
                 sender.start()
@@ -91,8 +66,7 @@ def main() -> None:
                 status = wait_for(lambda: (s := c.status())["state"] == "ESTOPPED" and s, 10.0)
                 stop_t = status["last_estop"]["t"]
                 time.sleep(2.0)
-                with lock:
-                    events, statuses = list(feed["events"]), list(feed["status"])
+                events, statuses, _ = bench.feed()
                 after = [s for s in statuses if (s.get("last_estop") or {}).get("t") == stop_t]
                 settled = [s for s in after if s["sim_time"] >= stop_t + SETTLE_S]
                 tcp = np.array([s["tcp"] for s in settled]) if settled else np.zeros((1, 3))
@@ -105,8 +79,9 @@ def main() -> None:
                     "restore_in_window": refused,
                     "restore_applied_after_estop": "restore" in names[at:],
                     "states_after": sorted({s["state"] for s in after}),
-                    "arm_peak_after_settle_rad_s": max(
-                        (s["arm_speed"]["peak"] for s in settled), default=None),
+                    "arm_peak_after_settle_rad_s": max(  # windows from 0.2 s after the stop
+                        (s["arm_speed"]["peak"] for s in after if s["arm_speed"]["t0"] is not None
+                         and s["arm_speed"]["t0"] >= stop_t + SETTLE_S), default=None),
                     "moving_windows": len(motion_while_latched(after, stop_t)),
                     "tcp_displacement_mm": round(
                         1000 * float(np.linalg.norm(tcp - tcp[0], axis=1).max()), 3),
@@ -115,12 +90,9 @@ def main() -> None:
                 assert c.reset().accepted
                 wait_for(lambda: c.status()["state"] == "IDLE", 60.0)
     finally:
-        for sub in subs:
-            sub.undeclare()
-        z.close()
-        served.close()
+        bench.close()
     out = {
-        "trials": args.trials, "lag_ms": args.lag, "load_avg_1min": round(os.getloadavg()[0], 2),
+        "trials": args.trials, "lag_ms": args.lag,
         "latch_held": sum(r["states_after"] == ["ESTOPPED"] for r in rows),
         "restores_in_window": sum(r["restore_in_window"] for r in rows),
         "restores_applied_after_estop": sum(r["restore_applied_after_estop"] for r in rows),
@@ -129,10 +101,7 @@ def main() -> None:
         "tcp_displacement_mm_max": max(r["tcp_displacement_mm"] for r in rows),
         "rows": rows,
     }  # fmt: skip
-    text = json.dumps(out, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
+    emit(out, args.json)
 
 
 if __name__ == "__main__":

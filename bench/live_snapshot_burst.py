@@ -16,31 +16,26 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import statistics
-import sys
-import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import Any
 
-REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
+from live_feed import LiveBench, emit
 
-from orchestrator.live.protocol import Command, config_for, key  # noqa: E402
-from tests.live_attacks import Served, wait_for  # noqa: E402
-from tests.live_server import SETTLE_S, motion_while_latched  # noqa: E402
+from orchestrator.live.protocol import Command, key
+from tests.live_attacks import wait_for
+from tests.live_server import SETTLE_S, motion_while_latched
 
 
-def trial(served: Served, z: Any, feed: dict[str, list], n: int, burst: int, lag_ms: float) -> dict:
+def trial(bench: LiveBench, n: int, burst: int, lag_ms: float) -> dict:
+    served, z = bench.served, bench.z
     c = served.client
     reply, _ = c.run()
     assert reply.accepted, reply.reason
     wait_for(lambda: c.status()["state"] in ("MOVING", "GRASPING"), 60.0)
     time.sleep(0.3)
-    with feed["lock"]:  # type: ignore[attr-defined]
-        feed["events"].clear(), feed["status"].clear(), feed["beats"].clear()
+    bench.clear()
     answers: list[dict] = []
 
     def collect(reply: Any) -> None:
@@ -55,12 +50,11 @@ def trial(served: Served, z: Any, feed: dict[str, list], n: int, burst: int, lag
     assert c.estop().accepted
     status = wait_for(lambda: (s := c.status())["state"] == "ESTOPPED" and s, 10.0)
     stop_t = status["last_estop"]["t"]
-    wait_for(lambda: len([e for e in list(feed["events"]) if e["event"].startswith("snapshot")])
+    wait_for(lambda: len([e for e in bench.feed()[0] if e["event"].startswith("snapshot")])
              >= burst, 300.0)  # fmt: skip
     written_s = time.perf_counter() - t0
     time.sleep(SETTLE_S + 1.0)  # a second latched, watched
-    with feed["lock"]:  # type: ignore[attr-defined]
-        statuses, beats = list(feed["status"]), list(feed["beats"])
+    events, statuses, beats = bench.feed()
     latched = [s for s in statuses if s["state"] == "ESTOPPED"]
     moving = motion_while_latched(latched, stop_t)
     windows = [s["arm_speed"] for s in latched if s["arm_speed"]["t0"] is not None]
@@ -73,7 +67,7 @@ def trial(served: Served, z: Any, feed: dict[str, list], n: int, burst: int, lag
         "estop_ticks": status["last_estop"]["ticks"],
         "estop_ms": status["last_estop"]["ms"],
         "snapshots_accepted": ok,
-        "snapshots_written": sum(1 for e in feed["events"] if e["event"] == "snapshot"),
+        "snapshots_written": sum(1 for e in events if e["event"] == "snapshot"),
         "burst_written_s": round(written_s, 3),
         "heartbeat_gap_max_ms": round(1000 * max(gaps), 1) if gaps else None,
         "arm_peak_after_settle_rad_s": max(peaks) if peaks else None,
@@ -88,40 +82,14 @@ def main() -> None:
     ap.add_argument("--lag", type=float, default=10.0, help="ms from the burst to the e-stop")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
-    folder = Path(tempfile.mkdtemp(prefix="snapburst-"))
-    os.environ.setdefault("XDG_CONFIG_HOME", str(folder / "config"))
-    served = Served("burst", "--speed", "1", "--watchdog", "0", "--snapshots", str(folder),
-                    "--snapshot-count", str(args.trials * args.burst + 10))  # fmt: skip
-    import zenoh
-
-    z = zenoh.open(config_for(connect=[served.endpoint]))
-    feed: dict[str, Any] = {"events": [], "status": [], "beats": [], "lock": threading.Lock()}
-
-    def on(field: str) -> Any:
-        def take(sample: Any) -> None:
-            with feed["lock"]:
-                if field == "beats":
-                    feed["beats"].append(time.perf_counter())
-                else:
-                    feed[field].append(json.loads(sample.payload.to_string()))
-
-        return take
-
-    subs = [z.declare_subscriber(key("burst", leaf), on(field))
-            for leaf, field in (("events", "events"), ("status", "status"),
-                                ("heartbeat", "beats"))]  # fmt: skip
-    time.sleep(0.3)
+    bench = LiveBench("burst", "--snapshot-count", str(args.trials * args.burst + 10))
     try:
-        rows = [trial(served, z, feed, n, args.burst, args.lag) for n in range(args.trials)]
+        rows = [trial(bench, n, args.burst, args.lag) for n in range(args.trials)]
     finally:
-        for sub in subs:
-            sub.undeclare()
-        z.close()
-        served.close()
+        bench.close()
     ms = [r["estop_ms"] for r in rows]
     out = {
         "trials": args.trials, "burst": args.burst, "lag_ms": args.lag,
-        "load_avg_1min": round(os.getloadavg()[0], 2), "cpus": os.cpu_count(),
         "estop_ticks_max": max(r["estop_ticks"] for r in rows),
         "estop_ms_median": round(statistics.median(ms), 2), "estop_ms_max": round(max(ms), 2),
         "heartbeat_gap_max_ms": max(r["heartbeat_gap_max_ms"] or 0 for r in rows),
@@ -131,10 +99,7 @@ def main() -> None:
         "burst_written_s_median": round(statistics.median(r["burst_written_s"] for r in rows), 2),
         "rows": rows,
     }  # fmt: skip
-    text = json.dumps(out, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
+    emit(out, args.json)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""`escape`: where to back the arm off to — out of what it touches, back inside the workspace."""
+"""`escape`: where to back the arm off to — out of what it touches, back inside the workspace,
+its joints back inside their ranges."""
 
 from __future__ import annotations
 
@@ -31,6 +32,15 @@ class EscapeParams(SkillParams):
         description="A wrist force above this counts as pressing on something: back off along "
         "it [N].",
     )
+    joints_into: str = Field(
+        default="unwind_to",
+        description="Blackboard key the arm joint angles to turn back to are written to.",
+    )
+    joint_margin_rad: PositiveFloat = Field(
+        default=0.02,
+        le=0.2,
+        description="How far inside its range a joint past it is turned back [rad].",
+    )
 
 
 class Escape(Skill):
@@ -38,16 +48,22 @@ class Escape(Skill):
     every contact of the arm (a link with anything; a finger with anything but a free object,
     which fingers may hold) along the contacts' normals, and along the measured wrist force
     when it exceeds `force_n` (what the hand presses on pushes it away); then moved inside the
-    box of the scenario's `workspace` guard by `margin_m`.
+    box of the scenario's `workspace` guard by `margin_m`. Once nothing is touched or pressed
+    and the TCP is inside, the joints: each arm joint past its range (the model's, narrowed by
+    the `margin_rad` of the scenario's `joint_limits` guard: the controlled stop that ends a
+    joint-limit abort overshoots the limit) turned back `joint_margin_rad` inside it, the
+    others kept (turned first, a joint could press the hand into what it touches).
 
-    Outcomes: `clear` (nothing touched, nothing pressed, the TCP inside the box: the TCP's own
-    pose is written to `into`), `out` (the pose to back off to is in `into`).
+    Outcomes: `out` (the pose to back off to is in `into`), `joints` (free, but a joint is past
+    its range: the joint angles to turn back to are in `joints_into`), `clear` (nothing
+    touched, nothing pressed, the TCP inside the box, every joint within its range: the TCP's
+    own pose is written to `into`).
     """
 
     name: ClassVar[str] = "escape"
     Params: ClassVar[type[SkillParams]] = EscapeParams
-    outcomes: ClassVar[tuple[str, ...]] = ("clear", "out")
-    writes: ClassVar[dict[str, str]] = {"into": "pose"}
+    outcomes: ClassVar[tuple[str, ...]] = ("clear", "out", "joints")
+    writes: ClassVar[dict[str, str]] = {"into": "pose", "joints_into": "list"}
 
     params: EscapeParams
 
@@ -74,6 +90,13 @@ class Escape(Skill):
         mujoco.mju_mat2Quat(quat, ctx.tcp_rot.flatten())
         ctx.blackboard[p.into] = Pose(pos=goal.tolist(), quat=quat.tolist())
         if not (touching or outside):
+            unwind = _unwound(ctx, p.joint_margin_rad)
+            if unwind is not None:
+                q, goal, past = unwind
+                ctx.blackboard[p.joints_into] = goal.tolist()
+                turn = f"{np.round(q, 4).tolist()} back to {np.round(goal, 4).tolist()}"
+                ctx.log("skill", f"escape: joints {past} past their range: turning {turn}")
+                return "joints"
             ctx.log("skill", "escape: clear (no contact, no force, inside the workspace)")
             return "clear"
         ctx.log(
@@ -82,6 +105,36 @@ class Escape(Skill):
             f" (contact: {touching}, pressed: {pressed}, outside the workspace: {outside})",
         )
         return "out"
+
+
+def _unwound(ctx: Context, margin: float) -> tuple[np.ndarray, np.ndarray, list[str]] | None:
+    """The arm's joint angles, the same with every joint past its range turned `margin` back
+    inside it, and the names of those joints (None: every joint is within its range)."""
+    world, m = ctx.world, ctx.model
+    names = list(ctx.robot.arm_joints)
+    jids = [m.joint(j).id for j in names]
+    guard = _joint_limits_margin(getattr(world, "scenario", None))
+    lower, upper = m.jnt_range[jids, 0] + guard, m.jnt_range[jids, 1] - guard
+    q = np.asarray(ctx.data.qpos[world.arm_qpos_index], float).copy()
+    past = (q < lower) | (q > upper)
+    if not np.any(past):
+        return None
+    inner_lo = np.minimum(lower + margin, (lower + upper) / 2.0)
+    inner_hi = np.maximum(upper - margin, (lower + upper) / 2.0)
+    goal = np.where(past, np.clip(q, inner_lo, inner_hi), q)
+    return q, goal, [n for n, out in zip(names, past.tolist(), strict=True) if out]
+
+
+def _joint_limits_margin(scenario: object) -> float:
+    """The largest `margin_rad` of the scenario's `joint_limits` guards (0: none; every task
+    is watched by one with the model's range)."""
+    guards = getattr(scenario, "guards", None) or {}
+    entries = list(guards.items()) if isinstance(guards, dict) else [
+        item for ref in guards if isinstance(ref, dict) for item in ref.items()
+    ]  # fmt: skip
+    margins = [float((params or {}).get("margin_rad", 0.0)) for name, params in entries
+               if name == "joint_limits" and isinstance(params or {}, dict)]  # fmt: skip
+    return max([0.0, *margins])
 
 
 def _away_from_contacts(ctx: Context) -> np.ndarray:

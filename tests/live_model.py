@@ -10,7 +10,10 @@ and the answers its clients got, and reports every departure from docs/live.md:
 * motion: while latched the arm is still (no physics step faster than 0.01 rad/s, from 0.2 s
   after the stop; the status's `arm_speed` windows, live/motion.py);
 * answers: every command gets exactly one answer, never an internal error;
-* ids: no task id is given twice (accepted runs, started tasks, restored tasks).
+* ids: no task id is given twice (accepted runs, started tasks, restored tasks);
+* recovery: a `recover` that succeeds leaves the world unblocked (its end is not followed by
+  BLOCKED), and `settle` gets every session it is handed back to IDLE (e-stop, reset, and
+  `recover` when the world is BLOCKED), or fails naming why.
 
 A failure prints the command script (each command's client, JSON and the delay after it);
 `python -m tests.live_model SCRIPT.json` replays it against a fresh session and prints what
@@ -53,6 +56,8 @@ class ProtocolModel:
     started: set[str] = field(default_factory=set)
     given: set[str] = field(default_factory=set)
     violations: list[str] = field(default_factory=list)
+    recovered: dict[str, Any] | None = None
+    """The result of a `recover` that just succeeded (until the next state event)."""
 
     def event(self, e: dict[str, Any]) -> None:
         """One event, in the order the session published it."""
@@ -66,8 +71,16 @@ class ProtocolModel:
             if self.resets_seen > self.resets_sent:
                 self.violations.append(f"a reset applied that no client sent: {e}")
             self.latched = None
+        elif kind == "task_end":
+            result = e.get("result") or {}
+            if result.get("machine") == "recover" and result.get("outcome") == "succeeded":
+                self.recovered = result
         elif kind == "state":
             src, dst = e.get("from"), e.get("to")
+            if self.recovered is not None and dst == "BLOCKED":
+                self.violations.append(f"a `recover` succeeded ({self.recovered.get('task')}) "
+                                       f"and the world is still BLOCKED: {e}")  # fmt: skip
+            self.recovered = None
             if src in LATCHED and self.latched is not None and (src, dst) != ("ERROR", "ESTOPPED"):
                 self.violations.append(f"left {src} for {dst} without a reset: {e}")
             if dst in LATCHED:
@@ -257,28 +270,50 @@ class Driver:
             z.close()
 
 
+RECOVERS = 3
+"""`recover`s `settle` sends at most before it says the session is BLOCKED for good."""
+
+
 def settle(server: LiveServer, timeout: float = 60.0) -> None:
-    """Bring the session back to IDLE between examples: e-stop, reset, wait."""
+    """Bring the session back to IDLE between examples: e-stop, reset, and, when the world
+    it leaves violates a guard (BLOCKED: an abort's stop may end past a limit), `recover`
+    (as docs/live.md says an operator does), then wait. The settling client beats: it owns
+    the recovery task it starts."""
     from orchestrator.live.client import Client
 
-    with Client(server.name, [server.endpoint], name="settle", heartbeat_s=None) as c:
+    status: dict[str, Any] = {}
+    why = f"the session did not come back to IDLE in {timeout} s"
+    with server.lock:
+        first_event = len(server.events)
+    with Client(server.name, [server.endpoint], name="settle", heartbeat_s=0.05) as c:
         c.estop()  # applied at the next tick: IDLE counts only once the latch was seen
-        latched = False
+        latched, recovering, recovers = False, None, 0
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             status = c.status()
-            if status["state"] in LATCHED:
-                latched = True
+            state, quiet = status["state"], status["task"] is None and not status["queued"]
+            ended = (status["last_result"] or {}).get("task") == recovering
+            if state in LATCHED:
+                latched, recovering = True, None
                 c.reset()
-            elif (
-                latched
-                and status["state"] == "IDLE"
-                and status["task"] is None
-                and (not status["queued"])
-            ):
+            elif latched and quiet and state == "IDLE":
                 return
+            elif latched and quiet and state == "BLOCKED" and (recovering is None or ended):
+                blocked = status["blocked"] or {}
+                if not blocked.get("recoverable") or recovers >= RECOVERS:
+                    why = (f"the session stays BLOCKED ({recovers} recover sent; "
+                           f"recoverable: {blocked.get('recoverable')})")  # fmt: skip
+                    break
+                reply = c.command("recover")
+                recovers += 1
+                STATS["settle: recover sent"] += 1
+                recovering = reply.task if reply.accepted else None
             time.sleep(0.1)
-    raise AssertionError("the session did not come back to IDLE")
+    events, _ = server.snapshot_events()
+    raise AssertionError(
+        f"{why}: last status {json.dumps(status)}; events since the e-stop: "
+        f"{json.dumps(events[first_event:][-40:])}"
+    )
 
 
 def replay(server: LiveServer, script: list[dict[str, Any]]) -> list[str]:

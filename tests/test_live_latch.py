@@ -39,7 +39,8 @@ def _snapshot_mid_task(srv: LiveServer, client: Client) -> None:
     while not any(e["event"] == "snapshot" for e in srv.snapshot_events()[0]):
         assert time.monotonic() < deadline, "the snapshot was never written"
         time.sleep(0.05)
-    assert client.stop().accepted
+    stopped = client.stop()  # on a loaded host the pick may have ended while it was written
+    assert stopped.accepted or stopped.reason.startswith("no task is running"), stopped.reason
     srv.wait_status(lambda s: s["state"] == "IDLE", 60.0)
 
 

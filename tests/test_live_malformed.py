@@ -103,3 +103,25 @@ def test_a_machine_outside_the_allowed_folders_or_missing_gets_the_same_answer(s
 def test_the_session_still_answers_after_all_of_them(server):
     answers = _answers(server, b'{"op": "status"}')
     assert len(answers) == 1 and answers[0]["accepted"] and answers[0]["status"]["state"]
+
+
+def test_a_reload_names_no_difference_between_outside_and_missing_while_a_task_runs():
+    """`reload` checks its file only while a task runs (above it is refused before): then
+    too, one answer for a file outside the allowed folders and one that does not exist."""
+    from orchestrator.live.protocol import Command
+    from orchestrator.live.session import Session
+
+    session = Session("pick_place", "reload-refs", seed=3, speed=0.0)
+    assert session.submit(Command(op="run")).accepted
+    session._drain()
+    session._start_next()
+    session._tick()
+    assert session.state == "MOVING"
+    refs = ("/etc/hostname", "/etc/no-such-file.yaml", "../../../etc/hostname", "/etc")
+    reasons = []
+    for ref in refs:
+        reply = session.submit(Command(op="reload", machine=ref))
+        assert not reply.accepted
+        reasons.append(reply.reason.replace(ref, "REF"))
+    assert len(set(reasons)) == 1, reasons
+    assert "outside" not in reasons[0] and "not found" not in reasons[0]

@@ -8,6 +8,7 @@ stateful test then fails.
 
 from __future__ import annotations
 
+import time
 import traceback
 
 import pytest
@@ -25,6 +26,13 @@ DELAYS = (0.0, 0.0, 0.0, 0.003, 0.01, 0.03, 0.1, 0.3)
 """Seconds after a command before the next: zeros put several in one control tick (10 ms)."""
 WATCHDOG_S = 0.5
 """Client 1 beats only when the script says so: its tasks may trip the watchdog (ERROR)."""
+FOUND: list[str] = []
+"""The report of every violation the state machine met (Hypothesis then replays and shrinks:
+on a real-time system a replay can differ, and it may end in `Flaky` instead)."""
+SNAPSHOT_CAP = 5000
+"""The module's session writes ~2 snapshots an interleaving; at the default cap (100) the
+long profile used it up, and the race script's `snapshot` was then refused and its `restore`
+read an older file of the same name (tests/test_live_snapshots.py tests the cap)."""
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +41,8 @@ def server(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         mp.delenv(KEY_ENV, raising=False)
         mp.setenv("XDG_CONFIG_HOME", str(folder / "config"))
-        srv = LiveServer(folder, name="model", speed=1.0, watchdog_s=WATCHDOG_S)
+        srv = LiveServer(folder, name="model", speed=1.0, watchdog_s=WATCHDOG_S,
+                         snapshot_count=SNAPSHOT_CAP)  # fmt: skip
         yield srv
         srv.close()
 
@@ -58,11 +67,15 @@ def protocol_machine(srv: LiveServer) -> type[RuleBasedStateMachine]:
 
         @invariant()
         def protocol_holds(self) -> None:
-            assert not self.driver.check(), self.driver.report()
+            if self.driver.check():
+                FOUND.append(self.driver.report())
+            assert not self.driver.violations, self.driver.report()
 
         def teardown(self) -> None:
             try:
-                assert not self.driver.finish(), self.driver.report()
+                if self.driver.finish():
+                    FOUND.append(self.driver.report())
+                assert not self.driver.violations, self.driver.report()
             finally:
                 self.driver.close()
 
@@ -100,6 +113,32 @@ RACE = [  # a pick, its snapshot, a restore, and an e-stop landing while the res
     {"client": 0, "op": "restore", "name": "m0", "delay": 0.02},
     {"client": 1, "op": "estop", "delay": 1.5},
 ]
+"""The race as a script (`python -m tests.live_model`); `race` runs it with the restore sent
+once the snapshot is written."""
+
+
+def race(srv: LiveServer) -> list[str]:
+    """`RACE`, its `restore` sent once the `snapshot` event says the file is written: on a
+    loaded host a writer (niced) may take longer than the 0.5 s of the script plus the 2 s a
+    `restore` waits for a file still being written, and a refused restore races nothing."""
+    driver = Driver(srv)
+    try:
+        run, snap, restore, estop = RACE
+        driver.send(run["client"], run["op"], delay=run["delay"])
+        with srv.lock:
+            seen = len(srv.events)
+        driver.send(snap["client"], snap["op"], snap["name"])
+        deadline = time.monotonic() + 120.0
+        while not any(e.get("event") == "snapshot" and e["snapshot"].endswith("/m0.snap")
+                      for e in srv.snapshot_events()[0][seen:]):  # fmt: skip
+            assert time.monotonic() < deadline, "the race's snapshot was not written in 120 s"
+            time.sleep(0.02)
+        driver.send(restore["client"], restore["op"], restore["name"], restore["delay"])
+        driver.send(estop["client"], estop["op"], delay=estop["delay"])
+        driver.check()
+        return driver.finish()
+    finally:
+        driver.close()
 
 
 SILENT_OWNER_ESTOPPED = [  # found by the long profile: a silent owner's e-stopped task
@@ -134,7 +173,7 @@ def test_an_estopped_task_of_a_silent_owner_does_not_trip_the_watchdog(server):
 @pytest.mark.slow  # the default suite has the same race in tests/test_live_latch.py
 def test_the_race_script_keeps_the_latch(server):
     settle(server)
-    violations = replay(server, RACE)
+    violations = race(server)
     assert not violations, violations
 
 
@@ -144,14 +183,15 @@ def test_the_model_catches_the_restore_race_when_it_is_reintroduced(server, monk
     arrives, as before issue 39). The same script, and random interleavings, then fail."""
     monkeypatch.setattr(Session, "_latched_refusal", lambda self, cmd, payload: False)
     settle(server)
-    violations = replay(server, RACE)
+    violations = race(server)
     assert violations, "the model did not see the restore undo the e-stop"
     assert any("moved while ESTOPPED" in v or "restore applied while" in v for v in violations)
     settle(server)
-    try:  # Hypothesis may raise a group of the distinct failures it found
+    FOUND.clear()
+    try:  # Hypothesis may raise a group of the distinct failures it found, or `Flaky`
         _run(server, examples=30, steps=30)
     except BaseException as exc:  # noqa: BLE001 (the failure is what is tested)
         text = "".join(traceback.format_exception(exc))
     else:
         pytest.fail("the stateful test passed with the restore race re-introduced")
-    assert "protocol violations" in text and "while ESTOPPED" in text
+    assert any("while ESTOPPED" in report for report in FOUND), text[-3000:]

@@ -207,6 +207,57 @@ def test_a_stuck_arm_is_blocked_and_recovers_with_every_guard_active(case, guard
     assert blocked["blocked"]["guard"] == guard
 
 
+PAST_THE_STOP = """name: past_the_stop
+initial: TURN
+states:
+  TURN:
+    skill: move_joints
+    with: {to: [-0.222, -1.85, -0.308, -2.761, -0.022, 1.636, 1.674]}
+    transitions: {reached: DONE, timeout: DONE}
+  DONE: {final: succeeded}
+"""
+"""Shoulder (panda_joint2) 87 mrad past its lower limit (-1.7628 rad), the TCP inside the
+workspace and clear of the table: the arm comes to rest on the joint's stop."""
+
+
+def test_a_joint_stopped_past_its_range_is_turned_back_by_recover(tmp_path):
+    """Found by the live protocol's model test (tests/test_live_model.py): after a random
+    interleaving a pick's controlled stop left panda_joint2 2.5 mrad past its range; BLOCKED
+    (`joint_limits`, recoverable), but `recover` looked only at contacts and the workspace,
+    ended `succeeded` at once, and the session stayed BLOCKED for good."""
+    events: list[dict] = []
+    session = _session(events)
+    (tmp_path / "past_the_stop.yaml").write_text(PAST_THE_STOP)
+    loaded = load_scenario("pick_place", machine=str(tmp_path / "past_the_stop.yaml"),
+                           allow_paths=[tmp_path])  # fmt: skip
+    session.tasks.append(Task(100, loaded, session.ctx, "past_the_stop", session.loop))
+    _step(session)  # a task started locally, past the channel's rules
+    for _ in range(10):
+        session._tick()
+        session._after_tick()
+    blocked = session.status()["blocked"]
+    assert session.state == "BLOCKED", session.status()
+    assert blocked["guard"] == "joint_limits" and blocked["recoverable"] is True
+    assert blocked["message"].startswith("panda_joint2 at")
+
+    assert session.submit(Command(op="recover", client="test")).accepted
+    _step(session)
+    for _ in range(10):  # the idle world's guards, after the recovery
+        session._tick()
+        session._after_tick()
+    result = session.last_result
+    assert result["machine"] == "recover" and result["outcome"] == "succeeded", result
+    assert [t["to"] for t in result["transitions"]] == ["UNWIND", "VERIFY_JOINTS", "DONE"]
+    assert session.state == "IDLE" and session.status()["blocked"] is None
+    model = session.world.model
+    lower = float(model.jnt_range[model.joint("panda_joint2").id, 0])
+    q2 = float(session.world.data.qpos[session.world.arm_qpos][1])
+    assert lower + 0.015 < q2 < lower + 0.025  # turned back 0.02 rad inside its range
+    assert session.submit(Command(op="run", machine="home")).accepted
+    _step(session)
+    assert session.last_result["outcome"] == "succeeded"
+
+
 WRONG_WAY = """name: wrong_way
 recovery: true
 initial: OUT

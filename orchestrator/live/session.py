@@ -54,8 +54,8 @@ from ..engine.safety_stop import SafetyStop
 from ..engine.step import StepLoop
 from ..exceptions import ConfigError
 from ..language.load import load_scenario
-from ..language.machine import ESTOP, PAUSE, RESUME
-from . import machine_ref
+from ..language.machine import PAUSE, RESUME
+from . import machine_ref, supervision
 from .blocked import Blocked
 from .guardrail import GoalRejected, check_goals
 from .inputs import parse_sets, refuse_non_inputs
@@ -445,10 +445,10 @@ class Session:
         # a command that would change nothing is not delivered again: a flood of them must
         # not grow the task's event log (each delivered event is recorded in its result)
         if op == "estop":
-            again = self.estopped
-            if running and not again:  # later ones find it stopped; each is measured
-                task.executor.event(ESTOP, source)  # type: ignore[union-attr]
-            elif not running and (self.idle_stop is None or not self.idle_stop.active):
+            again = self.estopped  # later ones find the arm stopped; each is measured
+            # a task that still drives the arm (running, or bringing it to rest) gives it over
+            held = task is not None if again else supervision.estop_task(self, source)
+            if not held and (self.idle_stop is None or not self.idle_stop.active):
                 self.idle_stop = SafetyStop(self.ctx, self.loaded.scenario.physics.safe_stop)
                 self.idle_stop.start("estop")
             self.last_estop = {  # before the state says ESTOPPED: a status has both

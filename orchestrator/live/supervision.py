@@ -13,10 +13,18 @@ from typing import Any
 
 import numpy as np
 
+from ..engine.safety_stop import SafetyStop
 from ..language.machine import ESTOP
 from .protocol import Command
 
-__all__ = ["blocked_refusal", "busy_reason", "idle_refusal", "status_message", "watchdog"]
+__all__ = [
+    "blocked_refusal",
+    "busy_reason",
+    "estop_task",
+    "idle_refusal",
+    "status_message",
+    "watchdog",
+]
 
 
 def busy_reason(session: Any, cmd: Command) -> str | None:
@@ -41,6 +49,32 @@ def busy_reason(session: Any, cmd: Command) -> str | None:
         f"busy: {what} and {session.queue_limit} task(s) wait (serve --queue "
         f"{session.queue_limit}); send with --preempt to replace them"
     )
+
+
+def estop_task(session: Any, source: str) -> bool:
+    """Give the session's task, if one still drives the arm, to an e-stop (the loop, as the
+    e-stop is applied). A running machine aborts (`estop`: its safety stop, then the holding
+    brakes). A machine that has ended while the arm is still being brought to rest (the end
+    of a task: a gentle, category-2 stop whose motors hold the arm, and the scene settling)
+    has its stop replaced by the e-stop's own (category 1: braked at the safety stop's rate,
+    then held by the brakes), and the task ends once that one has the arm at rest.
+
+    Returns:
+        False when no task drives the arm (the idle world's e-stop is the session's own).
+    """
+    task = session.task
+    ex, episode = (None, None) if task is None else (task.executor, task.episode)
+    if ex is None or episode is None or episode.over:
+        return False
+    if not ex.done:
+        ex.event(ESTOP, source)
+        return True
+    stop = episode.end_stop
+    if stop is None or stop.gentle:  # the end of a task: the motors would hold the arm
+        stop = SafetyStop(session.ctx, task.loaded.scenario.physics.safe_stop)
+        stop.start(f"estop: {source}")
+        episode.end_stop, episode.settle_until = stop, session.ctx.t
+    return True
 
 
 def watchdog(session: Any) -> None:
