@@ -11,7 +11,13 @@ a trip line at 1.0 (`guards/trip`). The raw value and limit stay in the recordin
 Peaks are kept: a guard in `STEP_PEAK_GUARDS` (a force reading can spike within one control
 tick) is read after every physics step and its row holds the largest `u` since the last row.
 The value that fired a guard is logged at the very instant it fired (`guards/<guard>/tripped`,
-a marker), not at the next control tick.
+a marker), not at the next control tick. The viewer draws a margin by its largest value per
+pixel column (`aggregation_policy` Max), the raw values by their least and largest: a one-tick
+peak stays visible however long the run.
+
+A guard's lines exist only while the guard is active: the tick a state that held it is left,
+`guards/<guard>` and `guard_values/<guard>` are cleared (`rr.Clear`, which the time series view
+draws as a break), so a guard of one state is not drawn as a flat line through the whole run.
 """
 
 from __future__ import annotations
@@ -58,6 +64,13 @@ _PALETTE = (
     0xFF9DA7FF, 0xBAB0ACFF, 0x1F77B4FF,
 )  # fmt: skip
 _SCALARS = rr.Scalars.descriptor_scalars()
+_MARGIN_AGGREGATION = rr.components.AggregationPolicy.Max
+"""A margin's largest value per pixel column: the closest the guard came to firing."""
+_VALUE_AGGREGATION = rr.components.AggregationPolicy.MinMax
+"""A raw value's least and largest per pixel column (a lower-bound guard fires on the least)."""
+_CLEAR_AFTER_S = 1e-6
+"""A clear at the same instant as the guard's last row would hide that row: it goes this much
+later [s] (still before the next control tick)."""
 
 
 @dataclass(frozen=True)
@@ -145,13 +158,19 @@ class GuardMargins:
         self._trips: list[tuple[str, int, float, float, float, float]] = []
         """(key, tick, t [s], u, value, limit) of each guard that fired."""
         self._trip_line: list[tuple[int, float]] = []
+        self._last: dict[str, tuple[int, float]] = {}
+        """(tick, t [s]) of each guard's last row."""
+        self._clears: list[tuple[str, int, float]] = []
+        """(key, tick, t [s]) of each guard that stopped being active."""
 
     # -- sampling -------------------------------------------------------------------------
-    def plan(self, guards: list[Guard]) -> None:
-        """The active guards changed (a state was entered): plan their keys and reads."""
+    def plan(self, guards: list[Guard], tick: int = 0, t_s: float = 0.0) -> None:
+        """The active guards at control tick `tick`, time `t_s` [s]. If they changed (a state
+        was entered), plan their keys and reads; a guard no longer active is cleared then."""
         if tuple(guards) == self._active:
             return
         self._active = tuple(guards)
+        before = {p.key for p in self._plans}
         kept = {p.key: p.peak for p in self._plans}  # peaks of guards that stay active
         seen: dict[str, int] = {}
         self._plans = []
@@ -164,6 +183,10 @@ class GuardMargins:
             plan.peak = kept.get(key)
             self._plans.append(plan)
         self._step = [p for p in self._plans if p.step]
+        for key in sorted(before - {p.key for p in self._plans}):
+            last_tick, last_t = self._last.get(key, (-1, -math.inf))
+            t_clear = t_s if t_s > last_t else last_t + _CLEAR_AFTER_S
+            self._clears.append((key, max(tick, last_tick), t_clear))
 
     def on_step(self, ctx: Context) -> None:
         """After a physics step: keep the largest value of every step-sampled guard."""
@@ -192,6 +215,7 @@ class GuardMargins:
                 continue
             value, limit = float(watched[0]), float(watched[1])
             p.rows.append((tick, t_s, normalizer(p.name, limit)(value, limit), value, limit))
+            self._last[p.key] = (tick, t_s)
 
     def tripped(
         self, tick: int, t_s: float, ctx: Context, guard: str, value: object, limit: object
@@ -214,6 +238,7 @@ class GuardMargins:
             u = normalizer(guard, lim)(v, lim) if math.isfinite(v + lim) else 1.0
         u = max(u, 1.0)
         self._rows.setdefault(key, []).append((tick, t_s, u, v, lim))  # the line reaches it
+        self._last[key] = (tick, t_s)
         self._trips.append((key, tick, t_s, u, v, lim))
 
     def trip_line(self, tick: int, t_s: float) -> None:
@@ -254,6 +279,15 @@ class GuardMargins:
         for key, tick, t_s, u, value, limit in self._trips:
             out += _trip_chunks(key, tick, t_s, u, value, limit)
         self._trips = []
+        for key, tick, t_s in self._clears:
+            index = time_columns(np.array([tick]), np.array([t_s]))
+            for entity in (f"{GUARDS}/{part(key)}", f"{GUARD_VALUES}/{part(key)}"):
+                out.append(
+                    Chunk.from_columns(
+                        entity, indexes=index, columns=rr.Clear.columns(is_recursive=[False])
+                    )
+                )
+        self._clears = []
         return out
 
     def _style(self, static: StaticBatch, key: str) -> None:
@@ -262,10 +296,17 @@ class GuardMargins:
         if not self._styled:
             static.log(TRIP_LINE, rr.SeriesLines(names=["fires (1.0)"], colors=[_TRIP_COLOR]))
         color = _PALETTE[len(self._styled) % len(_PALETTE)]
-        static.log(f"{GUARDS}/{part(key)}", rr.SeriesLines(names=[key], colors=[color]))
+        static.log(
+            f"{GUARDS}/{part(key)}",
+            rr.SeriesLines(names=[key], colors=[color], aggregation_policy=_MARGIN_AGGREGATION),
+        )
         static.log(
             f"{GUARD_VALUES}/{part(key)}",
-            rr.SeriesLines(names=[f"{key} value", f"{key} limit"], colors=[color, _TRIP_COLOR]),
+            rr.SeriesLines(
+                names=[f"{key} value", f"{key} limit"],
+                colors=[color, _TRIP_COLOR],
+                aggregation_policy=_VALUE_AGGREGATION,
+            ),
         )
         self._styled.add(key)
 

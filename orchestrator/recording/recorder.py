@@ -125,7 +125,7 @@ class RerunRecorder:
         # the per-tick table: one row per control tick, shared by poses and signals
         self._rows = Rows({**self._poses.fields, **self._signals.fields})
         self._guards = GuardMargins()
-        self._guards.plan(executor.active_guards)
+        self._guards.plan(executor.active_guards, ctx.tick, float(ctx.data.time))
         self._events = EventLog()
         self._shots = CameraShots(ctx)
         self._reshaped = ReshapedGeoms(ctx.model, scene.reshaped)
@@ -255,7 +255,7 @@ class RerunRecorder:
         self._poses.sample(self._rows, i, ctx.data)
         self._signals.sample(self._rows, i, ctx, self._peak_sq)
         self._peak_sq = -1.0
-        self._guards.plan(executor.active_guards)
+        self._guards.plan(executor.active_guards, tick, t)
         self._guards.sample(tick, t, ctx)
         self._targets.sample(tick, t, ctx)
         self._shots.sample()
