@@ -42,14 +42,15 @@ import uuid
 from collections import deque
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import mujoco
 
 from ..engine.blackboard import Blackboard
-from ..engine.episode import make_controller
+from ..engine.cell import Cell
+from ..engine.context import Context
 from ..engine.prepare import prepare
-from ..engine.runner import Observer, make_context
+from ..engine.runner import Observer
 from ..engine.safety_stop import SafetyStop
 from ..engine.step import StepLoop
 from ..exceptions import ConfigError
@@ -66,7 +67,11 @@ from .supervision import blocked_refusal, busy_reason, idle_refusal, status_mess
 from .task import Task
 from .time_travel import TIME_TRAVEL, apply_time_travel, capture, submit_time_travel
 
-__all__ = ["GRIPPER_SKILLS", "RECOVER", "Session"]
+if TYPE_CHECKING:
+    from ..robots import Controller
+    from ..world.world import World
+
+__all__ = ["GRIPPER_SKILLS", "RECOVER", "Closeable", "Session"]
 
 RECOVER = "recover"
 MOTION_OPS = ("run", "recover", "resume", "restore", "reload")
@@ -80,6 +85,14 @@ STATUS_PERIOD_S = 0.1
 """Wall time between two status messages (10 Hz) [s]."""
 
 Publish = Callable[[str, dict[str, Any]], None]
+
+
+@runtime_checkable
+class Closeable(Protocol):
+    """A task's observer that holds something to free when its task is dropped without an
+    end (a restore ends it where it is): a recorder closes its recording."""
+
+    def close(self) -> None: ...
 
 
 class Session:
@@ -137,19 +150,18 @@ class Session:
         )
         prepared = prepare(scenario, seed, allow_paths=self.allow_paths)  # as `run` does
         self.loaded = prepared.loaded
-        scn = self.loaded.scenario
         assert prepared.world is not None
-        self.world = world = prepared.world
-        dt = float(world.model.opt.timestep)
-        self.controller = make_controller(world, seed)
-        self.n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
-        self.ctx = make_context(world, self.controller, Blackboard({}), seed, self.n_sub * dt)
-        self.loop = StepLoop(self.ctx, self.n_sub)
-        """Steps the world, task or not: the same code as `orchestrator run`'s."""
-        self.probe = MotionProbe(world.arm_dof)
+        self.cell = Cell.build(self.loaded.scenario, seed, prepared.world)
+        """The world and the robot's hardware, kept from task to task (the same assembly as
+        `orchestrator run`'s, engine/cell.py); its step loop steps the world, task or not."""
+        self.ctx = Context(self.cell, Blackboard({}))
+        """The idle world's context (between tasks: an e-stop's stop, the BLOCKED check);
+        each task runs in a fresh context of its own (`Task.ctx`)."""
+        self.loop.bind(self.ctx)
+        self.probe = MotionProbe(self.world.arm_dof)
         """The arm's peak joint speed on every physics step (in the status: `arm_speed`)."""
         self.loop.set_observers([self.probe])
-        mujoco.mj_forward(world.model, world.data)
+        mujoco.mj_forward(self.world.model, self.world.data)
         self.publish: Publish = publish or (lambda leaf, msg: None)
         self.inbox: queue.SimpleQueue[tuple[int, int, Command, Any, int, float]] = (
             queue.SimpleQueue()
@@ -193,6 +205,26 @@ class Session:
         tick (BLOCKED; not before the first: the controller has not commanded anything yet)."""
         self._published_state = self.state
         """The state last published (its changes are events)."""
+
+    @property
+    def world(self) -> World:
+        """The session's world (its cell's)."""
+        return self.cell.world
+
+    @property
+    def controller(self) -> Controller:
+        """The session's torque controller (its cell's)."""
+        return self.cell.controller
+
+    @property
+    def loop(self) -> StepLoop:
+        """Steps the world, task or not: the same code as `orchestrator run`'s."""
+        return self.cell.loop
+
+    @property
+    def n_sub(self) -> int:
+        """Physics steps per control tick."""
+        return self.cell.n_sub
 
     # -- commands (any thread) ----------------------------------------------------------
     def heartbeat(self, owner: str = "") -> None:
@@ -301,7 +333,7 @@ class Session:
                 check_goals(loaded, keys, self.world, q_arm)
         except GoalRejected as exc:
             return f"goal rejected: {exc}", None
-        return None, Task(next(self._ids), loaded, self.ctx, machine, self.loop)
+        return None, Task(next(self._ids), loaded, self.cell, machine)
 
     # -- the published state ------------------------------------------------------------
     @property
@@ -495,10 +527,10 @@ class Session:
         if task is None:
             return
         obs, self._observer = self._observer, None
+        self.loop.bind(self.ctx)  # the idle world's context: the task's is let go
         self.loop.set_observers([self.probe])
-        close = getattr(obs, "close", None)
-        if close is not None:
-            close()
+        if isinstance(obs, Closeable):
+            obs.close()
         self.task = None
         self._task_end_rejected(task, f"ended: {reason}")
 
@@ -552,10 +584,12 @@ class Session:
         result = task.result
         assert result is not None and task.executor is not None
         obs = self._observer
-        self.loop.set_observers([self.probe])  # the idle world is not recorded
+        assert task.ctx is not None
         if obs is not None:
-            obs.on_end(self.ctx, task.executor, result)
+            obs.on_end(task.ctx, task.executor, result)
             self._observer = None
+        self.loop.bind(self.ctx)  # the idle world's context: the task's is let go
+        self.loop.set_observers([self.probe])  # the idle world is not recorded
         self.last_result = {
             "task": task.id,
             "machine": task.machine_ref,

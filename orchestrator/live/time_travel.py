@@ -167,8 +167,8 @@ def _restore(
     session: Session, cmd: Command, path: Any, state: SessionState, header: dict[str, Any]
 ) -> None:
     session.drop_all(f"the session was restored from {path}")
-    session.world, session.ctx, session.controller = state.world, state.ctx, state.controller
-    session.loop, session.idle_stop, session.blocked = state.loop, state.idle_stop, state.blocked
+    session.cell, session.ctx = state.ctx.cell, state.ctx  # the world's cell, its idle context
+    session.idle_stop, session.blocked = state.idle_stop, state.blocked
     # the latch is the session's, never the snapshot's: a restore keeps ESTOPPED and ERROR
     # as they are (it is refused while either holds) and a snapshot does not carry them
     session.loop.set_observers([session.probe])
