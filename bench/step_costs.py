@@ -49,8 +49,8 @@ HOT: list[tuple[str, str, str]] = [
     ("orchestrator.world.sensors", "JointEncoders", "read"),
     ("orchestrator.guards.bank", "GuardBank", "inside"),
     ("orchestrator.guards.bank", "GuardBank", "_check_compiled"),
-    ("orchestrator.engine.context", "Context", "wrist_force_norm_sq"),
-    ("orchestrator.engine.context", "Context", "true_wrist_force_norm_sq"),
+    ("orchestrator.world.wrist", "WristSensor", "_py_norm_sq"),  # the Python path's readers
+    ("orchestrator.world.wrist", "WristSensor", "_py_true_norm_sq"),
     ("orchestrator.engine.trace_truth", "TraceTruth", "on_step"),
     ("orchestrator.engine.executor", "Executor", "tick"),
     ("orchestrator.skills.ik", "IKSolver", "reference_step"),

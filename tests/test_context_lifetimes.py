@@ -212,5 +212,7 @@ def test_a_session_of_1000_tasks_keeps_the_context_and_the_rss_flat(cell_files):
     assert max(sizes) == sizes[0], (sizes[0], max(sizes))
     assert session.cell.tick > 1000
     grown_mib = (rss[1000] - rss[100]) / 1024
+    print(f"context size {sizes[0]}..{max(sizes)}; RSS {rss[100] / 1024:.1f} MiB at task 100, "
+          f"{rss[1000] / 1024:.1f} MiB at task 1000 ({grown_mib:+.1f} MiB)")  # fmt: skip
     assert grown_mib < 16.0, f"RSS grew {grown_mib:.1f} MiB from task 100 to task 1000"
     assert isinstance(session.cell, Cell)

@@ -2,7 +2,7 @@
 
 `orchestrator.world._native` (orchestrator/world/_native.c, built by `pip install` when a C
 compiler is present) computes the wrist sensor's noise (`WristForceNoise`), the wrist force
-(`Context.wrist_force_norm_sq`, `true_wrist_force_norm_sq`) and the guards' envelope test
+(`WristSensor.norm_sq`, `true_norm_sq`, world/wrist.py) and the guards' envelope test
 (`GuardBank`) in C: the same operations in the same order, no fused multiply-add, so both paths
 give the same results bit for bit (tests/test_native.py holds them to it). Without it, or with
 the environment variable `ORCHESTRATOR_PURE_PYTHON=1`, the pure-Python path runs.
