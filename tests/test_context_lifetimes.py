@@ -91,7 +91,7 @@ MACHINE = """\
 name: docs_probe_machine
 initial: PROBE
 blackboard:
-  wait_s: {type: float, default: 0.1, description: "How long the probe watches [s]."}
+  wait_s: {type: float, default: 0.1, input: true, description: "How long the probe watches [s]."}
 states:
   PROBE:
     skill: docs_probe

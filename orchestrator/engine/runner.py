@@ -22,6 +22,7 @@ from .episode import (
 )
 from .executor import Executor
 from .faults import FaultInjector
+from .hardware import Hardware
 from .result import RunResult
 
 __all__ = [
@@ -113,7 +114,7 @@ class RunState:
         return self.episode.ctx
 
     @property
-    def cell(self) -> Cell:
+    def cell(self) -> Hardware:
         return self.episode.ctx.cell
 
     @property
