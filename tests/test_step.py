@@ -62,7 +62,7 @@ def test_a_live_task_is_stepped_like_a_run_observers_peak_force_and_ticks():
     assert result["outcome"] == "succeeded", result
     ticks = result["metrics"]["control_ticks"]
     # the live loop used to step the physics without telling a recorder about it
-    assert ticks > 0 and counter.steps == ticks * session.n_sub
+    assert ticks > 0 and counter.steps == ticks * session.cell.n_sub
     assert "max_wrist_force_n" in result["metrics"]
     assert result["metrics"]["t_start"] >= 0.0
 

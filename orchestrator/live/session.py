@@ -42,7 +42,7 @@ import uuid
 from collections import deque
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 
@@ -56,7 +56,7 @@ from ..engine.step import StepLoop
 from ..exceptions import ConfigError
 from ..language.load import load_scenario
 from ..language.machine import ESTOP, PAUSE, RESUME
-from . import machine_ref
+from . import machine_ref, supervision
 from .blocked import Blocked
 from .guardrail import GoalRejected, check_goals
 from .inputs import parse_sets, refuse_non_inputs
@@ -64,14 +64,13 @@ from .motion import MotionProbe
 from .protocol import PRIORITY, Command, Reply
 from .snapshot_writer import SNAPSHOT_BYTES, SNAPSHOT_COUNT, SnapshotWriter
 from .supervision import blocked_refusal, busy_reason, idle_refusal, status_message, watchdog
-from .task import Task
+from .task import Closeable, Task
 from .time_travel import TIME_TRAVEL, apply_time_travel, capture, submit_time_travel
 
 if TYPE_CHECKING:
-    from ..robots import Controller
     from ..world.world import World
 
-__all__ = ["GRIPPER_SKILLS", "RECOVER", "Closeable", "Session"]
+__all__ = ["GRIPPER_SKILLS", "RECOVER", "Session"]
 
 RECOVER = "recover"
 MOTION_OPS = ("run", "recover", "resume", "restore", "reload")
@@ -85,14 +84,6 @@ STATUS_PERIOD_S = 0.1
 """Wall time between two status messages (10 Hz) [s]."""
 
 Publish = Callable[[str, dict[str, Any]], None]
-
-
-@runtime_checkable
-class Closeable(Protocol):
-    """A task's observer that holds something to free when its task is dropped without an
-    end (a restore ends it where it is): a recorder closes its recording."""
-
-    def close(self) -> None: ...
 
 
 class Session:
@@ -142,12 +133,8 @@ class Session:
         self.allow_paths = tuple(allow_paths)
         """Directories besides the scenario's tree that a task's machine may come from."""
         self._observer: Observer | None = None
-        self.scenario_ref, self.name, self.speed, self.watchdog_s = (
-            scenario,
-            name,
-            speed,
-            watchdog_s,
-        )
+        self.scenario_ref, self.name = scenario, name
+        self.speed, self.watchdog_s = speed, watchdog_s
         prepared = prepare(scenario, seed, allow_paths=self.allow_paths)  # as `run` does
         self.loaded = prepared.loaded
         assert prepared.world is not None
@@ -157,15 +144,13 @@ class Session:
         self.ctx = Context(self.cell, Blackboard({}))
         """The idle world's context (between tasks: an e-stop's stop, the BLOCKED check);
         each task runs in a fresh context of its own (`Task.ctx`)."""
-        self.loop.bind(self.ctx)
         self.probe = MotionProbe(self.world.arm_dof)
         """The arm's peak joint speed on every physics step (in the status: `arm_speed`)."""
-        self.loop.set_observers([self.probe])
+        self._idle_loop()
         mujoco.mj_forward(self.world.model, self.world.data)
         self.publish: Publish = publish or (lambda leaf, msg: None)
-        self.inbox: queue.SimpleQueue[tuple[int, int, Command, Any, int, float]] = (
-            queue.SimpleQueue()
-        )
+        self.inbox: queue.SimpleQueue[tuple[int, int, Command, Any, int, float]]
+        self.inbox = queue.SimpleQueue()
         self._order = itertools.count()
         self.epoch = uuid.uuid4().hex[:8]
         """This session's random epoch: the first part of every task id."""
@@ -212,19 +197,14 @@ class Session:
         return self.cell.world
 
     @property
-    def controller(self) -> Controller:
-        """The session's torque controller (its cell's)."""
-        return self.cell.controller
-
-    @property
     def loop(self) -> StepLoop:
         """Steps the world, task or not: the same code as `orchestrator run`'s."""
         return self.cell.loop
 
-    @property
-    def n_sub(self) -> int:
-        """Physics steps per control tick."""
-        return self.cell.n_sub
+    def _idle_loop(self) -> None:
+        """Step for the idle world: its own context (a task's is let go), not recorded."""
+        self.loop.bind(self.ctx)
+        self.loop.set_observers([self.probe])
 
     # -- commands (any thread) ----------------------------------------------------------
     def heartbeat(self, owner: str = "") -> None:
@@ -527,8 +507,7 @@ class Session:
         if task is None:
             return
         obs, self._observer = self._observer, None
-        self.loop.bind(self.ctx)  # the idle world's context: the task's is let go
-        self.loop.set_observers([self.probe])
+        self._idle_loop()
         if isinstance(obs, Closeable):
             obs.close()
         self.task = None
@@ -588,8 +567,7 @@ class Session:
         if obs is not None:
             obs.on_end(task.ctx, task.executor, result)
             self._observer = None
-        self.loop.bind(self.ctx)  # the idle world's context: the task's is let go
-        self.loop.set_observers([self.probe])  # the idle world is not recorded
+        self._idle_loop()
         self.last_result = {
             "task": task.id,
             "machine": task.machine_ref,
@@ -611,18 +589,5 @@ class Session:
             self.publish("heartbeat", {"t": round(wall - self._wall0, 4), "tick": self.ticks})
 
     def _pace(self) -> None:
-        busy = self.task is not None and not (self.task.executor and self.task.executor.paused)
-        speed = self.speed if busy else (self.speed or 1.0)
-        wall0, sim0, anchored_speed = self._anchor
-        now, sim = time.perf_counter(), self.ctx.t
-        if speed != anchored_speed:
-            self._anchor = (now, sim, speed)
-            return
-        if speed <= 0.0:
-            return
-        ahead = wall0 + (sim - sim0) / speed - now
-        if ahead > 0.0005:
-            self._wake.wait(ahead)  # an e-stop ends the wait: its tick starts at once
-            self._wake.clear()
-        elif ahead < -0.5:  # cannot keep up: start counting again from here
-            self._anchor = (now, sim, speed)
+        """Keep simulated time to the wall clock (live/supervision.py `pace`)."""
+        supervision.pace(self)

@@ -12,6 +12,7 @@ brings the arm to rest; otherwise the arm is brought to rest gently and the scen
 from __future__ import annotations
 
 import time
+from typing import Protocol, runtime_checkable
 
 from ..engine.cell import Cell
 from ..engine.context import Context
@@ -21,7 +22,15 @@ from ..engine.result import RunResult
 from ..engine.runner import tell_start
 from ..language.load import LoadedScenario
 
-__all__ = ["Task"]
+__all__ = ["Closeable", "Task"]
+
+
+@runtime_checkable
+class Closeable(Protocol):
+    """A task's observer that holds something to free when its task is dropped without an
+    end (a restore ends it where it is): a recorder closes its recording (live/session.py)."""
+
+    def close(self) -> None: ...
 
 
 class Task:

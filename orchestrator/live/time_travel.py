@@ -63,8 +63,6 @@ class Session(Protocol):
     @property
     def world(self) -> World: ...
     @property
-    def controller(self) -> Any: ...
-    @property
     def loop(self) -> StepLoop: ...
     @property
     def state(self) -> str: ...
@@ -162,7 +160,7 @@ def capture(session: Session, path: Path) -> int:
     """Write the session's state as it is now to `path` (in the snapshot writer's child
     process); returns the file's size [bytes]."""
     state = SessionState(  # never the latch (ESTOPPED, ERROR): that is the session's own
-        session.world, session.ctx, session.controller, session.loop, session.task,
+        session.world, session.ctx, session.cell.controller, session.loop, session.task,
         session.idle_stop, session.blocked,
     )  # fmt: skip
     return write_session(path, state, session.loaded, session.name)
