@@ -206,7 +206,7 @@ class StepProbe:
             self.sat_free_steps += free
         if pen > self.pen_m:
             self.pen_m, self.where["pen"] = pen, leaf
-        f = ctx.true_wrist_force_norm_sq()
+        f = ctx.cell.wrist.true_norm_sq()
         if f > self.force_sq:
             self.force_sq, self.where["force"] = f, leaf
 

@@ -85,7 +85,7 @@ class BudgetProbe:
             self.registered = PlannedPath(spec.local_points @ rot.T + pos, normal)
             d = true_pts[-1] - true_pts[0]
             self.side = np.cross(normal, d / np.linalg.norm(d))
-        q, _ = ctx.encoders.read()
+        q, _ = ctx.cell.encoders.read()
         pin.framesForwardKinematics(self.model, self.data, q)
         fk = self.data.oMf[self.tcp_id].translation + self.base
         ctrl = ctx.controller

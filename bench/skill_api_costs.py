@@ -13,7 +13,9 @@ import timeit
 
 from orchestrator.robots import Controller
 
-from orchestrator.engine.runner import initial_blackboard, make_context
+from orchestrator.engine.cell import Cell
+from orchestrator.engine.context import Context
+from orchestrator.engine.runner import initial_blackboard
 from orchestrator.language.load import load_scenario
 from orchestrator.world import World
 
@@ -24,7 +26,7 @@ def _context():
     controller = Controller(world.robot, float(world.model.opt.timestep))
     controller.hold(world.home)
     blackboard = initial_blackboard(loaded.machine, loaded.scenario.blackboard)
-    return make_context(world, controller, blackboard, 0, 0.01)
+    return Context(Cell(world, controller, 0), blackboard)
 
 
 def _us(call, number: int) -> float:
@@ -62,7 +64,7 @@ def main() -> None:
     ctx.events.clear()
     for name, (call, number) in calls.items():
         print(f"{name:34s} {_us(call, number):10.2f} us")
-    ctx.close()
+    ctx.cell.close()
 
 
 if __name__ == "__main__":

@@ -48,8 +48,8 @@ HOT: list[tuple[str, str, str]] = [
     ("orchestrator.robots.controller", "Controller", "compute"),
     ("orchestrator.world.sensors", "JointEncoders", "read"),
     ("orchestrator.guards.bank", "GuardBank", "inside"),
-    ("orchestrator.engine.context", "Context", "wrist_force_norm_sq"),
-    ("orchestrator.engine.context", "Context", "true_wrist_force_norm_sq"),
+    ("orchestrator.world.wrist", "WristSensor", "_py_norm_sq"),  # the Python path's readers
+    ("orchestrator.world.wrist", "WristSensor", "_py_true_norm_sq"),
     ("orchestrator.engine.trace_truth", "TraceTruth", "on_step"),
     ("orchestrator.engine.executor", "Executor", "tick"),
     ("orchestrator.skills.ik", "IKSolver", "reference_step"),
@@ -178,19 +178,18 @@ def main() -> None:
         # inside its row
         nested, prefix = {"IKSolver.reference_step, skill starts"}, "in starts"
         episode = partial(_hand_written, overhead.HandWritten, loaded.scenario, args.seed)
-    # on the compiled path (orchestrator/world/native.py) the context's wrist-force readings
-    # are C methods bound per instance: time the true force there; the measured one is read
-    # inside the bank's envelope test (its row includes it)
-    make = runner.make_context
+    # the wrist sensor's readings are chosen per sensor (world/wrist.py: C methods on the
+    # compiled path): time the true force there; the measured one is read inside the bank's
+    # envelope test (its row includes it)
+    build = runner.Cell.build
 
-    def made(*a: Any, **k: Any) -> Any:
-        ctx = make(*a, **k)
-        if "true_wrist_force_norm_sq" in vars(ctx):
-            key = "Context.true_wrist_force_norm_sq"
-            ctx.true_wrist_force_norm_sq = _timed(ctx.true_wrist_force_norm_sq, acc, key)
-        return ctx
+    def built(*a: Any, **k: Any) -> Any:
+        cell = build(*a, **k)
+        key = "WristSensor.true_norm_sq"
+        cell.wrist.true_norm_sq = _timed(cell.wrist.true_norm_sq, acc, key)
+        return cell
 
-    runner.make_context = made  # type: ignore[assignment]
+    runner.Cell.build = built  # type: ignore[method-assign]
     step = mujoco.mj_step
     mujoco.mj_step = _timed(step, acc, "mj_step")
     try:

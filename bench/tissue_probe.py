@@ -127,7 +127,7 @@ class _Rest:
 
     def on_tick(self, ctx, executor) -> None:
         if executor.leaf == "PRESS":
-            self.force = float(ctx.true_wrist_force()[2])
+            self.force = float(ctx.cell.wrist.true_force()[2])
             self.tip_z = float(ctx.tcp_pos[2])
 
     def on_end(self, ctx, executor, result) -> None:

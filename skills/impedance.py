@@ -102,7 +102,7 @@ def measured_tcp(ctx: Context) -> tuple[np.ndarray, np.ndarray]:
     """The TCP pose by the controller's own model at the encoder readings: position [m] in the
     world, shape (3,), and rotation, shape (3, 3) (copies). What the robot itself knows of
     where its tool is, as opposed to the simulator's ground truth (`ctx.tcp_pos`)."""
-    q, _ = ctx.encoders.read()
+    q, _ = ctx.robot_q()
     pos, rot = ctx.controller.tcp_pose(q)
     return pos + _base(ctx), rot
 

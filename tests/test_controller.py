@@ -55,13 +55,14 @@ def test_pinocchio_model_agrees_with_mujoco_kinematics():
 
 def test_wrist_sensor_reads_zero_external_force_at_rest():
     from orchestrator.engine.blackboard import Blackboard
+    from orchestrator.engine.cell import Cell
     from orchestrator.engine.context import Context
 
     world = _world()
     ctrl = Controller(world.robot, world.model.opt.timestep)
     ctrl.hold(world.home)
     _run(world, ctrl, 0.5)
-    ctx = Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
+    ctx = Context(Cell(world, ctrl, 0), Blackboard())
     assert np.linalg.norm(ctx.wrist_force()) < 0.05
 
 
@@ -69,13 +70,14 @@ def test_wrist_sensor_reads_zero_external_force_at_rest():
 def test_cartesian_impedance_pressing_2cm_into_a_rigid_surface(stiffness):
     """K = 500 N/m, setpoint 2 cm inside a rigid surface -> 10 N +- 10 % at the wrist."""
     from orchestrator.engine.blackboard import Blackboard
+    from orchestrator.engine.cell import Cell
     from orchestrator.engine.context import Context
 
     # a table whose top is 1 cm below the open fingertips at home
     world = _world(table={"center_xy": [0.35, 0.0], "size_xy": [0.3, 0.3], "height": 0.466})
     m, d = world.model, world.data
     ctrl = Controller(world.robot, m.opt.timestep)
-    ctx = Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
+    ctx = Context(Cell(world, ctrl, 0), Blackboard())
     table = m.geom("table_top").id
     fromto = np.zeros(6)
     gap = min(mujoco.mj_geomDistance(m, d, g, table, 0.1, fromto) for g in world.finger_geoms)

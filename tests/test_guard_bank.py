@@ -12,6 +12,7 @@ import pytest
 from orchestrator.robots import Controller
 
 from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.cell import Cell
 from orchestrator.engine.context import Context
 from orchestrator.engine.executor import Executor
 from orchestrator.engine.runner import run_episode
@@ -32,7 +33,7 @@ def _ctx() -> Context:
     world = World.build(load_scenario("pick_place").scenario, seed=0)
     ctrl = Controller(world.robot, float(world.model.opt.timestep))
     ctrl.hold(world.home)
-    ctx = Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
+    ctx = Context(Cell(world, ctrl, 0), Blackboard())
     ctrl.tau[:] = world.data.ctrl[world.arm_act]  # what the runner does every step
     mujoco.mj_forward(world.model, world.data)
     return ctx
@@ -131,7 +132,7 @@ def test_a_sensor_fault_sends_every_step_to_the_full_checks():
     bank = GuardBank(_guards(ctx), ctx)
     _new_instant(ctx)
     assert bank.check(ctx) is None and bank.full_checks == 0
-    ctx.ft_fault = WristForceFault("ft_dropout", ctx.t, (0.0, 0.0, 0.0), math.inf)
+    ctx.cell.wrist.fault = WristForceFault("ft_dropout", ctx.t, (0.0, 0.0, 0.0), math.inf)
     fired = None
     for _ in range(20):  # stale after 10 ms: the 6th step after the dropout
         _new_instant(ctx)

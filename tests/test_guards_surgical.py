@@ -7,6 +7,7 @@ import pytest
 from orchestrator.robots import Controller
 
 from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.cell import Cell
 from orchestrator.engine.context import Context
 from orchestrator.engine.runner import run_episode
 from orchestrator.guards import ContactForce, NoGoZone, PathDeviation
@@ -23,7 +24,7 @@ def _ctx(*overrides: str) -> Context:
     loaded = load_scenario("surgical", list(overrides))
     world = World.build(loaded.scenario, seed=0)
     ctrl = Controller(world.robot, float(world.model.opt.timestep))
-    return Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
+    return Context(Cell(world, ctrl, 0), Blackboard())
 
 
 def _guard(cls, ctx: Context, **params):

@@ -8,8 +8,9 @@ import pytest
 from orchestrator.skills import get_skill
 
 from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.cell import Cell
+from orchestrator.engine.context import Context
 from orchestrator.engine.episode import make_controller
-from orchestrator.engine.runner import make_context
 from orchestrator.language.load import load_scenario
 from orchestrator.live.protocol import Command
 from orchestrator.live.session import Session
@@ -21,7 +22,7 @@ def world_context(scenario: str, seed: int = 0):
     loaded = load_scenario(scenario)
     world = World.build(loaded.scenario, seed)
     mujoco.mj_forward(world.model, world.data)
-    return make_context(world, make_controller(world, seed), Blackboard({}), seed, 0.01)
+    return Context(Cell(world, make_controller(world, seed), seed), Blackboard({}))
 
 
 def _perceive(ctx, skill: str, **params) -> str:

@@ -133,7 +133,7 @@ def test_refused_commands_leave_every_physics_step_as_if_none_had_come():
             s._drain()
             s._tick()
     a, b = (np.array(p.q) for p in probes)
-    assert len(a) == 60 * quiet.n_sub and np.array_equal(a, b)
+    assert len(a) == 60 * quiet.cell.n_sub and np.array_equal(a, b)
 
 
 def test_a_key_that_is_not_an_input_is_refused(session):

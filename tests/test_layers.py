@@ -47,6 +47,18 @@ ALLOWED: dict[str, set[str]] = {
 }  # fmt: skip
 """Layer -> the layers its modules may import at run time (besides its own)."""
 
+LIFETIME_MODULES = {
+    "orchestrator.engine.cell": "engine",  # what lives as long as the world, built once
+    "orchestrator.engine.hardware": "engine",  # what an episode's Context reads of it
+    "orchestrator.engine.context": "engine",  # the episode
+    "orchestrator.robots.hand": "robots",  # the hand's current-limited drive
+    "orchestrator.world.wrist": "world",  # the wrist force sensor (C or Python, chosen once)
+}
+"""The modules of the three lifetimes (docs/architecture.md, "Lifetimes") and their layers:
+the hand's drive may import nothing of the world or the engine, the wrist sensor nothing of
+the engine, and the context must not name the cell's class (the cell builds the step loop,
+which is handed the context: a cycle)."""
+
 LOOSE_MODULES = {"orchestrator", "orchestrator.exceptions"}
 """Modules outside a layer folder (docs/architecture.md says why each is there)."""
 DATA_PACKAGES = {"orchestrator.schemas"}
@@ -162,6 +174,18 @@ def _find_cycle(edges: dict[str, set[str]]) -> list[str] | None:
                 path.append(child)
                 stack.append((child, iter(sorted(edges.get(child, ())))))
     return None
+
+
+def test_the_lifetime_modules_sit_in_their_layers(imports):
+    for module, layer in LIFETIME_MODULES.items():
+        assert module in MODULES, f"{module} is missing"
+        assert layer_of(module) == layer, module
+    hand = {i.target for i in imports if i.source == "orchestrator.robots.hand"}
+    assert all(layer_of(t) in {"robots", "exceptions"} for t in hand), sorted(hand)
+    wrist = {i.target for i in imports if i.source == "orchestrator.world.wrist"}
+    assert all(layer_of(t) in ALLOWED["world"] | {"world"} for t in wrist), sorted(wrist)
+    context = {i.target for i in imports if i.source == "orchestrator.engine.context"}
+    assert "orchestrator.engine.cell" not in context, "the context names the Cell class"
 
 
 def test_the_package_has_the_layer_folders():

@@ -13,6 +13,7 @@ import pytest
 from orchestrator.robots import Controller
 
 from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.cell import Cell
 from orchestrator.engine.context import Context
 from orchestrator.engine.runner import run_episode
 from orchestrator.guards.bank import GuardBank
@@ -80,7 +81,7 @@ def _ctx() -> Context:
     world = World.build(load_scenario("pick_place").scenario, seed=4)
     ctrl = Controller(world.robot, float(world.model.opt.timestep))
     ctrl.hold(world.home)
-    ctx = Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
+    ctx = Context(Cell(world, ctrl, 0), Blackboard())
     ctrl.tau[:] = world.data.ctrl[world.arm_act]
     mujoco.mj_forward(world.model, world.data)
     return ctx
@@ -91,32 +92,33 @@ def test_the_wrist_force_is_the_same_in_c_and_in_python(monkeypatch: pytest.Monk
     measured and true force at every step, through a bias fault, a zeroing and its end."""
     c = _ctx()
     _pure(monkeypatch)
-    py = Context(c.world, c.controller, Blackboard(), np.random.default_rng(0), 0.01)
-    assert c._wf is not None and py._wf is None
+    py = Context(Cell(c.world, c.controller, 0), Blackboard())
+    assert c.cell.wrist.compiled is not None and py.cell.wrist.compiled is None
     m, d = c.model, c.data
     rng = np.random.default_rng(5)
     for step in range(400):
-        d.ctrl[c.world.arm_act] = c.controller.compute(*c.encoders.read())
+        d.ctrl[c.world.arm_act] = c.controller.compute(*c.cell.encoders.read())
         mujoco.mj_step(m, d)
         c.world.step_clock.t += c.dt_physics  # as the step function advances it
         if step == 100:
             for ctx in (c, py):
-                ctx.ft_fault = WristForceFault("ft_bias", ctx.t, (0.0, 3.0, -40.0), math.inf)
+                fault = WristForceFault("ft_bias", ctx.t, (0.0, 3.0, -40.0), math.inf)
+                ctx.cell.wrist.fault = fault
         if step == 200:
             bias = c.world.wrist_bias_world.copy()  # the world is shared: zero each from it
             for ctx in (c, py):
                 c.world.wrist_bias_world[:] = bias
-                ctx.ft_fault = None
+                ctx.cell.wrist.fault = None
                 ctx.zero_wrist_force(np.array([0.5, -0.25, 1.0]))
         assert c.t == py.t == d.time and c.clock == py.clock  # the world's one StepClock
         assert c.gripper_width == py.gripper_width == float(d.qpos[c.world.finger_qpos].sum())
-        assert c.true_wrist_force_norm_sq() == py.true_wrist_force_norm_sq()
+        assert c.cell.wrist.true_norm_sq() == py.cell.wrist.true_norm_sq()
         assert c.wrist_force_norm_sq() == py.wrist_force_norm_sq()
         if rng.random() < 0.2:  # a skill's reading of the vector at the same instant
             assert c.wrist_force().tolist() == py.wrist_force().tolist()
-            assert c.true_wrist_force() == py.true_wrist_force()
-    assert c.ft_noise is not None and py.ft_noise is not None
-    assert c.ft_noise.bias == py.ft_noise.bias
+            assert c.cell.wrist.true_force() == py.cell.wrist.true_force()
+    assert c.cell.wrist.noise is not None and py.cell.wrist.noise is not None
+    assert c.cell.wrist.noise.bias == py.cell.wrist.noise.bias
 
 
 def test_the_wrist_force_reads_a_new_instant_from_the_step_clock_only():
@@ -124,13 +126,14 @@ def test_the_wrist_force_reads_a_new_instant_from_the_step_clock_only():
     time): a force that changes without the clock advancing is not read, one that changes
     with it is — as on the Python path."""
     ctx = _ctx()
-    assert ctx._wf is not None and ctx._wf.clock is ctx.world.step_clock
-    before = ctx.true_wrist_force_norm_sq()
-    ctx._f_site[2] += 10.0  # the raw reading changes in place, the instant does not
+    wrist = ctx.cell.wrist
+    assert wrist.compiled is not None and wrist.compiled.clock is ctx.world.step_clock
+    before = ctx.cell.wrist.true_norm_sq()
+    ctx.cell.wrist._f_site[2] += 10.0  # the raw reading changes in place, the instant does not
     ctx.data.time += 1.0  # MjData's own time is not what keys the reading
-    assert ctx.true_wrist_force_norm_sq() == before
+    assert ctx.cell.wrist.true_norm_sq() == before
     ctx.world.step_clock.t += ctx.dt_physics
-    assert ctx.true_wrist_force_norm_sq() != before
+    assert ctx.cell.wrist.true_norm_sq() != before
 
 
 def _guards(ctx: Context) -> list[Guard]:
@@ -172,11 +175,11 @@ def test_the_compiled_objects_do_not_keep_an_episode_alive():
     import weakref
 
     ctx = _ctx()
-    ctx.ft_fault = WristForceFault("ft_bias", ctx.t, (0.0, 0.0, 5.0), math.inf)
+    ctx.cell.wrist.fault = WristForceFault("ft_bias", ctx.t, (0.0, 0.0, 5.0), math.inf)
     bank = GuardBank(_guards(ctx), ctx)
     assert bank.check(ctx) is None  # the envelope reads the faulted force (in C)
-    assert ctx._wf is not None and ctx.ft_noise is not None
-    refs = [weakref.ref(o) for o in (ctx, ctx.world, ctx.ft_noise, bank)]
+    assert ctx.cell.wrist.compiled is not None and ctx.cell.wrist.noise is not None
+    refs = [weakref.ref(o) for o in (ctx, ctx.world, ctx.cell.wrist.noise, bank)]
     ctx.bank = bank  # a cycle through the bank, as the executor makes one
     del ctx, bank
     gc.collect()

@@ -17,6 +17,8 @@ from orchestrator.robots import Controller, Panda
 from orchestrator.skills.ik import IKSolver
 from orchestrator.skills.trajectory import CartesianLine
 
+from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.cell import Cell
 from orchestrator.engine.context import Context
 from orchestrator.engine.runner import run_episode
 from orchestrator.language.load import load_scenario
@@ -104,7 +106,7 @@ class StepProbe:
         self.torque = max(self.torque, tau)
         if tau >= SATURATED and d.time - self.last_contact_t > 0.01:
             self.saturated_outside_contact += 1
-        f = math.sqrt(ctx.true_wrist_force_norm_sq())
+        f = math.sqrt(ctx.cell.wrist.true_norm_sq())
         self.force = max(self.force, f)
         self.forces.append((float(d.time), f))
 
@@ -157,15 +159,15 @@ def test_realism_is_on_by_default_with_the_robots_datasheet_values():
 
 def test_encoders_read_in_steps_of_their_resolution_and_difference_velocity():
     world = World.build(load_scenario("pick_place").scenario, 0)
-    ctx = Context(world, Controller(world.robot), None, np.random.default_rng(0), 0.01)  # type: ignore[arg-type]
+    ctx = Context(Cell(world, Controller(world.robot), 0), Blackboard())
     res = world.robot.encoder_resolution_rad
     world.data.qpos[world.arm_qpos[0]] += 0.3 * res  # below one step: unseen
     world.step_clock.t = 0.002  # a new instant (the step function advances it)
-    q, _ = ctx.encoders.read()
+    q, _ = ctx.cell.encoders.read()
     np.testing.assert_allclose(np.round(q / res) * res, q)
     world.data.qpos[world.arm_qpos[0]] += 10 * res
     world.step_clock.t = 0.004
-    q2, v2 = ctx.encoders.read()
+    q2, v2 = ctx.cell.encoders.read()
     assert q2[0] - q[0] == pytest.approx(10 * res)
     assert 0.0 < v2[0] < 10 * res / 0.002  # differenced, then low-pass filtered
 
@@ -173,11 +175,11 @@ def test_encoders_read_in_steps_of_their_resolution_and_difference_velocity():
 def test_wrist_sensor_is_noisy_and_drifts_but_deterministic():
     def readings(seed: int) -> np.ndarray:
         world = World.build(load_scenario("surgical").scenario, seed)
-        ctx = Context(world, Controller(world.robot), None, np.random.default_rng(0), 0.01)  # type: ignore[arg-type]
+        ctx = Context(Cell(world, Controller(world.robot), 0), Blackboard())
         out, dt = [], float(world.model.opt.timestep)
         for k in range(2000):
             world.step_clock.t = k * dt
-            out.append(ctx.wrist_force() - np.array(ctx.true_wrist_force()))
+            out.append(ctx.wrist_force() - np.array(ctx.cell.wrist.true_force()))
         return np.array(out)
 
     a, b = readings(3), readings(3)

@@ -136,7 +136,7 @@ def _stuck(session: Session, case: str) -> None:
         # (x 0.35: at x 0.45 the move's dry run finds the pose out of the IK's reach)
         sets = ["guards.workspace.max=[0.95, 0.7, 1.2]", "target=[0.35, 0.62, 0.4]"]
     loaded = load_scenario("pick_place", sets, machine="reach")
-    session.tasks.append(Task(100, loaded, session.ctx, "reach", session.loop))
+    session.tasks.append(Task(100, loaded, session.cell, "reach"))
     _step(session)
     for _ in range(10):
         session._tick()

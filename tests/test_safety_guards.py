@@ -11,6 +11,7 @@ import pytest
 from orchestrator.robots import Controller
 
 from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.cell import Cell
 from orchestrator.engine.context import Context
 from orchestrator.guards import (
     Collision,
@@ -33,7 +34,7 @@ def _ctx(scenario: str = "pick_place") -> Context:
     world = World.build(load_scenario(scenario).scenario, seed=0)
     ctrl = Controller(world.robot, float(world.model.opt.timestep))
     ctrl.hold(world.home)
-    ctx = Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
+    ctx = Context(Cell(world, ctrl, 0), Blackboard())
     ctrl.tau[:] = world.data.ctrl[world.arm_act]  # what the runner does every step
     mujoco.mj_forward(world.model, world.data)
     return ctx
@@ -154,8 +155,8 @@ def test_sensor_health_is_quiet_on_healthy_sensors():
 )
 def test_sensor_health_catches_a_bad_force_reading(kind, offset, words):
     ctx = _ctx()
-    ctx.ft_fault = WristForceFault(kind, ctx.t, offset, math.inf)
-    ctx._norm_sq_t = -1.0  # a new reading
+    ctx.cell.wrist.fault = WristForceFault(kind, ctx.t, offset, math.inf)
+    ctx.cell.wrist._norm_sq_t = -1.0  # a new reading
     violation = _guard(SensorHealth, ctx).check(ctx)
     assert violation is not None and words in violation.message
 
@@ -163,7 +164,7 @@ def test_sensor_health_catches_a_bad_force_reading(kind, offset, words):
 def test_sensor_health_catches_a_stale_force_sensor_after_its_timeout():
     ctx = _ctx()
     guard = _guard(SensorHealth, ctx, ft_stale_ms=10.0)
-    ctx.ft_fault = WristForceFault("ft_dropout", ctx.t, (0.0, 0.0, 0.0), math.inf)
+    ctx.cell.wrist.fault = WristForceFault("ft_dropout", ctx.t, (0.0, 0.0, 0.0), math.inf)
     ctx.world.step_clock.t += 0.008
     assert guard.check(ctx) is None
     ctx.world.step_clock.t += 0.004
@@ -174,7 +175,7 @@ def test_sensor_health_catches_a_stale_force_sensor_after_its_timeout():
 def test_sensor_health_compares_each_encoder_with_its_safety_encoder():
     ctx = _ctx()
     guard = _guard(SensorHealth, ctx, encoder_tolerance_rad=0.01)
-    ctx.encoders.inject("encoder_freeze", 3)
+    ctx.cell.encoders.inject("encoder_freeze", 3)
     assert guard.check(ctx) is None  # frozen where it is: no disagreement yet
     ctx.data.qpos[ctx.world.arm_qpos[2]] += 0.02  # the joint moves on, its encoder does not
     violation = guard.check(ctx)

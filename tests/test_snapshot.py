@@ -52,7 +52,7 @@ def test_a_run_snapshot_holds_data_only_and_names_each_running_skill(tmp_path):
     state = json.loads(arrays["state"].tobytes())
     skill = next(iter(state["skills"].values()))
     assert skill["skill"].startswith("orchestrator.skills.") and isinstance(skill["state"], dict)
-    assert state["leaf"] == run.executor.leaf and set(state["generators"]) >= {".ctx.rng"}
+    assert state["leaf"] == run.executor.leaf and set(state["generators"]) >= {".ctx.cell.rng"}
     with zipfile.ZipFile(io.BytesIO(read_snapshot(path).payload)) as zf:
         for name in zf.namelist():  # every member loads as an array without pickle
             np.lib.format.read_array(zf.open(name), allow_pickle=False)
@@ -66,7 +66,7 @@ def test_a_rebuilt_run_that_differs_from_the_recorded_state_is_refused(tmp_path)
     run.ctx.rng.random()  # the recorded generator is one draw ahead of any rebuilt run
     path = tmp_path / "x.snap"
     write_run(path, run, stop.header(), [])
-    with pytest.raises(SnapshotError, match=r"does not hold the recorded state .*\.ctx\.rng"):
+    with pytest.raises(SnapshotError, match=r"does not hold the recorded state .*\.ctx\.cell\.rng"):
         load_run(path)
 
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from orchestrator.engine.episode import make_executor
 from orchestrator.engine.runner import run_episode
-from orchestrator.engine.step import StepLoop
 from orchestrator.language.load import load_scenario
 from orchestrator.live.protocol import Command
 from orchestrator.live.session import Session
@@ -63,7 +62,7 @@ def test_a_live_task_is_stepped_like_a_run_observers_peak_force_and_ticks():
     assert result["outcome"] == "succeeded", result
     ticks = result["metrics"]["control_ticks"]
     # the live loop used to step the physics without telling a recorder about it
-    assert ticks > 0 and counter.steps == ticks * session.n_sub
+    assert ticks > 0 and counter.steps == ticks * session.cell.n_sub
     assert "max_wrist_force_n" in result["metrics"]
     assert result["metrics"]["t_start"] >= 0.0
 
@@ -96,15 +95,15 @@ def test_the_time_limit_counts_the_skills_clock_not_paused_time():
 
 def test_a_step_loop_reports_divergence_with_the_state():
     scenario = load_scenario("pick_place")
-    from orchestrator.engine.episode import make_controller
-    from orchestrator.engine.runner import initial_blackboard, make_context
-    from orchestrator.world.world import World
+    from orchestrator.engine.cell import Cell
+    from orchestrator.engine.context import Context
+    from orchestrator.engine.runner import initial_blackboard
 
-    world = World.build(scenario.scenario, 0)
-    ctx = make_context(
-        world, make_controller(world, 0), initial_blackboard(scenario.machine, {}), 0, 0.01
-    )
-    loop = StepLoop(ctx, 5)
+    cell = Cell.build(scenario.scenario, 0)
+    world = cell.world
+    ctx = Context(cell, initial_blackboard(scenario.machine, {}))
+    loop = cell.loop
+    loop.bind(ctx)
     assert loop.tick(None) is None
     world.data.qvel[0] = float("nan")
     message = loop.tick(None)

@@ -46,9 +46,9 @@ def test_a_world_restored_from_a_snapshot_keeps_one_clock_for_the_world_and_its_
     clock = ctx.world.step_clock
     apply_world(tree, arrays, ctx, "test")
     assert clock.t == ctx.data.time == run.episode.ctx.t > 0.0
-    assert ctx._time is clock and ctx.encoders._clock is clock
-    if ctx._wf is not None:  # compiled: its reader reads the same clock
-        assert ctx._wf.clock is clock
+    assert ctx._time is clock and ctx.cell.encoders._clock is clock
+    if ctx.cell.wrist.compiled is not None:  # compiled: its reader reads the same clock
+        assert ctx.cell.wrist.compiled.clock is clock
     again.episode.start()
     again.episode.tick()
     assert clock.t == ctx.data.time > run.episode.ctx.t

@@ -14,11 +14,11 @@ import sys
 from pathlib import Path
 
 import mujoco
-import numpy as np
 import pytest
 from orchestrator.robots import Controller
 
 from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.cell import Cell
 from orchestrator.engine.context import Context
 from orchestrator.language.load import load_scenario
 from orchestrator.success import get_check
@@ -36,7 +36,7 @@ def stack_ctx() -> Context:
     hand (qpos) for each case."""
     world = World.build(load_scenario("stack").scenario, seed=0)
     ctrl = Controller(world.robot, float(world.model.opt.timestep))
-    return Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
+    return Context(Cell(world, ctrl, 0), Blackboard())
 
 
 def _place(ctx: Context, name: str, pos, quat=(1.0, 0.0, 0.0, 0.0)) -> None:

@@ -9,6 +9,7 @@ import pytest
 from orchestrator.robots import Controller
 
 from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.cell import Cell
 from orchestrator.engine.context import Context
 from orchestrator.engine.success import errors, evaluate
 from orchestrator.exceptions import SkillError
@@ -25,7 +26,7 @@ def world() -> World:
 
 def _ctx(world: World, **values) -> Context:
     ctrl = Controller(world.robot, float(world.model.opt.timestep))
-    return Context(world, ctrl, Blackboard(values), np.random.default_rng(0), 0.01)
+    return Context(Cell(world, ctrl, 0), Blackboard(values))
 
 
 def _move(ctx: Context, name: str, dx: float) -> None:

@@ -234,7 +234,9 @@ class Episode:
         world, diverged, t0 = ctx.world, self.diverged, self.t0
         outcome = ex.outcome or "failed"
         final_state = ex.final_state
-        ctx.metrics.update(self.loop.trace_truth.figures())  # before the checks that read them
+        truth = self.loop.trace_truth
+        assert truth is not None  # the loop was bound to this episode's context
+        ctx.metrics.update(truth.figures())  # before the checks that read them
         tasks = ctx.tasks.finalize(ctx) if world.parcel_classes and not diverged else None
         judged = (
             evaluate(ctx, scn.success)

@@ -102,23 +102,23 @@ class FaultInjector:
         if isinstance(fault, F.EStop):
             self.executor.event(ESTOP, f"injected at t={t:.3f} s")
         elif isinstance(fault, (F.FtDropout, F.FtNan)):
-            ctx.ft_fault = WristForceFault(fault.kind, t, (0.0, 0.0, 0.0), math.inf)
+            ctx.cell.wrist.fault = WristForceFault(fault.kind, t, (0.0, 0.0, 0.0), math.inf)
         elif isinstance(fault, F.FtBias):
             fx, fy, fz = fault.force_n
-            ctx.ft_fault = WristForceFault(fault.kind, t, (fx, fy, fz), math.inf)
+            ctx.cell.wrist.fault = WristForceFault(fault.kind, t, (fx, fy, fz), math.inf)
         elif isinstance(fault, F.FtSpike):
             fx, fy, fz = fault.force_n
             end = t + fault.duration_ms / 1000.0
-            ctx.ft_fault = WristForceFault(fault.kind, t, (fx, fy, fz), end)
+            ctx.cell.wrist.fault = WristForceFault(fault.kind, t, (fx, fy, fz), end)
         elif isinstance(fault, F.EncoderNoise):
-            ctx.encoders.inject(fault.kind, fault.joint, fault.std_rad)
+            ctx.cell.encoders.inject(fault.kind, fault.joint, fault.std_rad)
         elif isinstance(fault, (F.EncoderFreeze, F.EncoderNan)):
-            ctx.encoders.inject(fault.kind, fault.joint)
+            ctx.cell.encoders.inject(fault.kind, fault.joint)
         elif isinstance(fault, (F.ActuatorSaturate, F.ActuatorLost)):
             j = fault.joint - 1
             fraction = fault.fraction if isinstance(fault, F.ActuatorSaturate) else 0.0
             limit = float(ctx.world.arm_effort_limit[j])
-            ctx.actuator_fault = ActuatorFault(fault.kind, j, limit, fraction)
+            ctx.cell.actuator_fault = ActuatorFault(fault.kind, j, limit, fraction)
         elif isinstance(fault, F.ObstacleFault):
             effects.show_obstacle(index)
         elif isinstance(fault, (F.Slip, F.Push)):
@@ -133,8 +133,8 @@ class FaultInjector:
                 end = t + fault.duration_ms / 1000.0
                 self._schedule(end, partial(effects.end_push, name, force))
         elif isinstance(fault, F.PerceptionMiss):
-            ctx.perception.miss(fault.count)
+            ctx.cell.perception.miss(fault.count)
         elif isinstance(fault, F.PerceptionOffset):
-            ctx.perception.shift(np.asarray(fault.offset_m, float), fault.count)
+            ctx.cell.perception.shift(np.asarray(fault.offset_m, float), fault.count)
         else:  # pragma: no cover - the language's union lists every kind
             raise ValueError(f"unknown fault kind {fault.kind!r}")

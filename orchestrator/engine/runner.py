@@ -6,42 +6,38 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 from ..exceptions import OrchestratorError
 from ..language.load import LoadedScenario
-from ..language.scenario_checks import workspace_box
-from ..robots import Controller
-from ..skills.ik import IKSolver
-from ..world.random_streams import stream
-from ..world.world import World, robot_only_model
-from .blackboard import Blackboard
+from ..world.world import World
+from .cell import Cell
 from .context import Context
 from .episode import (
     SETTLE_S,
     Episode,
     initial_blackboard,
-    make_controller,
     make_executor,
     make_guards,
 )
 from .executor import Executor
 from .faults import FaultInjector
+from .hardware import Hardware
 from .result import RunResult
-from .step import StepLoop
 
 __all__ = [
     "SETTLE_S",
     "WALL_GRACE_S",
     "Observer",
+    "ResumeObserver",
     "RunState",
     "WallTimeExceeded",
     "drive",
     "initial_blackboard",
-    "make_context",
     "make_guards",
     "new_run",
     "run_episode",
+    "tell_start",
 ]
 
 WALL_GRACE_S = 5.0
@@ -64,9 +60,9 @@ class WallTimeExceeded(OrchestratorError):
 class Observer(Protocol):
     """Watches a run (the Rerun recorder is one). Called on simulated time only.
 
-    An observer may also define `on_step(ctx)`: it is then called after every physics step
-    (bench/physical_honesty.py instruments the plant that way). Observers without it cost the
-    physics step nothing.
+    What else an observer implements it declares with the other extension points' protocols:
+    `StepObserver` (engine/step.py, `on_step(ctx)` after every physics step) and
+    `ResumeObserver` (`on_resume`, a restored run). Observers without them cost nothing there.
     """
 
     def on_start(self, ctx: Context, executor: Executor) -> None: ...
@@ -74,16 +70,24 @@ class Observer(Protocol):
     def on_end(self, ctx: Context, executor: Executor, result: RunResult) -> None: ...
 
 
-def make_context(
-    world: World, controller: Controller, blackboard: Blackboard, seed: int, dt_control: float
-) -> Context:
-    """The context of an episode (or of a live session): sensors, IK, the blackboard."""
-    ctx = Context(world, controller, blackboard, stream(seed, "skills"), dt_control)
-    ctx.workspace_box = workspace_box(world.scenario)
-    ctx.ik = IKSolver(
-        world.robot, robot_only_model(world.robot), dt_control, world.scenario.robot.base_pos
-    )
-    return ctx
+@runtime_checkable
+class ResumeObserver(Protocol):
+    """An observer that tells a resumed run from a fresh one: a run restored from a snapshot
+    (or a live task restored with its session) calls `on_resume(ctx, executor)` instead of
+    `on_start` (the recorder marks where the recording picks up)."""
+
+    def on_resume(self, ctx: Context, executor: Executor) -> None: ...
+
+
+def tell_start(
+    observers: Sequence[Observer], ctx: Context, executor: Executor, resumed: bool
+) -> None:
+    """`on_resume` for a resumed run where an observer implements it, else `on_start`."""
+    for obs in observers:
+        if resumed and isinstance(obs, ResumeObserver):
+            obs.on_resume(ctx, executor)
+        else:
+            obs.on_start(ctx, executor)
 
 
 @dataclass
@@ -110,6 +114,10 @@ class RunState:
         return self.episode.ctx
 
     @property
+    def cell(self) -> Hardware:
+        return self.episode.ctx.cell
+
+    @property
     def executor(self) -> Executor:
         return self.episode.executor
 
@@ -124,22 +132,14 @@ def new_run(loaded: LoadedScenario, seed: int, world: World | None = None) -> Ru
             `prepare` compiled and checked the goals on, engine/prepare.py); None: build it.
     """
     scn = loaded.scenario
-    if world is None:
-        world = World.build(scn, seed)
-    controller = make_controller(world, seed)
-    dt = float(world.model.opt.timestep)
-    n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
-    ctx = make_context(
-        world,
-        controller,
-        # the world's scenario: its blackboard holds the values drawn for this seed
-        initial_blackboard(loaded.machine, world.scenario.blackboard),
-        seed,
-        n_sub * dt,
-    )
+    cell = Cell.build(scn, seed, world)
+    # the world's scenario: its blackboard holds the values drawn for this seed
+    ctx = Context(cell, initial_blackboard(loaded.machine, cell.world.scenario.blackboard))
     executor = make_executor(loaded, ctx)
     injector = FaultInjector(list(scn.faults), ctx, executor, list(scn.events))
-    loop = StepLoop(ctx, n_sub, injector)
+    loop = cell.loop
+    loop.bind(ctx)
+    loop.injector = injector
     return RunState(loaded, seed, Episode(loaded, ctx, executor, loop), injector)
 
 
@@ -177,8 +177,8 @@ def drive(
     Args:
         run: The run (`started` False: from the machine's initial state).
         observers: Told about the run on simulated time. A restored run tells each observer
-            `on_resume(ctx, executor)` where it has one (the recorder marks the resume), else
-            `on_start`.
+            `on_resume(ctx, executor)` where it implements `ResumeObserver` (the recorder marks
+            the resume), else `on_start`.
         max_wall_s: Wall-clock limit [s] of this part of the run (None: none).
         until: Asked before the machine starts and before every control tick: True stops
             the run there (a break point: the caller writes the snapshot).
@@ -196,12 +196,7 @@ def drive(
     episode.observers = list(observers)
     if until is not None and not run.started and until(run):
         return None
-    for obs in observers:
-        resume = getattr(obs, "on_resume", None)
-        if run.started and resume is not None:
-            resume(ctx, executor)
-        else:
-            obs.on_start(ctx, executor)
+    tell_start(observers, ctx, executor, run.started)
     if not run.started:
         episode.start()
         injector.fire_due(ctx.t)  # faults at t = 0
@@ -232,7 +227,7 @@ def drive(
             }  # fmt: skip
     for obs in observers:
         obs.on_end(ctx, executor, result)
-    ctx.close()
+    ctx.cell.close()
     if wall_cut:
         raise WallTimeExceeded(wall_cut, result)
     return result

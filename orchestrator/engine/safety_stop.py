@@ -105,8 +105,8 @@ class SafetyStop:
         """
         ctx = self.ctx
         if not gentle:
-            ctx.encoders.failover()
-        q, qd = ctx.encoders.safety_channel()
+            ctx.cell.encoders.failover()
+        q, qd = ctx.cell.encoders.safety_channel()
         n = ctx.robot.n_arm
         if gentle and float(np.max(np.abs(qd[:n]))) < self.config.rest_speed_rad_s:
             ctx.controller.hold_setpoint()  # already still: keep its setpoint (brought to rest)

@@ -158,7 +158,6 @@ SECTIONS: tuple[Section, ...] = (
             Member("gripper_target", "read anywhere; write through `set_gripper`"),
             Member("grasped_at", "read anywhere; a grasp skill writes it when it closes", "free"),
             Member("zero_wrist_force", "at rest, once (e.g. a `zero_sensor` skill)", "~2 us"),
-            Member("advance_gripper", FRAMEWORK, "~2 us, once per tick"),
         ),
     ),
     Section(
@@ -208,18 +207,13 @@ SECTIONS: tuple[Section, ...] = (
         Context,
         "ctx.",
         "Public because the runner, the guards, the fault injector or the recorder use them: a "
-        "skill must not call or write them.",
+        "skill must not call or write them. What lives as long as the world — the encoders, "
+        "the wrist sensor's noise, fault and true reading, the hand's drive, the injected "
+        "hardware faults, the step loop — is the cell's (`ctx.cell`, engine/cell.py), not the "
+        "episode's.",
         (
             Member("listeners", FRAMEWORK),
-            Member("encoders", FRAMEWORK),
-            Member("ft_fault", FRAMEWORK),
-            Member("ft_noise", FRAMEWORK),
-            Member("actuator_fault", FRAMEWORK),
-            Member("sensor_faults", FRAMEWORK),
-            Member("perception", FRAMEWORK),
-            Member("true_wrist_force", FRAMEWORK, "~2 us"),
-            Member("true_wrist_force_norm_sq", FRAMEWORK, "~1 us"),
-            Member("close", FRAMEWORK),
+            Member("cell", FRAMEWORK),
         ),
     ),
     Section(

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 from functools import partial
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import mujoco
 import numpy as np
@@ -29,8 +29,9 @@ if TYPE_CHECKING:
     from .context import Context
     from .executor import Executor, Stopper
     from .faults import FaultInjector
+    from .hardware import Hardware
 
-__all__ = ["StepLoop"]
+__all__ = ["StepLoop", "StepObserver"]
 
 _DIVERGED = tuple(
     int(w)
@@ -46,6 +47,16 @@ _DIVERGED_INDEX = as_index(np.array(sorted(_DIVERGED)))
 OnStep = Callable[["Context"], None]
 
 
+@runtime_checkable
+class StepObserver(Protocol):
+    """An observer that watches every physics step, not only every control tick (a recorder
+    of per-step signals, the plant instrumentation of bench/physical_honesty.py): it declares
+    `on_step(ctx)`, called after each `mj_step`. Observers that do not implement it cost the
+    physics step nothing."""
+
+    def on_step(self, ctx: Context) -> None: ...
+
+
 def _read_list(array: np.ndarray, index: np.ndarray) -> list:
     """`array[index]` as a list (an index array makes a copy: read again at every call)."""
     return array[index].tolist()
@@ -54,32 +65,37 @@ def _read_list(array: np.ndarray, index: np.ndarray) -> list:
 class StepLoop:
     """Steps a world one control tick at a time, for an episode or a live session.
 
+    The loop lives as long as the world (engine/cell.py builds it); the episode it steps for
+    is bound with `bind` (a run's one, each live task's, a session's idle one).
+
     Args:
-        ctx: The context of the world (its controller, encoders, gripper, sensors).
-        n_sub: Physics steps per control tick.
-        injector: Faults and timed events of a run (None: none, as in a live session).
+        cell: The world, its controller, encoders, hand and sensors.
 
     Attributes:
+        ctx: The context of the episode the loop steps for (its guards are checked against it,
+            per-step observers are handed it).
+        injector: Faults and timed events of a run (None: none, as in a live session).
         max_force_sq: Largest squared true wrist force of any step since `reset_peaks` [N^2]:
             the reported peak is the true force of every step, not a per-tick sample.
         trace_truth: The ground-truth probe of a contact skill's trace (its figures go to the
             metrics of the run or task).
     """
 
-    def __init__(self, ctx: Context, n_sub: int, injector: FaultInjector | None = None) -> None:
-        self.ctx = ctx
-        self.n_sub = n_sub
-        self.injector = injector
+    def __init__(self, cell: Hardware) -> None:
+        self.cell = cell
+        self.ctx: Context | None = None
+        self.n_sub = cell.n_sub
+        self.injector: FaultInjector | None = None
         self.max_force_sq = 0.0
-        self.trace_truth = TraceTruth(ctx)
-        world = ctx.world
+        self.trace_truth: TraceTruth | None = None
+        world = cell.world
         self._belt: list[OnStep] = [world.conveyor.on_step] if world.conveyor is not None else []
         self._observer_steps: list[OnStep] = []
         self._steppers: list[OnStep] = list(self._belt)
-        self._with_trace: list[OnStep] = [*self._belt, self.trace_truth.on_step]
+        self._with_trace: list[OnStep] = list(self._belt)
         # The physics step runs 500 times per simulated second: MjData's arrays are bound once
         # (they are views that never move), so the loop does no attribute lookups through MjData.
-        data = ctx.data
+        data = world.data
         self._act_idx = as_index(world.arm_act)
         self._qpos = data.qpos
         warnings = data.warning.number
@@ -89,19 +105,23 @@ class StepLoop:
             else partial(_read_list, warnings, _DIVERGED_INDEX)  # a copy: re-read each time
         )
 
-    def set_observers(self, observers: Iterable[object]) -> None:
-        """Observers whose `on_step(ctx)` runs after every physics step (a recorder, the
-        plant instrumentation of bench/physical_honesty.py); the others cost the step nothing."""
-        self._observer_steps = [obs.on_step for obs in observers if hasattr(obs, "on_step")]  # type: ignore[attr-defined]
-        # observers first, then the belt (the order the run has always had)
-        self._steppers = [*self._observer_steps, *self._belt]
+    def bind(self, ctx: Context) -> None:
+        """Step for the episode of `ctx` from now on, with a new peak wrist force and a new
+        trace probe (a run's start, a live task's, the session's idle world after a task)."""
+        self.ctx = ctx
+        self.max_force_sq = 0.0
+        self.trace_truth = TraceTruth(ctx)
         self._with_trace = [*self._steppers, self.trace_truth.on_step]
 
-    def reset_peaks(self) -> None:
-        """Start a new peak wrist force and trace probe (a live session's next task)."""
-        self.max_force_sq = 0.0
-        self.trace_truth = TraceTruth(self.ctx)
-        self._with_trace = [*self._steppers, self.trace_truth.on_step]
+    def set_observers(self, observers: Iterable[object]) -> None:
+        """Observers whose `on_step(ctx)` runs after every physics step (`StepObserver`: a
+        recorder, the plant instrumentation of bench/physical_honesty.py); the others cost the
+        step nothing."""
+        self._observer_steps = [obs.on_step for obs in observers if isinstance(obs, StepObserver)]
+        # observers first, then the belt (the order the run has always had)
+        self._steppers = [*self._observer_steps, *self._belt]
+        truth = [self.trace_truth.on_step] if self.trace_truth is not None else []
+        self._with_trace = [*self._steppers, *truth]
 
     def tick(self, executor: Executor | None, end_stop: Stopper | None = None) -> str | None:
         """One control tick of physics: `n_sub` steps, guards checked after every one.
@@ -115,12 +135,15 @@ class StepLoop:
         Returns:
             None, or why the physics diverged (a NaN or MuJoCo's own reset warnings).
         """
-        ctx = self.ctx
-        data, model = ctx.data, ctx.model
+        ctx, cell = self.ctx, self.cell
+        assert ctx is not None, "StepLoop.bind(ctx) first"
+        world = cell.world
+        data, model = world.data, world.model
         ctrl, act_idx = data.ctrl, self._act_idx
-        compute, read_encoders, mj_step = ctx.controller.compute, ctx.encoders.read, mujoco.mj_step
-        clock, dt = ctx.world.step_clock, ctx.dt_physics
-        true_force_sq = ctx.true_wrist_force_norm_sq
+        compute, read_encoders = cell.controller.compute, cell.encoders.read
+        mj_step = mujoco.mj_step
+        clock, dt = world.step_clock, cell.dt_physics
+        true_force_sq = cell.wrist.true_norm_sq
         max_force_sq = self.max_force_sq
         injector = self.injector
         inf = math.inf
@@ -136,8 +159,8 @@ class StepLoop:
         # a trace (a contact skill) starts and ends in tick(): its ground-truth probe runs on
         # the steps of the ticks it is running, nothing is called on the others
         steppers = self._steppers if ctx.trace is None else self._with_trace
-        fault = ctx.actuator_fault  # set by a fault: only in fire_due()
-        ctx.advance_gripper(executor.rate if executor is not None else 1.0)
+        fault = cell.actuator_fault  # set by a fault: only in fire_due()
+        cell.hand.advance(executor.rate if executor is not None else 1.0)
         for _ in range(self.n_sub):
             tau = compute(*read_encoders())
             if fault is not None:
@@ -153,7 +176,7 @@ class StepLoop:
             if due != inf and clock.t >= due - 1e-9:
                 assert injector is not None and executor is not None
                 injector.fire_due(clock.t)
-                fault = ctx.actuator_fault
+                fault = cell.actuator_fault
                 checks = executor.active_checks
                 stop = executor.stop if end_stop is None else end_stop
                 due = injector.next_t
@@ -178,7 +201,7 @@ class StepLoop:
         assert fault is ctx.actuator_fault, "an actuator fault was set outside fire_due()"
         assert injector is None or due == injector.next_t, "a fault was scheduled mid-tick"
         self.max_force_sq = max_force_sq
-        ctx.tick += 1
+        cell.tick += 1
         return self.diverged(executor.leaf if executor is not None else "")
 
     def diverged(self, leaf: str) -> str | None:
@@ -188,5 +211,5 @@ class StepLoop:
         qpos = self._qpos
         finite = math.isfinite(sum(qpos.tolist())) or bool(np.isfinite(qpos).all())
         if not finite or any(self._diverged_warnings()):
-            return f"physics diverged at t={self.ctx.t:.3f} s (state {leaf})"
+            return f"physics diverged at t={self.cell.world.step_clock.t:.3f} s (state {leaf})"
         return None

@@ -58,7 +58,7 @@ class TraceTruth:
         tip = self._tip
         cross = true.deviation(tip)
         along = true.progress(spec.reference) - true.progress(tip)
-        fx, fy, fz = ctx.true_wrist_force()
+        fx, fy, fz = ctx.cell.wrist.true_force()
         n = spec.normal
         f_n = -(fx * n[0] + fy * n[1] + fz * n[2])
         self.steps += 1

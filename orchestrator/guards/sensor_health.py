@@ -70,7 +70,7 @@ class SensorHealth(Guard):
         norm_sq = ctx.wrist_force_norm_sq()
         if not norm_sq <= self._range_sq:  # NaN compares false too
             return self._ft(norm_sq)
-        age = 0.0 if ctx.ft_fault is None else ctx.wrist_force_age_s()
+        age = ctx.wrist_force_age_s()
         if age > self._stale_s:
             return Violation(
                 self.name,
@@ -90,7 +90,7 @@ class SensorHealth(Guard):
                         round(a, 3),
                     )
         safety = self._safety_q.tolist()
-        encoders = ctx.encoders
+        encoders = ctx.cell.encoders
         if encoders.fault is None or encoders.failed_over:
             # the primary channel reads the safety channel's values: they can only disagree
             # by a NaN (NaN != NaN), which makes the sum NaN; compare in full only then
@@ -114,7 +114,7 @@ class SensorHealth(Guard):
         return Envelope(
             bounds=(
                 # a sensor fault (a stale or disagreeing channel) makes `check` decide
-                (ctx.sensor_faults, [0.0, 0.0], [0.0, 0.0]),
+                (ctx.cell.sensor_faults, [0.0, 0.0], [0.0, 0.0]),
                 # the safety encoders finite (NaN or inf: `check` decides)
                 (self._safety_q, [-big] * n, [big] * n),
             ),

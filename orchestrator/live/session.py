@@ -42,14 +42,15 @@ import uuid
 from collections import deque
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 
 from ..engine.blackboard import Blackboard
-from ..engine.episode import make_controller
+from ..engine.cell import Cell
+from ..engine.context import Context
 from ..engine.prepare import prepare
-from ..engine.runner import Observer, make_context
+from ..engine.runner import Observer
 from ..engine.safety_stop import SafetyStop
 from ..engine.step import StepLoop
 from ..exceptions import ConfigError
@@ -63,8 +64,11 @@ from .motion import MotionProbe
 from .protocol import PRIORITY, Command, Reply
 from .snapshot_writer import SNAPSHOT_BYTES, SNAPSHOT_COUNT, SnapshotWriter
 from .supervision import blocked_refusal, busy_reason, idle_refusal, status_message, watchdog
-from .task import Task
+from .task import Closeable, Task
 from .time_travel import TIME_TRAVEL, apply_time_travel, capture, submit_time_travel
+
+if TYPE_CHECKING:
+    from ..world.world import World
 
 __all__ = ["GRIPPER_SKILLS", "RECOVER", "Session"]
 
@@ -129,31 +133,24 @@ class Session:
         self.allow_paths = tuple(allow_paths)
         """Directories besides the scenario's tree that a task's machine may come from."""
         self._observer: Observer | None = None
-        self.scenario_ref, self.name, self.speed, self.watchdog_s = (
-            scenario,
-            name,
-            speed,
-            watchdog_s,
-        )
+        self.scenario_ref, self.name = scenario, name
+        self.speed, self.watchdog_s = speed, watchdog_s
         prepared = prepare(scenario, seed, allow_paths=self.allow_paths)  # as `run` does
         self.loaded = prepared.loaded
-        scn = self.loaded.scenario
         assert prepared.world is not None
-        self.world = world = prepared.world
-        dt = float(world.model.opt.timestep)
-        self.controller = make_controller(world, seed)
-        self.n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
-        self.ctx = make_context(world, self.controller, Blackboard({}), seed, self.n_sub * dt)
-        self.loop = StepLoop(self.ctx, self.n_sub)
-        """Steps the world, task or not: the same code as `orchestrator run`'s."""
-        self.probe = MotionProbe(world.arm_dof)
+        self.cell = Cell.build(self.loaded.scenario, seed, prepared.world)
+        """The world and the robot's hardware, kept from task to task (the same assembly as
+        `orchestrator run`'s, engine/cell.py); its step loop steps the world, task or not."""
+        self.ctx = Context(self.cell, Blackboard({}))
+        """The idle world's context (between tasks: an e-stop's stop, the BLOCKED check);
+        each task runs in a fresh context of its own (`Task.ctx`)."""
+        self.probe = MotionProbe(self.world.arm_dof)
         """The arm's peak joint speed on every physics step (in the status: `arm_speed`)."""
-        self.loop.set_observers([self.probe])
-        mujoco.mj_forward(world.model, world.data)
+        self._idle_loop()
+        mujoco.mj_forward(self.world.model, self.world.data)
         self.publish: Publish = publish or (lambda leaf, msg: None)
-        self.inbox: queue.SimpleQueue[tuple[int, int, Command, Any, int, float]] = (
-            queue.SimpleQueue()
-        )
+        self.inbox: queue.SimpleQueue[tuple[int, int, Command, Any, int, float]]
+        self.inbox = queue.SimpleQueue()
         self._order = itertools.count()
         self.epoch = uuid.uuid4().hex[:8]
         """This session's random epoch: the first part of every task id."""
@@ -193,6 +190,21 @@ class Session:
         tick (BLOCKED; not before the first: the controller has not commanded anything yet)."""
         self._published_state = self.state
         """The state last published (its changes are events)."""
+
+    @property
+    def world(self) -> World:
+        """The session's world (its cell's)."""
+        return self.cell.world
+
+    @property
+    def loop(self) -> StepLoop:
+        """Steps the world, task or not: the same code as `orchestrator run`'s."""
+        return self.cell.loop
+
+    def _idle_loop(self) -> None:
+        """Step for the idle world: its own context (a task's is let go), not recorded."""
+        self.loop.bind(self.ctx)
+        self.loop.set_observers([self.probe])
 
     # -- commands (any thread) ----------------------------------------------------------
     def heartbeat(self, owner: str = "") -> None:
@@ -301,7 +313,7 @@ class Session:
                 check_goals(loaded, keys, self.world, q_arm)
         except GoalRejected as exc:
             return f"goal rejected: {exc}", None
-        return None, Task(next(self._ids), loaded, self.ctx, machine, self.loop)
+        return None, Task(next(self._ids), loaded, self.cell, machine)
 
     # -- the published state ------------------------------------------------------------
     @property
@@ -495,10 +507,9 @@ class Session:
         if task is None:
             return
         obs, self._observer = self._observer, None
-        self.loop.set_observers([self.probe])
-        close = getattr(obs, "close", None)
-        if close is not None:
-            close()
+        self._idle_loop()
+        if isinstance(obs, Closeable):
+            obs.close()
         self.task = None
         self._task_end_rejected(task, f"ended: {reason}")
 
@@ -552,10 +563,11 @@ class Session:
         result = task.result
         assert result is not None and task.executor is not None
         obs = self._observer
-        self.loop.set_observers([self.probe])  # the idle world is not recorded
+        assert task.ctx is not None
         if obs is not None:
-            obs.on_end(self.ctx, task.executor, result)
+            obs.on_end(task.ctx, task.executor, result)
             self._observer = None
+        self._idle_loop()
         self.last_result = {
             "task": task.id,
             "machine": task.machine_ref,
@@ -577,18 +589,5 @@ class Session:
             self.publish("heartbeat", {"t": round(wall - self._wall0, 4), "tick": self.ticks})
 
     def _pace(self) -> None:
-        busy = self.task is not None and not (self.task.executor and self.task.executor.paused)
-        speed = self.speed if busy else (self.speed or 1.0)
-        wall0, sim0, anchored_speed = self._anchor
-        now, sim = time.perf_counter(), self.ctx.t
-        if speed != anchored_speed:
-            self._anchor = (now, sim, speed)
-            return
-        if speed <= 0.0:
-            return
-        ahead = wall0 + (sim - sim0) / speed - now
-        if ahead > 0.0005:
-            self._wake.wait(ahead)  # an e-stop ends the wait: its tick starts at once
-            self._wake.clear()
-        elif ahead < -0.5:  # cannot keep up: start counting again from here
-            self._anchor = (now, sim, speed)
+        """Keep simulated time to the wall clock (live/supervision.py `pace`)."""
+        supervision.pace(self)

@@ -30,9 +30,8 @@ import mujoco
 import numpy as np
 
 from ..engine.blackboard import Blackboard
+from ..engine.cell import Cell
 from ..engine.context import Context
-from ..engine.episode import make_controller
-from ..engine.runner import make_context
 from ..engine.safety_stop import SafetyStop
 from ..engine.snapshot import SnapshotError, local_skill_files, read_snapshot, write_snapshot
 from ..engine.snapshot.run_snapshot import check_any_header, check_versions, file_digest
@@ -133,13 +132,10 @@ def read_session(path: Path, loaded: LoadedScenario) -> tuple[SessionState, dict
         tree = json.loads(raw.tobytes())
     except (ValueError, UnicodeDecodeError, RecursionError) as exc:
         raise SnapshotError(f"{path}: broken snapshot world: {str(exc)[:200]}") from None
-    scn = loaded.scenario
-    world = World.build(scn, seed)
-    dt = float(world.model.opt.timestep)
-    controller = make_controller(world, seed)
-    n_sub = max(1, round(1.0 / (scn.physics.control_hz * dt)))
-    ctx = make_context(world, controller, Blackboard({}), seed, n_sub * dt)
-    loop = StepLoop(ctx, n_sub)
+    cell = Cell.build(loaded.scenario, seed)  # as the session built its own
+    world, controller, loop = cell.world, cell.controller, cell.loop
+    ctx = Context(cell, Blackboard({}))
+    loop.bind(ctx)
     mujoco.mj_forward(world.model, world.data)
     apply_world(tree, arrays, ctx, str(path))
     controller.hold(ctx.q)  # no task comes back: the arm holds where it is

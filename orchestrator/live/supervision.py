@@ -1,7 +1,8 @@
 """What a live session decides about its clients, apart from the control loop: the queue
 policy's answer to a `run` (`busy_reason`), why a command would change nothing
 (`idle_refusal`) or cannot start while BLOCKED (`blocked_refusal`), the owner's watchdog
-(`watchdog`) and the status message (`status_message`). Functions of the session
+(`watchdog`), the status message (`status_message`) and the pacing of simulated time to the
+wall clock (`pace`). Functions of the session
 (live/session.py) that read and change its state, where the session calls them: admission on
 the command threads, the watchdog on the loop, the status for the loop and for queries.
 """
@@ -22,9 +23,32 @@ __all__ = [
     "busy_reason",
     "estop_task",
     "idle_refusal",
+    "pace",
     "status_message",
     "watchdog",
 ]
+
+
+def pace(session: Any) -> None:
+    """Wait, if simulated time runs ahead of the wall clock at the session's speed (a running
+    task at `speed`; an idle or paused robot at real time, or `speed` if set). An e-stop
+    ends the wait (`session._wake`); a loop that cannot keep up starts counting again."""
+    task = session.task
+    busy = task is not None and not (task.executor and task.executor.paused)
+    speed = session.speed if busy else (session.speed or 1.0)
+    wall0, sim0, anchored_speed = session._anchor
+    now, sim = time.perf_counter(), session.ctx.t
+    if speed != anchored_speed:
+        session._anchor = (now, sim, speed)
+        return
+    if speed <= 0.0:
+        return
+    ahead = wall0 + (sim - sim0) / speed - now
+    if ahead > 0.0005:
+        session._wake.wait(ahead)  # an e-stop ends the wait: its tick starts at once
+        session._wake.clear()
+    elif ahead < -0.5:  # cannot keep up: start counting again from here
+        session._anchor = (now, sim, speed)
 
 
 def busy_reason(session: Any, cmd: Command) -> str | None:

@@ -1,25 +1,36 @@
 """One task of a live session: a machine run on the session's world, one control tick at a time.
 
-The session's world, controller and context persist between tasks (the cube stays where the
-last task put it, the gripper keeps its grip); each task gets its own executor, guards,
-blackboard and result. The end of a task is the end of an episode in `orchestrator run`:
-after an abort the controlled stop brings the arm to rest; otherwise the arm is brought to
-rest gently and the scene settles for `SETTLE_S` before success is judged.
+The session's cell persists between tasks (engine/cell.py: the world, the controller, the hand
+and the sensors — the cube stays where the last task put it, the gripper keeps its grip);
+each task is an episode of its own: a fresh `Context` (blackboard, events, metrics, task log,
+skills' clock, grasp heights, camera shots), its own executor, guards and result. The end of
+a task is the end of an episode in `orchestrator run`: after an abort the controlled stop
+brings the arm to rest; otherwise the arm is brought to rest gently and the scene settles for
+`SETTLE_S` before success is judged.
 """
 
 from __future__ import annotations
 
 import time
+from typing import Protocol, runtime_checkable
 
+from ..engine.cell import Cell
 from ..engine.context import Context
 from ..engine.episode import Episode, initial_blackboard, make_executor
 from ..engine.executor import Executor, Stopper
 from ..engine.result import RunResult
-from ..engine.step import StepLoop
-from ..engine.tasks import TaskLog
+from ..engine.runner import tell_start
 from ..language.load import LoadedScenario
 
-__all__ = ["Task"]
+__all__ = ["Closeable", "Task"]
+
+
+@runtime_checkable
+class Closeable(Protocol):
+    """A task's observer that holds something to free when its task is dropped without an
+    end (a restore ends it where it is): a recorder closes its recording (live/session.py)."""
+
+    def close(self) -> None: ...
 
 
 class Task:
@@ -28,23 +39,25 @@ class Task:
     Args:
         task_id: The session's id for it (`<epoch>-<n>`).
         loaded: The task's machine, loaded with the scenario and the command's `--set`.
-        ctx: The session's context (its blackboard and metrics are replaced).
+        cell: The session's cell (its world and hardware; its step loop steps the task).
         machine_ref: The machine as the command named it.
-        loop: Steps the session's world (shared by its tasks).
+
+    Attributes:
+        ctx: The task's own context, made when it starts (None before).
     """
 
     def __init__(
         self,
         task_id: str,
         loaded: LoadedScenario,
-        ctx: Context,
+        cell: Cell,
         machine_ref: str,
-        loop: StepLoop,
     ) -> None:
         self.id = task_id
-        self.loop = loop
+        self.cell = cell
+        self.loop = cell.loop
         self.loaded = loaded
-        self.ctx = ctx
+        self.ctx: Context | None = None
         self.machine_ref = machine_ref
         self.executor: Executor | None = None
         self.episode: Episode | None = None
@@ -64,36 +77,31 @@ class Task:
 
     # -- lifecycle ------------------------------------------------------------------------
     def start(self, observers: list | None = None) -> None:
-        """Start the machine on the session's world (`observers` watch it: a recorder)."""
-        ctx, scn, loop = self.ctx, self.loaded.scenario, self.loop
-        ctx.world.release_brakes()  # engaged by the last task's stop, if any: motors take over
-        ctx.blackboard = initial_blackboard(self.loaded.machine, scn.blackboard)
-        ctx.metrics = {}
-        ctx.tasks = TaskLog()
-        ctx.clock_offset = 0.0
-        ctx.clock_rate = 1.0
-        ctx.ik_target = None
-        ctx.planned_path = None
-        loop.reset_peaks()
+        """Start the machine on the session's world, in a fresh context (`observers` watch it:
+        a recorder)."""
+        scn, loop = self.loaded.scenario, self.loop
+        self.cell.world.release_brakes()  # engaged by the last task's stop: motors take over
+        self.ctx = ctx = Context(self.cell, initial_blackboard(self.loaded.machine, scn.blackboard))
+        loop.bind(ctx)
         loop.set_observers(observers or [])
         self.executor = make_executor(self.loaded, ctx)
         self.episode = Episode(self.loaded, ctx, self.executor, loop, observers or [])
         self.wall0 = time.perf_counter()
-        for obs in observers or []:
-            obs.on_start(ctx, self.executor)
+        tell_start(observers or [], ctx, self.executor, resumed=False)
         self.episode.start()
 
     def resume(self, observers: list | None = None) -> None:
         """Continue this task as restored from a session snapshot (live/snapshots.py): its
-        machine where it was; `observers` told `on_resume` (or `on_start`)."""
-        assert self.episode is not None and self.executor is not None
+        machine where it was; `observers` told `on_resume` where they implement
+        `ResumeObserver` (else `on_start`)."""
+        assert self.episode is not None and self.executor is not None and self.ctx is not None
         observers = observers or []
+        if self.loop.ctx is not self.ctx:
+            self.loop.bind(self.ctx)
         self.loop.set_observers(observers)
         self.episode.observers = list(observers)
         self.wall0 = time.perf_counter()
-        for obs in observers:
-            resume = getattr(obs, "on_resume", None)
-            (resume if resume is not None else obs.on_start)(self.ctx, self.executor)
+        tell_start(observers, self.ctx, self.executor, resumed=True)
 
     @property
     def t0(self) -> float:
@@ -131,7 +139,7 @@ class Task:
         assert self.episode is not None
         if not self.episode.tick():
             return False
-        result = self.episode.result(self.ctx.world.seed, time.perf_counter() - self.wall0)
+        result = self.episode.result(self.cell.world.seed, time.perf_counter() - self.wall0)
         result.metrics["t_start"] = round(self.t0, 6)
         if self.stopped_by is not None:
             result.metrics["stopped_by"] = self.stopped_by

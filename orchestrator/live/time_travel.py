@@ -18,6 +18,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+from ..engine.cell import Cell
 from ..engine.reload import apply_reload, reload_problems
 from ..engine.snapshot import SnapshotError
 from ..exceptions import ConfigError
@@ -43,7 +44,7 @@ class Session(Protocol):
 
     allow_paths: tuple[Path | str, ...]
     blocked: Blocked
-    controller: Any
+    cell: Cell
     ctx: Context
     epoch: str
     error: str | None
@@ -51,7 +52,6 @@ class Session(Protocol):
     idle_stop: Any
     probe: Any
     loaded: LoadedScenario
-    loop: StepLoop
     name: str
     publish: Callable[[str, dict[str, Any]], None]
     scenario_ref: str
@@ -59,8 +59,11 @@ class Session(Protocol):
     snapshots: SnapshotWriter
     task: Task | None
     ticks: int
-    world: World
 
+    @property
+    def world(self) -> World: ...
+    @property
+    def loop(self) -> StepLoop: ...
     @property
     def state(self) -> str: ...
     def drop_all(self, reason: str) -> None: ...
@@ -157,7 +160,7 @@ def capture(session: Session, path: Path) -> int:
     """Write the session's state as it is now to `path` (in the snapshot writer's child
     process); returns the file's size [bytes]."""
     state = SessionState(  # never the latch (ESTOPPED, ERROR): that is the session's own
-        session.world, session.ctx, session.controller, session.loop, session.task,
+        session.world, session.ctx, session.cell.controller, session.loop, session.task,
         session.idle_stop, session.blocked,
     )  # fmt: skip
     return write_session(path, state, session.loaded, session.name)
@@ -167,8 +170,10 @@ def _restore(
     session: Session, cmd: Command, path: Any, state: SessionState, header: dict[str, Any]
 ) -> None:
     session.drop_all(f"the session was restored from {path}")
-    session.world, session.ctx, session.controller = state.world, state.ctx, state.controller
-    session.loop, session.idle_stop, session.blocked = state.loop, state.idle_stop, state.blocked
+    cell = state.ctx.cell
+    assert isinstance(cell, Cell)  # read_session builds one
+    session.cell, session.ctx = cell, state.ctx  # the world's cell, its idle context
+    session.idle_stop, session.blocked = state.idle_stop, state.blocked
     # the latch is the session's, never the snapshot's: a restore keeps ESTOPPED and ERROR
     # as they are (it is refused while either holds) and a snapshot does not carry them
     session.loop.set_observers([session.probe])

@@ -118,7 +118,7 @@ class RerunRecorder:
         self._poses = scene.poses
         self._states = StateLog(scene.graph)
         self._signals = RobotSignals(ctx)
-        self._true_sq = ctx.true_wrist_force_norm_sq
+        self._true_sq = ctx.cell.wrist.true_norm_sq
         self._peak_sq = -1.0
         """Largest true |F|^2 [N^2] after a physics step since the last row (-1: none)."""
         self._targets = Targets()

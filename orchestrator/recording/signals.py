@@ -75,7 +75,7 @@ class RobotSignals:
         """Fields of the per-tick table: wrist force [N] (world), the peak true force norm
         since the last row [N], torques [N m], gripper width [m], TCP position [m] and the
         index of the IK target in `targets` (-1: none)."""
-        self._true_sq = ctx.true_wrist_force_norm_sq
+        self._true_sq = ctx.cell.wrist.true_norm_sq
         self.targets: list[np.ndarray] = []
         """Position [m] of every IK target seen, in order."""
         self._target: object = None
@@ -114,7 +114,7 @@ class RobotSignals:
         # the true force (noise-free sensor, true hand weight removed): a pure read. Reading
         # the sensed force at an instant no guard reads it would draw the sensor's noise one
         # more time and change the run (surgical_complication's abort force did change)
-        rows.force[i] = ctx.true_wrist_force()
+        rows.force[i] = ctx.cell.wrist.true_force()
         rows.tau[i] = ctx.controller.tau
         rows.grip[i] = ctx.gripper_width
         rows.tcp[i] = ctx.tcp_pos

@@ -2,8 +2,8 @@
 
 `orchestrator.world._native` (orchestrator/world/_native.c, built by `pip install` when a C
 compiler is present) computes the wrist sensor's noise (`WristForceNoise`) and the wrist force
-(`Context.wrist_force_norm_sq`, `true_wrist_force_norm_sq`) in C: the same operations in the
-same order, no fused multiply-add, so both paths give the same results bit for bit
+(`WristSensor.norm_sq`, `true_norm_sq`, world/wrist.py) in C: the same operations in the same
+order, no fused multiply-add, so both paths give the same results bit for bit
 (tests/test_native.py holds them to it). Without it, or with the environment variable
 `ORCHESTRATOR_PURE_PYTHON=1`, the pure-Python path runs.
 

@@ -168,7 +168,7 @@ class Panda(Robot):
         # finger with F (u - v / v_max), u in [-1, 1] its voltage (ctrl), v the finger's
         # speed. Stalled (squeezing an object) it pushes with F, the hand's grip force; free,
         # it runs at v_max at most, whatever it is told: the hand's speed limit lives in the
-        # plant, not in the software that drives it (engine/context.py, `advance_gripper`).
+        # plant, not in the software that drives it (robots/hand.py, `HandDrive.advance`).
         import mujoco
 
         # The back-EMF term is the fingers' viscous damping F / v_max: MuJoCo's implicit

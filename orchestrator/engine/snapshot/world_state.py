@@ -31,9 +31,10 @@ _INTEGRATION = mujoco.mjtState.mjSTATE_INTEGRATION
 
 def _parts(ctx: Context) -> dict[str, Any]:
     """The objects whose plain data is recorded, by name."""
-    parts = {"ctx": ctx, "controller": ctx.controller, "ik": ctx.ik, "world": ctx.world,
-             "clock": ctx.world.step_clock, "encoders": getattr(ctx, "encoders", None)}  # fmt: skip
-    return {k: v for k, v in parts.items() if v is not None}
+    cell = ctx.cell  # what lives as long as the world (engine/cell.py)
+    return {"ctx": ctx, "cell": cell, "hand": cell.hand, "wrist": cell.wrist,
+            "controller": cell.controller, "ik": cell.ik, "world": cell.world,
+            "clock": cell.world.step_clock, "encoders": cell.encoders}  # fmt: skip
 
 
 def capture_world(ctx: Context) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
