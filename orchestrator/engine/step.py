@@ -198,7 +198,7 @@ class StepLoop:
         # the guards, the actuator fault and the next fault's time, both handled above (tests:
         # tests/test_guard_step_loop.py)
         assert executor is None or checks == executor.active_checks, "guards changed mid-tick"
-        assert fault is ctx.actuator_fault, "an actuator fault was set outside fire_due()"
+        assert fault is cell.actuator_fault, "an actuator fault was set outside fire_due()"
         assert injector is None or due == injector.next_t, "a fault was scheduled mid-tick"
         self.max_force_sq = max_force_sq
         cell.tick += 1
