@@ -55,7 +55,10 @@ class JointAcceleration(Guard):
 
     name: ClassVar[str] = "joint_acceleration"
     Params: ClassVar[type[GuardParams]] = JointAccelerationParams
-    priority: ClassVar[int] = 1
+    priority: ClassVar[int] = 0
+    """Below the sensor and velocity guards, with the force and position ones: an excess
+    acceleration is most often the effect of a force (a push, an impact) that `contact_force`
+    names as the cause when both fire on one step (the scenario lists it first)."""
     ease_tolerance: ClassVar[float] = 1.0
     ease_unit: ClassVar[str] = "rad/s^2"
 

@@ -35,7 +35,6 @@ DEFAULT_SCENARIO: dict[str, Any] = {
         "contact_force": {"max_n": 60},
         "collision": {},
         "joint_velocity": {},
-        "joint_acceleration": {},
     },
     "physics": {"time_limit_s": 30},
 }
