@@ -15,6 +15,7 @@ import pytest
 from orchestrator.robots import Controller
 
 from orchestrator.engine.blackboard import Blackboard
+from orchestrator.engine.cell import Cell
 from orchestrator.engine.context import Context
 from orchestrator.engine.runner import run_episode
 from orchestrator.engine.safety_stop import SafetyStop
@@ -112,7 +113,7 @@ def _ctx() -> Context:
     world = World.build(load_scenario("pick_place").scenario, seed=0)
     ctrl = Controller(world.robot, float(world.model.opt.timestep))
     ctrl.hold(world.home)
-    ctx = Context(world, ctrl, Blackboard(), np.random.default_rng(0), 0.01)
+    ctx = Context(Cell(world, ctrl, 0), Blackboard())
     ctrl.tau[:] = world.data.ctrl[world.arm_act]
     mujoco.mj_forward(world.model, world.data)
     return ctx
