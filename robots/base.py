@@ -14,7 +14,14 @@ if TYPE_CHECKING:
     import mujoco
     import pinocchio as pin
 
-__all__ = ["CARTESIAN_MASS", "CONTACT_SOLIMP", "CONTACT_TIMECONST_S", "Gains", "Robot"]
+__all__ = [
+    "CARTESIAN_MASS",
+    "CONTACT_SOLIMP",
+    "CONTACT_TIMECONST_S",
+    "Datasheet",
+    "Gains",
+    "Robot",
+]
 
 CONTACT_TIMECONST_S = 0.004
 """Contact time constant (MuJoCo solref, damping ratio 1) of every rigid surface of a world:
@@ -84,6 +91,25 @@ class Gains:
         )
 
 
+@dataclass(frozen=True)
+class Datasheet:
+    """An arm's joint limits as its maker publishes them: what the robot test holds the
+    MuJoCo plant and the controller's model to (tests/test_robots.py).
+
+    Attributes:
+        position: Range of each arm joint [rad] ([m] for a base's linear joints), (lower,
+            upper). Shape (n_arm, 2).
+        velocity: Speed limit of each arm joint [rad/s] ([m/s]). Shape (n_arm,).
+        torque: Torque limit of each arm joint [Nm] ([N]). Shape (n_arm,).
+        source: Where the figures come from (document, edition).
+    """
+
+    position: tuple[tuple[float, float], ...]
+    velocity: tuple[float, ...]
+    torque: tuple[float, ...]
+    source: str
+
+
 CARTESIAN_MASS: tuple[float, ...] = (2.0, 2.0, 2.0, 0.1, 0.1, 0.1)
 """Nominal apparent mass [kg] x3 and inertia [kg m^2] x3 a critically damped default Cartesian
 impedance is sized for."""
@@ -141,6 +167,9 @@ class Robot(abc.ABC):
     `arm_joints`; empty for an arm fixed in the world."""
     base_body: ClassVar[str | None] = None
     """The chassis of a mobile base (cameras with `body: base` mount on it)."""
+    datasheet: ClassVar[Datasheet | None] = None
+    """The maker's joint limits (None: the robot documents none; the robot test then has
+    nothing to hold its model to and fails)."""
 
     @abc.abstractmethod
     def urdf_path(self) -> str:

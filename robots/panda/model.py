@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ..base import CONTACT_SOLIMP, CONTACT_TIMECONST_S, Gains, Robot
+from ..base import CONTACT_SOLIMP, CONTACT_TIMECONST_S, Datasheet, Gains, Robot
 from ..exceptions import RobotError
 from ..self_collision import add_self_collision_proxies
 
@@ -75,6 +75,21 @@ class Panda(Robot):
     gains: Gains = Gains(
         kp=np.array([600.0, 600.0, 600.0, 600.0, 250.0, 150.0, 50.0]),
         kd=np.array([50.0, 50.0, 50.0, 50.0, 20.0, 15.0, 5.0]),
+    )
+    datasheet: ClassVar[Datasheet | None] = Datasheet(
+        position=(
+            (-2.8973, 2.8973),
+            (-1.7628, 1.7628),
+            (-2.8973, 2.8973),
+            (-3.0718, -0.0698),
+            (-2.8973, 2.8973),
+            (-0.0175, 3.7525),
+            (-2.8973, 2.8973),
+        ),
+        velocity=(2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61),
+        torque=(87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0),
+        source="Franka Emika, Panda datasheet / FCI documentation, 'Limits for Panda' (joint "
+        "space: q, dq, tau)",
     )
     acceleration_limits: ClassVar[tuple[float, ...]] = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
     """Franka's datasheet joint acceleration limits [rad/s^2]."""
@@ -179,6 +194,10 @@ class Panda(Robot):
             joint = spec.joint(jname)
             joint.armature = 0.01
             joint.damping = [self.gripper_force_n / self.gripper_speed_mps, 0.0, 0.0]
+            # the end stops as firm as a contact: at MuJoCo's default (0.02 s, 0.9-0.95) the
+            # motor drove a light finger 15 mm past its 40 mm stroke (tests/test_robots.py)
+            joint.solref_limit = [CONTACT_TIMECONST_S, 1.0]
+            joint.solimp_limit = list(CONTACT_SOLIMP)
         for bname in self.finger_bodies:
             for geom in spec.body(bname).geoms:
                 geom.friction = [1.5, 0.01, 0.001]
