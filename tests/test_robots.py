@@ -247,10 +247,9 @@ def test_no_self_collision_at_home(name):
     ]
 
     def near(a, b):  # the same body, or joined by at most one joint (welds collapse)
-        pa, pb = model.body_parentid[a], model.body_parentid[b]
-        return a == b or pa == b or pb == a or pa == pb or (
-            model.body_parentid[pa] == b or model.body_parentid[pb] == a
-        )
+        pa, pb = int(model.body_parentid[a]), int(model.body_parentid[b])
+        family_a = {a, pa, int(model.body_parentid[pa])}
+        return b in family_a or pb in family_a
 
     overlaps = []
     fromto = np.zeros(6)
