@@ -247,9 +247,9 @@ def test_no_self_collision_at_home(name):
     ]
 
     def near(a, b):  # the same body, or joined by at most one joint (welds collapse)
-        pa, pb = int(model.body_parentid[a]), int(model.body_parentid[b])
-        family_a = {a, pa, int(model.body_parentid[pa])}
-        return b in family_a or pb in family_a
+        up_a = {a, int(model.body_parentid[a]), int(model.body_parentid[model.body_parentid[a]])}
+        up_b = {b, int(model.body_parentid[b]), int(model.body_parentid[model.body_parentid[b]])}
+        return b in up_a or a in up_b or int(model.body_parentid[a]) == int(model.body_parentid[b])
 
     overlaps = []
     fromto = np.zeros(6)
