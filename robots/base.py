@@ -20,8 +20,18 @@ __all__ = [
     "CONTACT_TIMECONST_S",
     "Datasheet",
     "Gains",
+    "ROBOT_CONAFFINITY",
+    "ROBOT_CONTYPE",
     "Robot",
+    "WORLD_CONAFFINITY",
+    "WORLD_CONTYPE",
 ]
+
+# Bit 1: robot geoms, bit 2: world geoms. Robot geoms do not collide with each other
+# (the controller never folds the arm onto itself in these flows, and self-collision
+# of the mesh links would dominate the step time: robots/self_collision.py has proxies).
+ROBOT_CONTYPE, ROBOT_CONAFFINITY = 1, 2
+WORLD_CONTYPE, WORLD_CONAFFINITY = 2, 3
 
 CONTACT_TIMECONST_S = 0.004
 """Contact time constant (MuJoCo solref, damping ratio 1) of every rigid surface of a world:
