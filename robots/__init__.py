@@ -14,11 +14,16 @@ from .base import Gains, Robot
 from .exceptions import RobotError
 from .mobile import MobilePanda
 from .panda import Panda
+from .ur5 import UR5
 
 if TYPE_CHECKING:
     from .controller import Controller, ControlMode
 
-ROBOTS: dict[str, type[Robot]] = {Panda.name: Panda, MobilePanda.name: MobilePanda}
+ROBOTS: dict[str, type[Robot]] = {
+    Panda.name: Panda,
+    MobilePanda.name: MobilePanda,
+    UR5.name: UR5,
+}
 
 
 def __getattr__(name: str) -> Any:
@@ -44,5 +49,6 @@ __all__ = [
     "Panda",
     "Robot",
     "RobotError",
+    "UR5",
     "get_robot",
 ]
