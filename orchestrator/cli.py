@@ -855,12 +855,12 @@ def _first_sentence(cls: type) -> str:
     return text.split(". ")[0].rstrip(".") + "." if text else ""
 
 
-SHOWS = ("skill", "check", "guard", "scenario", "machine")
+SHOWS = ("skill", "check", "guard", "scenario", "machine", "robot")
 
 
 @app.command()
 def show(
-    kind: Annotated[str, typer.Argument(help="skill, check, guard, scenario or machine")],
+    kind: Annotated[str, typer.Argument(help="skill, check, guard, scenario, machine or robot")],
     name: Annotated[str, typer.Argument(help="Its name (a scenario or machine: or a file).")],
     skills: SkillPaths = None,
 ) -> None:
@@ -878,8 +878,14 @@ def show(
         err.print(f"unknown kind {kind!r}{hint} (valid: {', '.join(SHOWS)})", markup=False)
         raise typer.Exit(EXIT_INVALID)
     _use_skills(skills)
-    if kind in ("skill", "check", "guard"):
-        table: dict = {"skill": all_skills(), "check": CHECKS, "guard": GUARDS}[kind]
+    if kind in ("skill", "check", "guard", "robot"):
+        # robot: robots/describe.py (issue 44)
+        from .robots import ROBOTS
+        from .robots.describe import robot_markdown
+
+        table: dict = {"skill": all_skills(), "check": CHECKS, "guard": GUARDS, "robot": ROBOTS}[
+            kind
+        ]
         if name not in table:
             hint = did_you_mean(name, table)
             valid = ", ".join(sorted(table))
@@ -889,6 +895,7 @@ def show(
             "skill": reference.skill_markdown,
             "check": reference.check_markdown,
             "guard": reference.guard_markdown,
+            "robot": robot_markdown,
         }[kind](table[name], level=1)
     elif kind == "scenario":
         from .language.load import load_scenario

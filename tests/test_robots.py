@@ -286,3 +286,19 @@ def test_gripper_opens_and_closes_to_its_stroke_at_its_speed(name):
         assert data.qpos[fingers] == pytest.approx([end] * len(fingers), abs=1e-3), command
         cruise = np.median(speeds[round(0.2 * stroke_s / dt) : round(0.8 * stroke_s / dt)])
         assert cruise == pytest.approx(robot.gripper_speed_mps, rel=0.1), command
+
+
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_show_robot_prints_its_joints_limits_and_their_source(cli, name):
+    robot = get_robot(name)
+    res = cli("show", "robot", name)
+    assert res.exit_code == 0, res.stdout
+    for joint in robot.arm_joints:
+        assert f"| `{joint}` |" in res.stdout
+    assert robot.datasheet is not None and robot.datasheet.source in res.stdout
+
+
+def test_show_robot_names_the_valid_robots_for_an_unknown_one(cli):
+    res = cli("show", "robot", "no_such_arm")
+    assert res.exit_code == 2
+    assert all(name in res.stderr for name in ROBOTS)
