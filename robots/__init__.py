@@ -14,6 +14,7 @@ from .base import Gains, Robot
 from .exceptions import RobotError
 from .mobile import MobilePanda
 from .panda import Panda
+from .so101 import SO101
 from .ur5 import UR5
 
 if TYPE_CHECKING:
@@ -23,6 +24,7 @@ ROBOTS: dict[str, type[Robot]] = {
     Panda.name: Panda,
     MobilePanda.name: MobilePanda,
     UR5.name: UR5,
+    SO101.name: SO101,
 }
 
 
@@ -49,6 +51,7 @@ __all__ = [
     "Panda",
     "Robot",
     "RobotError",
+    "SO101",
     "UR5",
     "get_robot",
 ]

@@ -90,10 +90,16 @@ def add_gripper(robot: Robot, spec: mujoco.MjSpec) -> None:
     import mujoco
 
     force, speed = robot.gripper_force_n, robot.gripper_speed_mps
+    jaw = len(robot.finger_joints) == 1
+    gear = robot.finger_m_per_unit  # [m] of each side's opening per unit of the joint
     for jname in robot.finger_joints:
         joint = spec.joint(jname)
-        joint.armature = 0.01
-        joint.damping = [force / speed, 0.0, 0.0]
+        if jaw:  # the motor's 2F at `gear`: F at the jaw; free, each side at v_max
+            joint.armature = 0.01 * gear * gear  # 10 g at the jaw, as a slide finger's
+            joint.damping = [2.0 * force * gear * gear / speed, 0.0, 0.0]
+        else:
+            joint.armature = 0.01
+            joint.damping = [force / speed, 0.0, 0.0]
         # the end stops as firm as a contact: at MuJoCo's default (0.02 s, 0.9-0.95) the
         # motor drove a light finger 15 mm past its 40 mm stroke (tests/test_robots.py)
         joint.solref_limit = [CONTACT_TIMECONST_S, 1.0]
@@ -104,10 +110,11 @@ def add_gripper(robot: Robot, spec: mujoco.MjSpec) -> None:
             geom.condim = 4
             geom.solref = [CONTACT_TIMECONST_S, 1.0]
             geom.solimp = list(CONTACT_SOLIMP)
-    if len(robot.finger_joints) == 1:
+    if jaw:  # its length: each side's opening [m]; its force: twice the jaw's [N]
         act = spec.add_actuator(name=robot.gripper_actuator, target=robot.finger_joints[0])
         act.trntype = mujoco.mjtTrn.mjTRN_JOINT
-        stall = force
+        act.gear[0] = gear
+        stall = 2.0 * force
     else:
         j1, j2 = robot.finger_joints
         # one motor drives both fingers through a rack and pinion: as stiff a coupling as
@@ -151,7 +158,8 @@ def add_sites_and_sensors(robot: Robot, spec: mujoco.MjSpec) -> None:
     torque = spec.add_sensor(name=robot.torque_sensor, type=mujoco.mjtSensor.mjSENS_TORQUE)
     torque.objtype, torque.objname = mujoco.mjtObj.mjOBJ_SITE, robot.wrist_site
     key = spec.add_key(name="home")
-    key.qpos = [*robot.home, *([robot.gripper_open_m] * len(robot.finger_joints))]
+    opening = robot.gripper_open_m / robot.finger_m_per_unit
+    key.qpos = [*robot.home, *([opening] * len(robot.finger_joints))]
     key.ctrl = [0.0] * (robot.n_arm + 1)
 
 

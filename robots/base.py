@@ -154,6 +154,12 @@ class Robot(abc.ABC):
     """Grip force each finger can press with in [N]."""
     gripper_speed_mps: ClassVar[float] = 0.05
     """Speed of each finger when opening or closing [m/s]."""
+    finger_m_per_unit: ClassVar[float] = 1.0
+    """Each finger's opening [m] per unit of its joint's coordinate: 1 for slide fingers (their
+    joints are the openings); for a revolute jaw closing on a fixed one (one finger joint, at
+    0 where the two meet), half the jaw's radius [m/rad]: the angle times the radius is the gap
+    at the jaw, and each side's opening is half the gap. `gripper_open_m`, `gripper_speed_mps`
+    and every opening a skill commands are in metres either way."""
     gains: Gains
     """The controller's gains: the robot's defaults (a class attribute), replaced on an
     instance by a scenario's `robot.gains` (`with_gains`)."""

@@ -26,7 +26,7 @@ def test_robot_alone_compiles_with_actuators_sites_and_home(name):
     )
 
 
-@pytest.mark.parametrize("name", sorted(ROBOTS))
+@pytest.mark.parametrize("name", sorted(n for n, r in ROBOTS.items() if len(r.finger_joints) == 2))
 def test_one_equality_couples_the_fingers_and_holds_them_together(name):
     """The URDF's <mimic> is not kept beside `finger_mimic` (the same constraint twice, one row
     more for every step's solver): one finger pushed shut with 5 N, the other follows it."""
@@ -265,25 +265,34 @@ def test_no_self_collision_at_home(name):
 
 @pytest.mark.parametrize("name", sorted(ROBOTS))
 def test_gripper_opens_and_closes_to_its_stroke_at_its_speed(name):
-    """The hand's motor at full voltage opens the fingers from closed to the stated stroke
-    (`gripper_open_m` each) and closes them again, each finger at the stated speed
-    (`gripper_speed_mps`, within 10 %) while moving freely."""
+    """The hand's motor at full voltage opens the fingers from closed to the end of their
+    travel and closes them again, each side at the stated speed (`gripper_speed_mps`, within
+    10 %) while moving freely. A slide gripper's travel is its stated stroke
+    (`gripper_open_m` each); a revolute jaw's `gripper_open_m` is a set point inside it. All
+    in metres of each side's opening (`finger_m_per_unit`: a jaw's angle times half its
+    radius)."""
     robot, model, data, arm_q, arm_v = _alone(name)
     fingers = [model.joint(j).qposadr[0] for j in robot.finger_joints]
+    lo, hi = model.jnt_range[model.joint(robot.finger_joints[0]).id] * robot.finger_m_per_unit
+    if len(fingers) == 2:
+        assert (lo, hi) == pytest.approx((0.0, robot.gripper_open_m))
+    else:
+        assert lo < robot.gripper_open_m < hi
     act = model.actuator(robot.gripper_actuator).id
-    data.qpos[fingers] = 0.0
+    data.qpos[fingers] = lo / robot.finger_m_per_unit
     mujoco.mj_forward(model, data)
     dt = model.opt.timestep
-    stroke_s = robot.gripper_open_m / robot.gripper_speed_mps
-    for command, end in ((1.0, robot.gripper_open_m), (-1.0, 0.0)):
+    stroke_s = (hi - lo) / robot.gripper_speed_mps
+    for command, end in ((1.0, hi), (-1.0, lo)):
         speeds = []
-        for _ in range(round(2.0 * stroke_s / dt)):
+        for _ in range(round(1.5 * stroke_s / dt)):
             data.ctrl[: robot.n_arm] = data.qfrc_bias[arm_v]  # the arm held against gravity
             data.ctrl[act] = command
             before = data.qpos[fingers[0]]
             mujoco.mj_step(model, data)
-            speeds.append(abs(data.qpos[fingers[0]] - before) / dt)
-        assert data.qpos[fingers] == pytest.approx([end] * len(fingers), abs=1e-3), command
+            speeds.append(abs(data.qpos[fingers[0]] - before) / dt * robot.finger_m_per_unit)
+        opening = data.qpos[fingers] * robot.finger_m_per_unit
+        assert opening == pytest.approx([end] * len(fingers), abs=1e-3), command
         cruise = np.median(speeds[round(0.2 * stroke_s / dt) : round(0.8 * stroke_s / dt)])
         assert cruise == pytest.approx(robot.gripper_speed_mps, rel=0.1), command
 

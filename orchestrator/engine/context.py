@@ -295,12 +295,13 @@ class Context:
     @property
     def gripper_width(self) -> float:
         """Distance between the fingers [m]."""
-        if self._fingers is None:
-            return float(self.data.qpos[self.world.finger_qpos].sum())
         if self._two_fingers:  # numpy's sum of two, the same float: it adds them to 0.0
             a, b = self._fingers.tolist()  # (so two -0.0 sum to 0.0, as numpy's does)
             return 0.0 + a + b
-        return float(self._fingers.sum())
+        # other hands (a revolute jaw: robots/so101): each joint's coordinate in metres of
+        # its side's opening (`Robot.finger_m_per_unit`), the two sides' sum the gap
+        q = self.data.qpos[self.world.finger_qpos]
+        return float(q.sum()) * self.world.robot.finger_m_per_unit * 2.0 / len(q)
 
     def wrist_force(self) -> np.ndarray:
         """External force on the hand in the world frame [N], hand weight removed. Shape (3,)."""
