@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import mujoco
 import numpy as np
 import pytest
@@ -97,10 +99,17 @@ def test_nothing_called_skills_or_robots_at_the_top_level(tmp_path):
 # pattern: one parameterized test over every model) ------------------------------------------
 
 
+@functools.cache
+def _compiled(name):
+    """The robot alone, compiled once per test session (a mesh-heavy arm takes seconds)."""
+    return get_robot(name).build_spec().compile()
+
+
 def _alone(name):
-    """The robot alone: its model compiled, data at the home keyframe, arm/finger indices."""
+    """The robot alone: its model compiled, data at the home keyframe, arm/finger indices.
+    The model is shared between tests: none changes it."""
     robot = get_robot(name)
-    model = robot.build_spec().compile()
+    model = _compiled(name)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)
