@@ -27,7 +27,15 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 
 from ..assembly import assemble
-from ..base import Datasheet, Gains, Robot
+from ..base import (
+    CONTACT_SOLIMP,
+    CONTACT_TIMECONST_S,
+    ROBOT_CONAFFINITY,
+    ROBOT_CONTYPE,
+    Datasheet,
+    Gains,
+    Robot,
+)
 from ..exceptions import RobotError
 
 if TYPE_CHECKING:
@@ -64,9 +72,18 @@ TCP_FROM_FIXED_JAW_M = 0.019
 """The TCP's distance from the fixed jaw's inner face [m]: the centre of the 30 mm cubes this
 arm picks, plus 4 mm of clearance on the fixed side (the moving jaw pushes a cube that much
 towards the fixed one as it closes)."""
-TCP_BELOW_TIPS_M = 0.02
-"""How far the TCP sits inside the jaws from their tips [m]: a 30 mm cube's centre, the tips
-5 mm above the table."""
+TCP_BELOW_TIPS_M = 0.0
+"""How far the TCP sits inside the jaws from the URDF's `gripper_frame_link` [m]: at it, 6 mm
+in from the tips. With the TCP at a 30 mm cube's centre the tips are 9 mm above the table
+(the fixed jaw's bounding box, which the grasp planner keeps clear of the table, 5 mm)."""
+
+FIXED_JAW_BOXES = (
+    ("so101_fixed_jaw", (-0.0139, -0.0002, -0.0786), (0.006, 0.009, 0.0255)),
+    ("so101_follower", (-0.0024, -0.0022, -0.0236), (0.0325, 0.026, 0.0245)),
+)
+"""Collision boxes of the fixed jaw and of the wrist-roll follower behind it, in the hand
+link's frame (name, centre [m], half sizes [m]): in the gripper frame (z out of the tips, x
+the opening) the jaw spans x 0..12 mm, y +-9 mm, z -45..6 mm, measured on the mesh."""
 
 
 def _so_arm_description() -> Path:
@@ -171,8 +188,8 @@ class SO101(Robot):
     no-load speed, its speed register set there)."""
     finger_m_per_unit: ClassVar[float] = JAW_RADIUS_M / 2.0
     gains: Gains = Gains(
-        kp=np.array([20.0, 30.0, 20.0, 8.0, 4.0]),
-        kd=np.array([0.8, 1.0, 0.8, 0.3, 0.15]),
+        kp=np.array([150.0, 150.0, 150.0, 60.0, 30.0]),
+        kd=np.array([2.4, 2.4, 2.4, 1.0, 0.5]),
         cartesian_stiffness=(100.0, 100.0, 100.0, 3.0, 3.0, 3.0),
     )
     datasheet: ClassVar[Datasheet | None] = DATASHEET
@@ -197,7 +214,29 @@ class SO101(Robot):
         return str(so101_urdf())
 
     def build_spec(self) -> mujoco.MjSpec:
-        return assemble(self, _so_arm_description() / "meshes" / "so101")
+        import mujoco
+
+        spec = assemble(self, _so_arm_description() / "meshes" / "so101")
+        # MuJoCo collides a mesh through its convex hull: the fixed jaw's part (one mesh with
+        # the wrist-roll follower) fills the gap between the jaw and the follower with a face
+        # sloping 7 mm into the grip at a 30 mm cube's top edge (the hand touched the cube on
+        # its way down). It collides as two boxes instead: the jaw, the follower behind it.
+        hand = spec.body(self.hand_body)
+        for geom in hand.geoms:
+            if geom.type == mujoco.mjtGeom.mjGEOM_MESH and "follower" in geom.meshname:
+                geom.contype = geom.conaffinity = 0
+        for name, centre, half in FIXED_JAW_BOXES:
+            box = hand.add_geom(
+                name=name, type=mujoco.mjtGeom.mjGEOM_BOX, pos=list(centre), size=list(half)
+            )
+            box.contype, box.conaffinity = ROBOT_CONTYPE, ROBOT_CONAFFINITY
+            box.solref = [CONTACT_TIMECONST_S, 1.0]
+            box.solimp = list(CONTACT_SOLIMP)
+            box.friction = [1.5, 0.01, 0.001]
+            box.condim = 4
+            box.density = 0.0  # the link's mass is the URDF's
+            box.group = 3
+        return spec
 
     def joint_armature(self, joint: str) -> float:
         del joint
