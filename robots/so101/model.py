@@ -68,14 +68,15 @@ the tip gap grows by 6.9 mm per 0.1 rad near closed, 6.5 mm per 0.1 rad further 
 JAW_ZERO_RAD = -0.236
 """Angle of the shipped jaw joint at which its inner face meets the fixed jaw's [rad] (15.8
 mm / 0.067 m before the shipped zero)."""
-TCP_FROM_FIXED_JAW_M = 0.019
-"""The TCP's distance from the fixed jaw's inner face [m]: the centre of the 30 mm cubes this
+TCP_FROM_FIXED_JAW_M = 0.014
+"""The TCP's distance from the fixed jaw's inner face [m]: the centre of the 20 mm cubes this
 arm picks, plus 4 mm of clearance on the fixed side (the moving jaw pushes a cube that much
-towards the fixed one as it closes)."""
+towards the fixed one as it closes). A jaw closing on a fixed one has no centre of its own:
+like a real SO-101's users, the TCP is set for the objects it handles."""
 TCP_BELOW_TIPS_M = 0.0
 """How far the TCP sits inside the jaws from the URDF's `gripper_frame_link` [m]: at it, 6 mm
-in from the tips. With the TCP at a 30 mm cube's centre the tips are 9 mm above the table
-(the fixed jaw's bounding box, which the grasp planner keeps clear of the table, 5 mm)."""
+in from the tips. With the TCP at a 20 mm cube's centre the tips are 4 mm above the table
+(its lowest collision box, the fixed jaw's, 6 mm below the TCP)."""
 
 FIXED_JAW_BOXES = (
     ("so101_fixed_jaw", (-0.0139, -0.0002, -0.0786), (0.006, 0.009, 0.0255)),
@@ -182,7 +183,7 @@ class SO101(Robot):
     gripper_force_n: ClassVar[float] = 10.0
     """[N] at the jaw's inner face: 0.67 Nm, 23 % of the servo's stall torque, the torque
     limit LeRobot's SO-101 follower sets on its gripper servo so that it does not burn out
-    squeezing (`max_gripper_torque`-style current limit); a 30 g cube needs 0.15 N."""
+    squeezing (a current limit); a 10 g cube needs 0.05 N."""
     gripper_speed_mps: ClassVar[float] = 0.05
     """[m/s] per side (0.1 m/s at the tips, the jaw at 1.5 rad/s: a third of the servo's
     no-load speed, its speed register set there)."""
@@ -201,8 +202,9 @@ class SO101(Robot):
     shoulder_height_m: ClassVar[float] = 0.1166
     """The shoulder-lift axis above the base [m] (the URDF's 0.0624 + 0.0542)."""
     reach_m: ClassVar[float] = 0.30
-    """From the shoulder to the TCP, hand pointing down [m] (upper arm 0.116, forearm 0.135,
-    the wrist and jaws ~0.1 below: ~0.3 in front of the shoulder)."""
+    """Farthest TCP, hand pointing down, from the pan axis at shoulder height [m] (`shoulder`
+    is on the axis; the shoulder-lift axis is 69 mm ahead of it): upper arm 0.116, forearm
+    0.135 and the wrist, the jaws hanging ~0.1 below."""
     self_collision_bodies: ClassVar[tuple[str, ...]] = ()
     """None: the arm's links are small servo housings a capsule fits badly; its flows keep
     the arm stretched out over the table."""
