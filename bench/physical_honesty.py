@@ -76,6 +76,7 @@ RUNS = {
     "reach_random": 20,
     "pick_place_ur5": 20,
     "sorting_ur5": 5,
+    "pick_place_so101": 20,
 }
 """Every bundled scenario and its default number of seeds (0..N-1)."""
 LIMITS = {
@@ -123,6 +124,8 @@ class StepProbe:
         self.accel_free_steps = 0
         self.finger_speed = 0.0
         self.finger_speed_limit = float(ctx.robot.gripper_speed_mps)
+        self.finger_scale = float(ctx.robot.finger_m_per_unit)
+        """[m] of each side's opening per unit of a finger joint (a revolute jaw's radius / 2)."""
         """The robot's own finger speed [m/s] (the Franka Hand's and the UR5's gripper's 0.05)."""
         self.obj_pen_rest = 0.0
         self.obj_pen = 0.0
@@ -202,7 +205,7 @@ class StepProbe:
             self._worst("a_free", ratio, leaf)
             self.accel_free_steps += over
         for dof in self.finger_dof:
-            speed = abs(float(qvel[dof]))
+            speed = abs(float(qvel[dof])) * self.finger_scale
             if speed > self.finger_speed:
                 self.finger_speed, self.where["finger"] = speed, leaf
         tau = np.abs(d.actuator_force[self.act]) / self.tlim
