@@ -194,9 +194,9 @@ class SO101(Robot):
         cartesian_stiffness=(100.0, 100.0, 100.0, 3.0, 3.0, 3.0),
     )
     datasheet: ClassVar[Datasheet | None] = DATASHEET
-    acceleration_limits: ClassVar[tuple[float, ...]] = (20.0,) * 5
-    """[rad/s^2]: Feetech publishes none; the STS3215's acceleration register's default
-    ramp (an assumption)."""
+    acceleration_limits: ClassVar[tuple[float, ...]] = (39.0,) * 5
+    """[rad/s^2]: the STS3215's acceleration register at its largest (254 x 100 steps/s^2,
+    4096 steps a turn: 39 rad/s^2), the fastest ramp the servo runs."""
     jerk_limits: ClassVar[tuple[float, ...]] = (2000.0,) * 5
     """[rad/s^3], an assumption likewise."""
     shoulder_height_m: ClassVar[float] = 0.1166
