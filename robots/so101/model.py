@@ -194,9 +194,12 @@ class SO101(Robot):
         cartesian_stiffness=(100.0, 100.0, 100.0, 3.0, 3.0, 3.0),
     )
     datasheet: ClassVar[Datasheet | None] = DATASHEET
-    acceleration_limits: ClassVar[tuple[float, ...]] = (39.0,) * 5
-    """[rad/s^2]: the STS3215's acceleration register at its largest (254 x 100 steps/s^2,
-    4096 steps a turn: 39 rad/s^2), the fastest ramp the servo runs."""
+    acceleration_limits: ClassVar[tuple[float, ...]] = (20.0,) * 5
+    """[rad/s^2]: Feetech publishes no limit (the STS3215's acceleration register tops out at
+    254 x 100 steps/s^2, 39 rad/s^2): an assumption, about half of that. At 39 the IK's
+    commands (0.7 of it) made the light elbow ring on pick_place_so101's carry, 187 rad/s^2
+    for a few steps (bench/physical_honesty.py); at 20 the worst is the jaw's squeeze jolting
+    the links, 1.7x for up to 9 steps an episode."""
     jerk_limits: ClassVar[tuple[float, ...]] = (2000.0,) * 5
     """[rad/s^3], an assumption likewise."""
     shoulder_height_m: ClassVar[float] = 0.1166
