@@ -34,7 +34,9 @@ def robot_markdown(cls: type[Robot], level: int = 1) -> str:
         f"* TCP: site `{robot.tcp_site}` (URDF frame `{robot.tcp_frame}`), hand body "
         f"`{robot.hand_body}`",
         f"* shoulder height {robot.shoulder_height_m:g} m, reach {robot.reach_m:.3f} m",
-        f"* gripper: {2 * robot.gripper_open_m * 1000:g} mm stroke, "
+        f"* gripper: {2 * robot.gripper_open_m * 1000:g} mm "
+        + ("open (its set point)" if len(robot.finger_joints) == 1 else "stroke")
+        + ", "
         f"{robot.gripper_force_n:g} N per finger, {robot.gripper_speed_mps * 1000:g} mm/s per "
         "finger",
         "",
