@@ -3,14 +3,16 @@
 For each episode an observer's `on_step` reads MuJoCo's ground truth after every `mj_step`
 (500 Hz) and keeps the worst of:
 
-* joint speed |q̇| over the Panda's limit (the URDF's velocity limits), per joint;
+* joint speed |q̇| over the robot's limit (the URDF's velocity limits: the datasheet's,
+  tests/test_robots.py), per joint;
 * joint acceleration |Δq̇ / Δt| over the datasheet limits, per joint — also "outside contact
   events" (no contact of a robot geom other than the grasp in the last 10 ms);
 * motor torque |τ| over the effort limit, and how many steps a motor sat at its limit
   (all, and outside contact events);
 * how many steps any joint's acceleration was above its limit (also outside contact events);
 * finger penetration into any object (the deepest finger contact) [mm];
-* the fastest finger [m/s] (the Franka Hand: 0.05 m/s per finger);
+* the fastest finger [m/s], and its ratio to the robot's own finger speed (the Franka Hand
+  and the UR5's 2F-85-class gripper: 0.05 m/s per finger);
 * the deepest contact of a free object with anything but the tissue phantom (the table, a bin,
   the floor, the belt, another object, a finger) [mm]: at rest (every free object and finger
   in the contact slower than `REST_SPEED_MPS` for `REST_S`: fingers closing on a still cube
@@ -72,12 +74,15 @@ RUNS = {
     "surgical_complication": 20,
     "stack": 10,
     "reach_random": 20,
+    "pick_place_ur5": 20,
+    "sorting_ur5": 5,
+    "pick_place_so101": 20,
 }
 """Every bundled scenario and its default number of seeds (0..N-1)."""
 LIMITS = {
     "max_accel_ratio": 1.0,
     "accel_steps": 0,
-    "finger_speed_mps": 0.05,
+    "finger_speed_ratio": 1.0,
     "penetration_rest_mm": 1.0,
     "penetration_after_contact_mm": 3.0,
 }
@@ -118,6 +123,10 @@ class StepProbe:
         self.accel_steps = 0
         self.accel_free_steps = 0
         self.finger_speed = 0.0
+        self.finger_speed_limit = float(ctx.robot.gripper_speed_mps)
+        self.finger_scale = float(ctx.robot.finger_m_per_unit)
+        """[m] of each side's opening per unit of a finger joint (a revolute jaw's radius / 2)."""
+        """The robot's own finger speed [m/s] (the Franka Hand's and the UR5's gripper's 0.05)."""
         self.obj_pen_rest = 0.0
         self.obj_pen = 0.0
         self.obj_pen_after = 0.0
@@ -196,7 +205,7 @@ class StepProbe:
             self._worst("a_free", ratio, leaf)
             self.accel_free_steps += over
         for dof in self.finger_dof:
-            speed = abs(float(qvel[dof]))
+            speed = abs(float(qvel[dof])) * self.finger_scale
             if speed > self.finger_speed:
                 self.finger_speed, self.where["finger"] = speed, leaf
         tau = np.abs(d.actuator_force[self.act]) / self.tlim
@@ -230,6 +239,7 @@ class StepProbe:
             "accel_steps": self.accel_steps,
             "accel_steps_outside_contact": self.accel_free_steps,
             "finger_speed_mps": round(self.finger_speed, 5),
+            "finger_speed_ratio": round(self.finger_speed / self.finger_speed_limit, 4),
             "penetration_rest_mm": round(self.obj_pen_rest * 1000, 4),
             "penetration_mm": round(self.obj_pen * 1000, 4),
             "penetration_after_contact_mm": round(self.obj_pen_after * 1000, 4),
@@ -276,6 +286,7 @@ FIGURES = [
     "saturated_steps",
     "saturated_steps_outside_contact",
     "finger_speed_mps",
+    "finger_speed_ratio",
     "finger_penetration_mm",
     "penetration_rest_mm",
     "penetration_mm",

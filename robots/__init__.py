@@ -14,11 +14,18 @@ from .base import Gains, Robot
 from .exceptions import RobotError
 from .mobile import MobilePanda
 from .panda import Panda
+from .so101 import SO101
+from .ur5 import UR5
 
 if TYPE_CHECKING:
     from .controller import Controller, ControlMode
 
-ROBOTS: dict[str, type[Robot]] = {Panda.name: Panda, MobilePanda.name: MobilePanda}
+ROBOTS: dict[str, type[Robot]] = {
+    Panda.name: Panda,
+    MobilePanda.name: MobilePanda,
+    UR5.name: UR5,
+    SO101.name: SO101,
+}
 
 
 def __getattr__(name: str) -> Any:
@@ -44,5 +51,7 @@ __all__ = [
     "Panda",
     "Robot",
     "RobotError",
+    "SO101",
+    "UR5",
     "get_robot",
 ]

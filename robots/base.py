@@ -14,7 +14,24 @@ if TYPE_CHECKING:
     import mujoco
     import pinocchio as pin
 
-__all__ = ["CARTESIAN_MASS", "CONTACT_SOLIMP", "CONTACT_TIMECONST_S", "Gains", "Robot"]
+__all__ = [
+    "CARTESIAN_MASS",
+    "CONTACT_SOLIMP",
+    "CONTACT_TIMECONST_S",
+    "Datasheet",
+    "Gains",
+    "ROBOT_CONAFFINITY",
+    "ROBOT_CONTYPE",
+    "Robot",
+    "WORLD_CONAFFINITY",
+    "WORLD_CONTYPE",
+]
+
+# Bit 1: robot geoms, bit 2: world geoms. Robot geoms do not collide with each other
+# (the controller never folds the arm onto itself in these flows, and self-collision
+# of the mesh links would dominate the step time: robots/self_collision.py has proxies).
+ROBOT_CONTYPE, ROBOT_CONAFFINITY = 1, 2
+WORLD_CONTYPE, WORLD_CONAFFINITY = 2, 3
 
 CONTACT_TIMECONST_S = 0.004
 """Contact time constant (MuJoCo solref, damping ratio 1) of every rigid surface of a world:
@@ -84,6 +101,25 @@ class Gains:
         )
 
 
+@dataclass(frozen=True)
+class Datasheet:
+    """An arm's joint limits as its maker publishes them: what the robot test holds the
+    MuJoCo plant and the controller's model to (tests/test_robots.py).
+
+    Attributes:
+        position: Range of each arm joint [rad] ([m] for a base's linear joints), (lower,
+            upper). Shape (n_arm, 2).
+        velocity: Speed limit of each arm joint [rad/s] ([m/s]). Shape (n_arm,).
+        torque: Torque limit of each arm joint [Nm] ([N]). Shape (n_arm,).
+        source: Where the figures come from (document, edition).
+    """
+
+    position: tuple[tuple[float, float], ...]
+    velocity: tuple[float, ...]
+    torque: tuple[float, ...]
+    source: str
+
+
 CARTESIAN_MASS: tuple[float, ...] = (2.0, 2.0, 2.0, 0.1, 0.1, 0.1)
 """Nominal apparent mass [kg] x3 and inertia [kg m^2] x3 a critically damped default Cartesian
 impedance is sized for."""
@@ -118,6 +154,12 @@ class Robot(abc.ABC):
     """Grip force each finger can press with in [N]."""
     gripper_speed_mps: ClassVar[float] = 0.05
     """Speed of each finger when opening or closing [m/s]."""
+    finger_m_per_unit: ClassVar[float] = 1.0
+    """Each finger's opening [m] per unit of its joint's coordinate: 1 for slide fingers (their
+    joints are the openings); for a revolute jaw closing on a fixed one (one finger joint, at
+    0 where the two meet), half the jaw's radius [m/rad]: the angle times the radius is the gap
+    at the jaw, and each side's opening is half the gap. `gripper_open_m`, `gripper_speed_mps`
+    and every opening a skill commands are in metres either way."""
     gains: Gains
     """The controller's gains: the robot's defaults (a class attribute), replaced on an
     instance by a scenario's `robot.gains` (`with_gains`)."""
@@ -141,6 +183,9 @@ class Robot(abc.ABC):
     `arm_joints`; empty for an arm fixed in the world."""
     base_body: ClassVar[str | None] = None
     """The chassis of a mobile base (cameras with `body: base` mount on it)."""
+    datasheet: ClassVar[Datasheet | None] = None
+    """The maker's joint limits (None: the robot documents none; the robot test then has
+    nothing to hold its model to and fails)."""
 
     @abc.abstractmethod
     def urdf_path(self) -> str:

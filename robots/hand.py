@@ -94,6 +94,8 @@ class HandDrive:
         self._qpos, self._index = qpos, fingers
         self._fingers = qpos[fingers] if isinstance(fingers, slice) else None
         self._two_fingers = self._fingers is not None and len(self._fingers) == 2
+        self._m_per_unit = robot.finger_m_per_unit
+        """Metres of one side's opening per unit of a finger joint's coordinate."""
         self._ctrl, self._act = ctrl, actuator
         self._ref = robot.gripper_open_m
         """Where the drive is taking each finger [m]: the reference it servoes to."""
@@ -114,12 +116,13 @@ class HandDrive:
 
     def width(self) -> float:
         """Distance between the fingers [m]."""
-        if self._fingers is None:
-            return float(self._qpos[self._index].sum())
         if self._two_fingers:  # numpy's sum of two, the same float: it adds them to 0.0
             a, b = self._fingers.tolist()  # (so two -0.0 sum to 0.0, as numpy's does)
             return 0.0 + a + b
-        return float(self._fingers.sum())
+        # other hands (a revolute jaw: robots/so101): each joint's coordinate in metres of
+        # its side's opening (`Robot.finger_m_per_unit`), the two sides' sum the gap
+        q = self._qpos[self._index]
+        return float(q.sum()) * self._m_per_unit * 2.0 / len(q)
 
     @property
     def commanded(self) -> bool:

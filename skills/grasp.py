@@ -78,7 +78,10 @@ class Grasp(Skill):
     def step(self, ctx: Context) -> str | None:
         p = self.params
         elapsed = ctx.clock - self.t0
-        finger_speed = float(np.max(np.abs(ctx.data.qvel[ctx.world.robot_dof[ctx.robot.n_arm :]])))
+        finger_dof = ctx.world.robot_dof[ctx.robot.n_arm :]
+        finger_speed = float(np.max(np.abs(ctx.data.qvel[finger_dof]))) * (
+            ctx.robot.finger_m_per_unit  # [m/s] of opening (a revolute jaw's: robots/base.py)
+        )
         self.still_ticks = self.still_ticks + 1 if finger_speed < _STILL_MPS else 0
         closed = self.still_ticks >= 3 and ctx.gripper_commanded  # stopped, and squeezing
         if elapsed < p.settle_s or (not closed and elapsed < p.close_timeout_s):

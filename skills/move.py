@@ -167,7 +167,7 @@ class Move(Skill):
         pos1 = np.asarray(goal.pos) + np.asarray(p.offset)
         rot0 = ctx.tcp_rot.copy()
         if p.orientation == "keep":
-            rots = [rot0]
+            rots = [_keepable(ctx, rot0)]
         elif p.orientation == "down":
             yaw = yaw_of_rot(rot0)
             yaws = (
@@ -420,6 +420,27 @@ class Move(Skill):
         r_err = ctx.tcp_rot.T @ self.rot1
         ang_err = math.acos(max(-1.0, min(1.0, (np.trace(r_err) - 1.0) / 2.0)))
         return pos_err, ang_err
+
+
+FEW_AXES_DOWN_DEG = 2.0
+"""A hand of an arm with fewer than six joints pointing within this of straight down keeps its
+heading, pointing down (`_keepable`) [deg]."""
+
+
+def _keepable(ctx: Context, rot0: np.ndarray) -> np.ndarray:
+    """The start orientation `rot0` as the arm can keep it elsewhere. At a point, an arm with
+    fewer than six joints (the 5-axis SO-101) reaches only a 2-parameter family of
+    orientations: pointing straight down at any heading is among them throughout its
+    workspace, the few tenths of a degree of tilt a grasp's squeeze leaves the hand with are
+    not (pick_place's TRANSPORT failed `unreachable` by 0.6-1.2 deg). Such a hand, pointing
+    within `FEW_AXES_DOWN_DEG` of down, keeps its heading, pointing down; a six-joint arm keeps
+    `rot0` itself."""
+    robot = ctx.robot
+    if robot.n_arm - len(robot.base_joints) >= 6:
+        return rot0
+    if math.degrees(math.acos(max(-1.0, min(1.0, -float(rot0[2, 2]))))) > FEW_AXES_DOWN_DEG:
+        return rot0
+    return rot_down(yaw_of_rot(rot0))
 
 
 def _within_reach(ctx: Context, pos: np.ndarray) -> bool:

@@ -121,7 +121,9 @@ def test_show_scenario_shows_a_value_the_scenario_sets(cli, tmp_path: Path):
     [
         (("show", "skill", "mvoe"), "unknown skill 'mvoe' (did you mean 'move'?) (valid: "
          "approach, check_tool, contact,"),
-        (("show", "robot", "panda"), "unknown kind 'robot' (valid: skill, check, guard, "),
+        (("show", "robot", "pnada"), "unknown robot 'pnada' (did you mean 'panda'?) (valid: "
+         "mobile_panda, panda,"),
+        (("show", "arm", "panda"), "unknown kind 'arm' (valid: skill, check, guard, "),
         (("show", "check", "stakced"), "unknown check 'stakced' (did you mean 'stacked'?) "
          "(valid: gripper_clear, held,"),
         (("list", "skils"), "unknown list 'skils' (did you mean 'skills'?) (valid: scenarios, "

@@ -12,7 +12,7 @@ other scenario gets the generic matrix, every fault at t = 1 s, with no expectat
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 from ..engine.prepare import prepare
 from ..engine.result import EXIT_CODES
@@ -188,6 +188,37 @@ MATRICES: dict[str, list[MatrixRow]] = {
         MatrixRow("perception_offset:offset_m=[0,0,-0.02]@0", "flow:failed"),
     ],
     "reach_random": _sensor_rows("REACH+0.3"),
+    # issue 44: the same machines on other arms (the UR5's scenes are the Panda's)
+    "pick_place_ur5": [
+        *_sensor_rows(_APPROACH),
+        # the plate across the carry, where the UR5's palm passes (at the Panda's plate, beside
+        # the pad, the UR5's shorter hand went by: undetected)
+        MatrixRow(
+            "obstacle:pos=[0.5,0.05,0.42],size=[0.08,0.03,0.08]@TRANSPORT+0.05", "collision", 1.0
+        ),
+        *_PICK_PLACE_WORLD[1:],
+    ],
+    "sorting_ur5": [*_sensor_rows("PICK.APPROACH+0.5"), *_SORTING_WORLD],
+    "pick_place_so101": [
+        # a servo arm's small torques: 5 % of a 0.7 Nm command departs from it more slowly
+        # (22 ms on seed 0) than a Panda's 5 % of tens of Nm
+        *(
+            replace(row, within_s=0.04) if row.fault.startswith("actuator_saturate") else row
+            for row in _sensor_rows("PICK.GRASP.APPROACH+0.5")
+        ),
+        # a plate across the carry to the pad, 0.2 m from the arm's base, as it starts
+        MatrixRow(
+            "obstacle:pos=[0.2,0.02,0.29],size=[0.1,0.02,0.1]@TRANSPORT+0.05", "collision", 1.0
+        ),
+        MatrixRow("slip:object=cube,factor=0.005@TRANSPORT", "grasp_lost", 0.3),
+        MatrixRow(
+            "push:object=cube,force_n=[0,0,-150],duration_ms=20@PICK.GRASP.VERIFY+0.04",
+            "contact_force|sensor_health",  # a 10 g cube: past the sensor's range at once
+            0.01,
+        ),
+        MatrixRow("perception_miss@0", "flow:succeeded"),
+        MatrixRow("perception_offset:offset_m=[0,0,-0.02]@0", "flow:failed"),
+    ],
 }
 """Matrices of the bundled scenarios, by scenario name."""
 

@@ -169,17 +169,18 @@ def _first_sentence(cls: type) -> str:
     return text.split(". ")[0].rstrip(".") + "." if text else ""
 
 
-SHOWS = ("skill", "check", "guard", "scenario", "machine")
+SHOWS = ("skill", "check", "guard", "scenario", "machine", "robot")
 
 
 def show(
-    kind: Annotated[str, typer.Argument(help="skill, check, guard, scenario or machine")],
+    kind: Annotated[str, typer.Argument(help="skill, check, guard, scenario, machine or robot")],
     name: Annotated[str, typer.Argument(help="Its name (a scenario or machine: or a file).")],
     skills: SkillPaths = None,
 ) -> None:
     """Describe one skill, success check or guard (parameters: type, unit, default, range;
     outcomes; blackboard writes), one scenario (scene, the blackboard values it uses and
-    --set takes, success checks) or one machine (its graph in Mermaid)."""
+    --set takes, success checks), one machine (its graph in Mermaid) or one robot (its
+    joints, limits and gripper)."""
     from ..guards import GUARDS
     from ..language import reference
     from ..language.diagnostics import did_you_mean
@@ -191,8 +192,12 @@ def show(
         err.print(f"unknown kind {kind!r}{hint} (valid: {', '.join(SHOWS)})", markup=False)
         raise typer.Exit(EXIT_INVALID)
     use_skills(skills)
-    if kind in ("skill", "check", "guard"):
-        table: dict = {"skill": all_skills(), "check": CHECKS, "guard": GUARDS}[kind]
+    if kind in ("skill", "check", "guard", "robot"):
+        from ..robots import ROBOTS
+        from ..robots.describe import robot_markdown
+
+        tables = {"skill": all_skills(), "check": CHECKS, "guard": GUARDS, "robot": ROBOTS}
+        table: dict = tables[kind]
         if name not in table:
             hint = did_you_mean(name, table)
             valid = ", ".join(sorted(table))
@@ -202,6 +207,7 @@ def show(
             "skill": reference.skill_markdown,
             "check": reference.check_markdown,
             "guard": reference.guard_markdown,
+            "robot": robot_markdown,
         }[kind](table[name], level=1)
     elif kind == "scenario":
         from ..language.load import load_scenario

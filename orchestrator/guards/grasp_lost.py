@@ -35,15 +35,17 @@ class GraspLost(Guard):
 
     def bind(self, ctx: Context) -> None:
         self._fingers = ctx.data.qpos[ctx.world.finger_qpos[0] : ctx.world.finger_qpos[-1] + 1]
+        # [m] of gap per unit of the joints' sum (1 for two slide fingers; a revolute jaw's
+        # radius for one: robots/base.py `finger_m_per_unit`)
+        self._scale = ctx.robot.finger_m_per_unit * 2.0 / len(self._fingers)
         self._min = 0.0
 
     def activate(self, ctx: Context) -> None:
-        self._held = float(sum(self._fingers.tolist()))
+        self._held = float(sum(self._fingers.tolist())) * self._scale
         self._min = self._held - self.params.tolerance_m
 
     def check(self, ctx: Context) -> Violation | None:
-        a, b = self._fingers.tolist()
-        width = a + b
+        width = sum(self._fingers.tolist()) * self._scale
         if width >= self._min:
             return None
         return Violation(
@@ -57,9 +59,9 @@ class GraspLost(Guard):
     def envelope(self, ctx: Context) -> Envelope:
         # both fingers at least half the smallest width: their sum is at least the width
         # (halving is exact, and rounding a sum never takes it below an exact bound)
-        half = 0.5 * self._min
         n = len(self._fingers)
+        half = self._min / (n * self._scale)
         return Envelope(bounds=((self._fingers, [half] * n, [math.inf] * n),))
 
     def monitored(self, ctx: Context) -> tuple[float, float]:
-        return float(sum(self._fingers.tolist())), self._min
+        return float(sum(self._fingers.tolist())) * self._scale, self._min

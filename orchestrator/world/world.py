@@ -303,7 +303,7 @@ class World:
         mujoco.mj_resetData(m, d)
         self.step_clock.t = d.time
         d.qpos[self.arm_qpos] = self.home
-        d.qpos[self.finger_qpos] = self.robot.gripper_open_m
+        d.qpos[self.finger_qpos] = self.robot.gripper_open_m / self.robot.finger_m_per_unit
         d.ctrl[self.gripper_act] = 0.0  # the hand's motor off (engine/context.py drives it)
         for name, pos, quat in object_poses(self.scenario, self.seed):
             h = self.objects[name]

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ..base import Gains
+from ..base import Datasheet, Gains
 from ..panda.model import ROBOT_CONAFFINITY, ROBOT_CONTYPE, Panda, panda_urdf_path
 
 if TYPE_CHECKING:
@@ -168,6 +168,28 @@ class MobilePanda(Panda):
     gains: Gains = Gains(
         kp=np.array([300.0, 300.0, 100.0, *Panda.gains.kp]),
         kd=np.array([900.0, 900.0, 150.0, *Panda.gains.kd]),
+    )
+    datasheet: ClassVar[Datasheet | None] = Datasheet(
+        position=(
+            (-BASE.travel_m, BASE.travel_m),
+            (-BASE.travel_m, BASE.travel_m),
+            (-BASE.yaw_range_rad, BASE.yaw_range_rad),
+            *(Panda.datasheet.position if Panda.datasheet else ()),
+        ),
+        velocity=(
+            BASE.speed_mps,
+            BASE.speed_mps,
+            BASE.yaw_rate_rad_s,
+            *(Panda.datasheet.velocity if Panda.datasheet else ()),
+        ),
+        torque=(
+            BASE.force_n,
+            BASE.force_n,
+            BASE.yaw_torque_nm,
+            *(Panda.datasheet.torque if Panda.datasheet else ()),
+        ),
+        source="the base: `BaseGeometry` (a Ridgeback / TIAGo-class platform); the arm: "
+        + (Panda.datasheet.source if Panda.datasheet else ""),
     )
     acceleration_limits: ClassVar[tuple[float, ...]] = (
         BASE.accel_mps2,
