@@ -2,7 +2,8 @@
 
 A value is *plain data* when it is a number, a string, a bool, None, a numpy array of numbers,
 a pydantic model (recorded as its dump) or a list, tuple or dict (string keys) of plain data.
-`Skill.snapshot_state` and `SuccessCheck.snapshot_state` default to `plain_state(self)`.
+`Skill.snapshot_state` and `SuccessCheck.snapshot_state` default to `plain_state(self)`, and
+their `restore_state(data)` to `restore_plain(self, data)`.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel
 
-__all__ = ["attributes", "is_data", "plain_state"]
+__all__ = ["attributes", "is_data", "plain_state", "restore_plain"]
 
 _MAX_DEPTH = 12
 
@@ -46,3 +47,33 @@ def attributes(obj: Any) -> dict[str, Any]:
 def plain_state(obj: Any) -> dict[str, Any]:
     """Every attribute of `obj` that is plain data, by name, in name order."""
     return {k: v for k, v in sorted(attributes(obj).items()) if is_data(v)}
+
+
+def restore_plain(obj: Any, data: dict[str, Any]) -> None:
+    """Put back on `obj` what `plain_state` recorded: an array into the array already there
+    (`np.copyto`: views of it stay views), a named tuple as its type, anything else set. A
+    pydantic model (configuration: the parameters it was made with) is left as it is.
+
+    Raises:
+        ValueError: `data` is not a mapping of attribute names.
+    """
+    if not isinstance(data, dict) or not all(isinstance(k, str) for k in data):
+        raise ValueError(f"the state of {type(obj).__name__} is not a mapping of names")
+    own = attributes(obj)
+    for key, value in data.items():
+        now = own.get(key)
+        if isinstance(now, BaseModel):
+            continue
+        if isinstance(now, np.ndarray):
+            if now.base is not None or not now.flags.writeable:
+                continue  # a view of memory restored where it lives; a constant
+            if isinstance(value, np.ndarray) and value.shape == now.shape and (
+                value.dtype == now.dtype
+            ):
+                np.copyto(now, value)
+                continue
+        if isinstance(value, np.ndarray):
+            value = value.copy()
+        elif isinstance(now, tuple) and hasattr(now, "_fields") and isinstance(value, tuple):
+            value = type(now)(*value)
+        setattr(obj, key, value)

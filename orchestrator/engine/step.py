@@ -41,6 +41,7 @@ _DIVERGED = tuple(
     )
 )
 _DIVERGED_INDEX = as_index(np.array(sorted(_DIVERGED)))
+_INTEGRATION = mujoco.mjtState.mjSTATE_INTEGRATION
 """The same warnings as one slice of `MjData.warning.number` (an index array if not adjacent)."""
 
 OnStep = Callable[["Context"], None]
@@ -82,6 +83,10 @@ class StepLoop:
         data = ctx.data
         self._act_idx = as_index(world.arm_act)
         self._qpos = data.qpos
+        self.before_last_step = np.zeros(mujoco.mj_stateSize(ctx.model, _INTEGRATION))
+        """MuJoCo's integration state before the last physics step: MjData's derived
+        quantities (positions of sites, contacts, sensors) are computed from it, and a
+        snapshot puts them back from it (engine/snapshot/restore.py)."""
         warnings = data.warning.number
         self._diverged_warnings = (
             warnings[_DIVERGED_INDEX].tolist  # a view, bound once
@@ -138,11 +143,14 @@ class StepLoop:
         steppers = self._steppers if ctx.trace is None else self._with_trace
         fault = ctx.actuator_fault  # set by a fault: only in fire_due()
         ctx.advance_gripper(executor.rate if executor is not None else 1.0)
-        for _ in range(self.n_sub):
+        last = self.n_sub - 1
+        for i in range(self.n_sub):
             tau = compute(*read_encoders())
             if fault is not None:
                 tau = fault.apply(tau)
             ctrl[act_idx] = tau
+            if i == last:  # what MjData's derived quantities are computed from (a snapshot)
+                mujoco.mj_getState(model, data, self.before_last_step, _INTEGRATION)
             mj_step(model, data)
             clock.t += dt  # as mj_step advances MjData.time: the same float, bit for bit
             force_sq = true_force_sq()
