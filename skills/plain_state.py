@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel
 
-__all__ = ["attributes", "is_data", "plain_state", "restore_plain"]
+__all__ = ["attributes", "holds_view", "is_data", "plain_state", "restore_plain"]
 
 _MAX_DEPTH = 12
 
@@ -49,6 +49,18 @@ def plain_state(obj: Any) -> dict[str, Any]:
     return {k: v for k, v in sorted(attributes(obj).items()) if is_data(v)}
 
 
+def holds_view(value: Any, depth: int = 0) -> bool:
+    """`value` is, or holds, an array that is a view of other memory (MjData's, an array of
+    its owner's): such a value is how its owner reads that memory, not state of its own."""
+    if isinstance(value, np.ndarray):
+        return value.base is not None
+    if depth < _MAX_DEPTH and isinstance(value, (list, tuple)):
+        return any(holds_view(v, depth + 1) for v in value)
+    if depth < _MAX_DEPTH and isinstance(value, dict):
+        return any(holds_view(v, depth + 1) for v in value.values())
+    return False
+
+
 def restore_plain(obj: Any, data: dict[str, Any]) -> None:
     """Put back on `obj` what `plain_state` recorded: an array into the array already there
     (`np.copyto`: views of it stay views), a named tuple as its type, anything else set. A
@@ -63,17 +75,31 @@ def restore_plain(obj: Any, data: dict[str, Any]) -> None:
     for key, value in data.items():
         now = own.get(key)
         if isinstance(now, BaseModel):
-            continue
+            continue  # configuration
         if isinstance(now, np.ndarray):
             if now.base is not None or not now.flags.writeable:
                 continue  # a view of memory restored where it lives; a constant
-            if isinstance(value, np.ndarray) and value.shape == now.shape and (
-                value.dtype == now.dtype
+            if (
+                isinstance(value, np.ndarray)
+                and value.shape == now.shape
+                and (value.dtype == now.dtype)
             ):
                 np.copyto(now, value)
                 continue
-        if isinstance(value, np.ndarray):
-            value = value.copy()
-        elif isinstance(now, tuple) and hasattr(now, "_fields") and isinstance(value, tuple):
-            value = type(now)(*value)
-        setattr(obj, key, value)
+        new = _own(value)
+        if isinstance(now, tuple) and hasattr(now, "_fields") and isinstance(new, tuple):
+            new = type(now)(*new)
+        setattr(obj, key, new)
+
+
+def _own(value: Any, depth: int = 0) -> Any:
+    """`value` with every array in it a copy of its own (not a view of the file's buffer)."""
+    if isinstance(value, np.ndarray):
+        return value.copy()
+    if depth < _MAX_DEPTH and isinstance(value, list):
+        return [_own(v, depth + 1) for v in value]
+    if depth < _MAX_DEPTH and isinstance(value, tuple) and not hasattr(value, "_fields"):
+        return tuple(_own(v, depth + 1) for v in value)
+    if depth < _MAX_DEPTH and isinstance(value, dict):
+        return {k: _own(v, depth + 1) for k, v in value.items()}
+    return value

@@ -283,6 +283,8 @@ SECTIONS: tuple[Section, ...] = (
             Member("tasks", FRAMEWORK),
             Member("limits", FRAMEWORK),
             Member("damping", FRAMEWORK),
+            Member("snapshot_state", "a run snapshot records it", FRAMEWORK),
+            Member("restore_state", "a resumed run puts it back", FRAMEWORK),
         ),
     ),
     Section(

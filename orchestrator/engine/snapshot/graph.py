@@ -18,10 +18,9 @@ import dataclasses
 from collections.abc import Callable, Iterator
 from typing import Any
 
-import numpy as np
 from pydantic import BaseModel
 
-from ...skills.plain_state import attributes, is_data, restore_plain
+from ...skills.plain_state import attributes, holds_view, is_data, restore_plain
 from .data import objects
 
 __all__ = ["apply_attributes", "apply_graph", "capture_graph", "type_name", "walk"]
@@ -87,10 +86,8 @@ def _own_data(obj: Any, rows: tuple[type, ...] = ()) -> dict[str, Any]:
         if table is not None:
             out[key] = table
             continue
-        if isinstance(value, BaseModel) or not is_data(value):
-            continue
-        if isinstance(value, np.ndarray) and value.base is not None:
-            continue  # a view (of MjData, or of an array recorded where it lives)
+        if isinstance(value, BaseModel) or not is_data(value) or holds_view(value):
+            continue  # configuration; a view (of MjData, or of an array recorded where it lives)
         out[key] = value
     return out
 

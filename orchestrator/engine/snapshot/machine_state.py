@@ -161,9 +161,7 @@ def restore_machine(run: Any, rec: dict[str, Any]) -> None:
         else:
             raise ValueError(f"an injector entry of no known kind: {str(item)[:80]}")
     injector._queue = queue  # in the recorded (heap) order
-    injector._on_enter = {
-        str(p): [(i, faults[i]) for i in v] for p, v in rec["on_enter"].items()
-    }
+    injector._on_enter = {str(p): [(i, faults[i]) for i in v] for p, v in rec["on_enter"].items()}
 
 
 def settle_machine(run: Any) -> None:

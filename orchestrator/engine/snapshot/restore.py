@@ -4,9 +4,8 @@ The run is built for the header's recipe and seed as any run is (runner.new_run)
 recorded state is put into it (state.py says what is recorded):
 
 * the model's arrays a run may reshape (recorded whole) and the digests of the others;
-* MuJoCo's integration state by `mj_setState`, and MjData's derived quantities (site poses,
-  contacts, sensors) as the last physics step left them: `mj_forward` from the state before
-  that step (the step loop keeps it), then the state after it;
+* MuJoCo's integration state by `mj_setState` and its trees' sleep counters (which
+  `mj_getState` does not hold), then `mj_forward` for the derived quantities;
 * the machine's active path entered again without its entry actions, each running skill
   made from its recorded parameters and given its state by `restore_state(data)`
   (machine_state.py); each success check's state by its `restore_state(data)`;
@@ -27,13 +26,12 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from ...success.base import SuccessCheck
 from ..runner import RunState, new_run
 from .data import objects
 from .errors import SnapshotError
 from .graph import apply_graph
 from .machine_state import restore_machine, settle_machine
-from .state import ROWS, model_digest, own_state
+from .state import ROWS, declared, model_digest, own_state
 
 __all__ = ["restore_run"]
 
@@ -58,20 +56,20 @@ def _put_model(model: mujoco.MjModel, recorded: dict[str, Any], arrays: dict[str
         raise ValueError("a snapshot of another model")
 
 
-def _put_mujoco(run: RunState, recorded: dict[str, Any]) -> None:
+def _put_mujoco(run: RunState, recorded: dict[str, Any], arrays: dict[str, Any]) -> None:
     ctx = run.ctx
     model, data = ctx.model, ctx.data
-    state = recorded["mujoco"]
+    state, asleep = recorded["mujoco"], arrays.get("tree_asleep")
     size = mujoco.mj_stateSize(model, _INTEGRATION)
-    before = run.episode.loop.before_last_step
-    if not isinstance(state, np.ndarray) or state.shape != (size,) or before.shape != (size,):
+    if not isinstance(state, np.ndarray) or state.shape != (size,):
         raise ValueError("MuJoCo's state is not of this model's size")
-    if ctx.tick > 0:  # MjData's derived quantities are those of the state before the step
-        mujoco.mj_setState(model, data, before, _INTEGRATION)
-    else:
-        mujoco.mj_setState(model, data, state, _INTEGRATION)
-    mujoco.mj_forward(model, data)
+    if not isinstance(asleep, np.ndarray) or asleep.shape != data.tree_asleep.shape:
+        raise ValueError("MuJoCo's sleep counters are not of this model's size")
     mujoco.mj_setState(model, data, state, _INTEGRATION)
+    np.copyto(data.tree_asleep, asleep)
+    # the derived quantities (site poses, contacts, sensors) computed from the state: the
+    # last physics step left those of the state before it (see docs/time-travel.md)
+    mujoco.mj_forward(model, data)
     for w, (number, lastinfo) in zip(data.warning, recorded["warnings"], strict=True):
         w.number, w.lastinfo = int(number), int(lastinfo)
 
@@ -96,15 +94,19 @@ def restore_run(
         left = apply_graph(run, graph, own_state, ROWS)
         if left:
             raise ValueError(f"no place in the rebuilt run for {', '.join(left[:4])}")
-        rngs, checks = recorded["generators"], recorded["checks"]
+        rngs = recorded["generators"]
         for path, obj in objects(run.episode):
             if isinstance(obj, np.random.Generator) and path in rngs:
                 obj.bit_generator.state = rngs[path]
-            elif isinstance(obj, SuccessCheck) and path in checks:
-                obj.restore_state(checks[path]["state"])
+        states = dict(recorded["declared"])
+        for path, obj in declared(run):
+            if path in states:
+                obj.restore_state(states.pop(path))
+        if states:
+            raise ValueError(f"no place in the rebuilt run for {', '.join(sorted(states)[:4])}")
         run.ctx.blackboard._values = dict(recorded["blackboard"])
         _put_model(run.ctx.model, recorded, arrays)
-        _put_mujoco(run, recorded)
+        _put_mujoco(run, recorded, arrays)
     except SnapshotError:
         raise
     except (ValueError, KeyError, TypeError, AttributeError) as exc:

@@ -30,8 +30,8 @@ import numpy as np
 from ..runner import RunState, new_run
 from .data import decode, first_difference
 from .errors import SnapshotError
-from .snapfile import SnapshotFile, pack, read_snapshot, write_snapshot
 from .restore import restore_run
+from .snapfile import SnapshotFile, pack, read_snapshot, write_snapshot
 from .state import capture, detached
 from .stops import Stop, run_to
 from .versions import differences, local_files, versions
@@ -50,7 +50,9 @@ __all__ = [
     "write_run",
 ]
 
-RESTORE_ONLY = ("graph", "machine", "model_large", "model_small", "warnings")
+RESTORE_ONLY = (
+    "declared", "graph", "machine", "model_large", "model_small", "warnings"
+)  # fmt: skip
 """Parts of the state only a restore uses (every object's data by path, with its scratch
 buffers and caches): the replay's check compares the rest."""
 

@@ -34,10 +34,19 @@ from ..episode import Episode
 from ..runner import RunState
 from ..tasks import TaskEntry
 from .data import encode, objects, plain_state
-from .graph import capture_graph
+from .graph import capture_graph, walk
 from .machine_state import capture_machine
 
-__all__ = ["ROWS", "capture", "detached", "model_arrays", "model_digest", "mujoco_state", "own_state"]
+__all__ = [
+    "ROWS",
+    "capture",
+    "declared",
+    "detached",
+    "model_arrays",
+    "model_digest",
+    "mujoco_state",
+    "own_state",
+]
 
 ROWS: tuple[type, ...] = (Event, TaskEntry)
 """The record types a run keeps lists of (its log, its task log): recorded field by field."""
@@ -48,8 +57,21 @@ conveyor's parcels, the holding brakes, a friction fault); larger ones by their 
 
 
 def own_state(obj: Any) -> bool:
-    """A skill or a success check: its declared `snapshot_state()` is its state."""
-    return isinstance(obj, (Skill, SuccessCheck))
+    """An object that declares its state (`snapshot_state()` and `restore_state(data)`: a
+    skill, a success check, the IK, the wrist sensor's noise): that is what is recorded."""
+    return (
+        not isinstance(obj, type)
+        and callable(getattr(obj, "snapshot_state", None))
+        and callable(getattr(obj, "restore_state", None))
+    )
+
+
+def declared(run: RunState) -> Iterator[tuple[str, Any]]:
+    """The objects of `run` but its running skills that declare their state, by path (the
+    skills are the machine's: machine_state.py)."""
+    for path, obj in walk(run, own_state):
+        if own_state(obj) and not isinstance(obj, Skill):
+            yield path, obj
 
 
 def model_arrays(model: mujoco.MjModel) -> tuple[dict[str, np.ndarray], dict[str, str]]:
@@ -69,6 +91,7 @@ def model_arrays(model: mujoco.MjModel) -> tuple[dict[str, np.ndarray], dict[str
             else:
                 large[name] = hashlib.sha256(np.ascontiguousarray(value).tobytes()).hexdigest()
     return small, large
+
 
 _INTEGRATION = mujoco.mjtState.mjSTATE_INTEGRATION
 
@@ -166,6 +189,7 @@ def capture(run: RunState) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     }
     with detached(ctx, run.episode):
         parts["graph"] = capture_graph(run, own_state, ROWS)
+        parts["declared"] = {path: obj.snapshot_state() for path, obj in declared(run)}
         parts["checks"] = checks
         if run.started:
             parts["machine"] = capture_machine(run)
@@ -175,6 +199,7 @@ def capture(run: RunState) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         arrays[f"model/{name}"] = value
     tree["model_small"] = sorted(small)
     tree["warnings"] = [[int(w.number), int(w.lastinfo)] for w in ctx.data.warning]
+    arrays["tree_asleep"] = np.array(ctx.data.tree_asleep, copy=True)  # not in mj_getState
     for name, value in parts.items():
         tree[name], more = encode(value, f"{name}/")
         arrays.update(more)
