@@ -1,7 +1,8 @@
 """What a skill or a success check holds as plain data: the state a snapshot records for it.
 
 A value is *plain data* when it is a number, a string, a bool, None, a numpy array of numbers,
-a pydantic model (recorded as its dump) or a list, tuple or dict (string keys) of plain data.
+a pydantic model (recorded as its dump) or a list, tuple or dict (string or integer keys) of
+plain data.
 `Skill.snapshot_state` and `SuccessCheck.snapshot_state` default to `plain_state(self)`, and
 their `restore_state(data)` to `restore_plain(self, data)`.
 """
@@ -29,7 +30,11 @@ def is_data(value: Any, depth: int = 0) -> bool:
     if isinstance(value, (list, tuple)):
         return all(is_data(v, depth + 1) for v in value)
     if isinstance(value, dict):
-        return all(isinstance(k, str) and is_data(v, depth + 1) for k, v in value.items())
+        return all(
+            (isinstance(k, str) or (isinstance(k, int) and not isinstance(k, bool)))
+            and is_data(v, depth + 1)
+            for k, v in value.items()
+        )
     return False
 
 
@@ -86,10 +91,29 @@ def restore_plain(obj: Any, data: dict[str, Any]) -> None:
             ):
                 np.copyto(now, value)
                 continue
+        if _fill(now, value):
+            continue  # a dict of arrays filled in place: whatever holds the arrays sees them
         new = _own(value)
         if isinstance(now, tuple) and hasattr(now, "_fields") and isinstance(new, tuple):
             new = type(now)(*new)
         setattr(obj, key, new)
+
+
+def _fill(now: Any, value: Any) -> bool:
+    """Copy a recorded dict of arrays into `now`, a dict of arrays of the same names, shapes
+    and types; False (nothing done) for anything else."""
+    if not (isinstance(now, dict) and isinstance(value, dict) and now.keys() == value.keys()):
+        return False
+    pairs = list(zip(now.values(), value.values(), strict=True))
+    if not pairs or not all(
+        isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape
+        and a.dtype == b.dtype and a.base is None and a.flags.writeable
+        for a, b in pairs
+    ):  # fmt: skip
+        return False
+    for a, b in pairs:
+        np.copyto(a, b)
+    return True
 
 
 def _own(value: Any, depth: int = 0) -> Any:

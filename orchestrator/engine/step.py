@@ -42,6 +42,14 @@ _DIVERGED = tuple(
 )
 _DIVERGED_INDEX = as_index(np.array(sorted(_DIVERGED)))
 _INTEGRATION = mujoco.mjtState.mjSTATE_INTEGRATION
+SLEEP_ARRAYS = (
+    "tree_asleep", "tree_awake", "body_awake", "body_awake_ind", "dof_awake_ind",
+    "parent_awake_ind",
+)  # fmt: skip
+"""MjData's arrays of MuJoCo's sleeping trees: state a physics step reads that `mj_getState`
+does not hold (engine/snapshot keeps them)."""
+SLEEP_COUNTS = ("nbody_awake", "nparent_awake", "ntree_awake", "nv_awake")
+"""MjData's counts of what is awake (with `SLEEP_ARRAYS`)."""
 """The same warnings as one slice of `MjData.warning.number` (an index array if not adjacent)."""
 
 OnStep = Callable[["Context"], None]
@@ -84,9 +92,16 @@ class StepLoop:
         self._act_idx = as_index(world.arm_act)
         self._qpos = data.qpos
         self.before_last_step = np.zeros(mujoco.mj_stateSize(ctx.model, _INTEGRATION))
-        """MuJoCo's integration state before the last physics step: MjData's derived
-        quantities (positions of sites, contacts, sensors) are computed from it, and a
-        snapshot puts them back from it (engine/snapshot/restore.py)."""
+        """MuJoCo's integration state before the last physics step of the last tick: MjData's
+        derived quantities (site poses, sensors, contacts) were computed from it, and a
+        snapshot resumed from its data computes them again from it (engine/snapshot)."""
+        self.sleep_before_last_step = {n: getattr(data, n).copy() for n in SLEEP_ARRAYS}
+        """MuJoCo's sleep arrays then (`SLEEP_ARRAYS`)."""
+        self.awake_before_last_step = [0] * len(SLEEP_COUNTS)
+        """MuJoCo's awake counts then (`SLEEP_COUNTS`)."""
+        self._sleep_views = [
+            (self.sleep_before_last_step[n], getattr(data, n)) for n in SLEEP_ARRAYS
+        ]
         warnings = data.warning.number
         self._diverged_warnings = (
             warnings[_DIVERGED_INDEX].tolist  # a view, bound once
@@ -101,6 +116,14 @@ class StepLoop:
         # observers first, then the belt (the order the run has always had)
         self._steppers = [*self._observer_steps, *self._belt]
         self._with_trace = [*self._steppers, self.trace_truth.on_step]
+
+    def _keep_before(self) -> None:
+        """Keep MuJoCo's state before this physics step (see `before_last_step`)."""
+        data = self.ctx.data
+        mujoco.mj_getState(self.ctx.model, data, self.before_last_step, _INTEGRATION)
+        for kept, now in self._sleep_views:
+            np.copyto(kept, now)
+        self.awake_before_last_step = [getattr(data, n) for n in SLEEP_COUNTS]
 
     def reset_peaks(self) -> None:
         """Start a new peak wrist force and trace probe (a live session's next task)."""
@@ -150,7 +173,7 @@ class StepLoop:
                 tau = fault.apply(tau)
             ctrl[act_idx] = tau
             if i == last:  # what MjData's derived quantities are computed from (a snapshot)
-                mujoco.mj_getState(model, data, self.before_last_step, _INTEGRATION)
+                self._keep_before()
             mj_step(model, data)
             clock.t += dt  # as mj_step advances MjData.time: the same float, bit for bit
             force_sq = true_force_sq()

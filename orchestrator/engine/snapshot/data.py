@@ -2,7 +2,8 @@
 
 A value is *data* as skills/plain_state.py says (numbers, strings, arrays, pydantic dumps, and
 lists and dicts of them). `encode` turns data into a JSON tree plus a dict of arrays (each
-array in the tree is `{"$array": NAME}`, a tuple `{"$tuple": [...]}`, a non-finite float
+array in the tree is `{"$array": NAME}`, a tuple `{"$tuple": [...]}`, a dict with integer
+keys `{"$items": [[key, value], ...]}`, a non-finite float
 `{"$float": "nan"}`); `decode` is
 its inverse and never builds anything else: no class is looked up by name, no callable named
 in a file is called. `objects` walks a run's graph to find what a snapshot records
@@ -53,8 +54,16 @@ class _Encoder:
         if isinstance(value, list):
             return [self.tree(v, depth + 1) for v in value]
         if isinstance(value, dict):
-            return {str(k): self.tree(v, depth + 1) for k, v in value.items()}
+            if all(isinstance(k, str) for k in value):
+                return {k: self.tree(v, depth + 1) for k, v in value.items()}
+            return {"$items": [[_key(k), self.tree(v, depth + 1)] for k, v in value.items()]}
         return {"$repr": type(value).__name__}  # not data: named, never brought back
+
+
+def _key(k: Any) -> Any:
+    return (
+        k.item() if isinstance(k, (np.integer, np.bool_)) else k if isinstance(k, int) else str(k)
+    )
 
 
 def encode(value: Any, prefix: str) -> tuple[Any, dict[str, np.ndarray]]:
@@ -79,6 +88,12 @@ def decode(tree: Any, arrays: dict[str, np.ndarray], depth: int = 0) -> Any:
             if not isinstance(name, str) or name not in arrays:
                 raise ValueError(f"no array {str(name)[:40]!r} in the file")
             return arrays[name]
+        if set(tree) == {"$items"} and isinstance(tree["$items"], list):
+            pairs = tree["$items"]
+            if not all(isinstance(p, list) and len(p) == 2 and isinstance(p[0], (int, str))
+                       for p in pairs):  # fmt: skip
+                raise ValueError("a mapping's items are not [key, value] pairs")
+            return {k: decode(v, arrays, depth + 1) for k, v in pairs}
         if set(tree) == {"$tuple"} and isinstance(tree["$tuple"], list):
             return tuple(decode(v, arrays, depth + 1) for v in tree["$tuple"])
         if set(tree) == {"$float"} and tree["$float"] in ("nan", "inf", "-inf"):

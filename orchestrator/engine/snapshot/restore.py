@@ -4,8 +4,10 @@ The run is built for the header's recipe and seed as any run is (runner.new_run)
 recorded state is put into it (state.py says what is recorded):
 
 * the model's arrays a run may reshape (recorded whole) and the digests of the others;
-* MuJoCo's integration state by `mj_setState` and its trees' sleep counters (which
-  `mj_getState` does not hold), then `mj_forward` for the derived quantities;
+* MuJoCo's integration state by `mj_setState`, its sleeping trees (which `mj_getState` does
+  not hold), and MjData's derived quantities (site poses, contacts, sensors) as the last
+  physics step left them: `mj_forward` from the state before that step (the step loop
+  keeps it), then the state after it;
 * the machine's active path entered again without its entry actions, each running skill
   made from its recorded parameters and given its state by `restore_state(data)`
   (machine_state.py); each success check's state by its `restore_state(data)`;
@@ -27,9 +29,10 @@ import mujoco
 import numpy as np
 
 from ..runner import RunState, new_run
+from ..step import SLEEP_ARRAYS, SLEEP_COUNTS
 from .data import objects
 from .errors import SnapshotError
-from .graph import apply_graph
+from .graph import apply_graph, walk
 from .machine_state import restore_machine, settle_machine
 from .state import ROWS, declared, model_digest, own_state
 
@@ -56,22 +59,54 @@ def _put_model(model: mujoco.MjModel, recorded: dict[str, Any], arrays: dict[str
         raise ValueError("a snapshot of another model")
 
 
+def _put_sleep(data: mujoco.MjData, arrays: dict[str, Any], counts: list[Any]) -> None:
+    """MuJoCo's sleeping trees (`SLEEP_ARRAYS`, `SLEEP_COUNTS`), which `mj_setState` leaves."""
+    if not isinstance(counts, list) or len(counts) != len(SLEEP_COUNTS):
+        raise ValueError("MuJoCo's awake counts are not of this version's")
+    for name in SLEEP_ARRAYS:
+        now, value = getattr(data, name), arrays.get(name)
+        if not isinstance(value, np.ndarray) or value.shape != now.shape:
+            raise ValueError(f"MuJoCo's {name} is not of this model's size")
+        np.copyto(now, value)
+    for name, value in zip(SLEEP_COUNTS, counts, strict=True):
+        setattr(data, name, int(value))
+
+
 def _put_mujoco(run: RunState, recorded: dict[str, Any], arrays: dict[str, Any]) -> None:
-    ctx = run.ctx
+    """MuJoCo's state and MjData's derived quantities as the last physics step left them:
+    `mj_forward` from the state before that step (the step loop keeps it, its sleeping
+    trees too), then the state after it."""
+    ctx, loop = run.ctx, run.episode.loop
     model, data = ctx.model, ctx.data
-    state, asleep = recorded["mujoco"], arrays.get("tree_asleep")
+    state = recorded["mujoco"]
     size = mujoco.mj_stateSize(model, _INTEGRATION)
     if not isinstance(state, np.ndarray) or state.shape != (size,):
         raise ValueError("MuJoCo's state is not of this model's size")
-    if not isinstance(asleep, np.ndarray) or asleep.shape != data.tree_asleep.shape:
-        raise ValueError("MuJoCo's sleep counters are not of this model's size")
-    mujoco.mj_setState(model, data, state, _INTEGRATION)
-    np.copyto(data.tree_asleep, asleep)
-    # the derived quantities (site poses, contacts, sensors) computed from the state: the
-    # last physics step left those of the state before it (see docs/time-travel.md)
+    sleep = {k.removeprefix("sleep/"): v for k, v in arrays.items() if k.startswith("sleep/")}
+    if ctx.tick > 0:
+        mujoco.mj_setState(model, data, loop.before_last_step, _INTEGRATION)
+        _put_sleep(data, loop.sleep_before_last_step, list(loop.awake_before_last_step))
+    else:
+        mujoco.mj_setState(model, data, state, _INTEGRATION)
+        _put_sleep(data, sleep, recorded["awake_counts"])
     mujoco.mj_forward(model, data)
+    mujoco.mj_setState(model, data, state, _INTEGRATION)
+    _put_sleep(data, sleep, recorded["awake_counts"])
     for w, (number, lastinfo) in zip(data.warning, recorded["warnings"], strict=True):
         w.number, w.lastinfo = int(number), int(lastinfo)
+
+
+LAZY_PARTS = (("_cameras", "cameras"), ("_renderer", "renderer"))
+"""Parts a run makes on first use (attribute, the property that makes it): the scenario's
+camera rig, its renderer. A part the recorded run had made is made again the same way."""
+
+
+def _make_lazy_parts(run: RunState, graph: dict[str, Any]) -> None:
+    for _ in LAZY_PARTS:  # a part made inside another (the renderer in the rig): one more pass
+        for path, obj in walk(run, own_state):
+            for attr, prop in LAZY_PARTS:
+                if getattr(obj, attr, 0) is None and f"{path}.{attr}" in graph:
+                    getattr(obj, prop)
 
 
 def restore_run(
@@ -88,6 +123,7 @@ def restore_run(
         if run.started:
             restore_machine(run, recorded["machine"])
         graph = recorded["graph"]
+        _make_lazy_parts(run, graph)
         apply_graph(run, graph, own_state, ROWS)
         if run.started:
             settle_machine(run)  # the active guards, activated; their state comes next

@@ -32,6 +32,7 @@ from ...success.base import SuccessCheck
 from ..context import Context, Event
 from ..episode import Episode
 from ..runner import RunState
+from ..step import SLEEP_ARRAYS, SLEEP_COUNTS
 from ..tasks import TaskEntry
 from .data import encode, objects, plain_state
 from .graph import capture_graph, walk
@@ -199,7 +200,9 @@ def capture(run: RunState) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         arrays[f"model/{name}"] = value
     tree["model_small"] = sorted(small)
     tree["warnings"] = [[int(w.number), int(w.lastinfo)] for w in ctx.data.warning]
-    arrays["tree_asleep"] = np.array(ctx.data.tree_asleep, copy=True)  # not in mj_getState
+    for name in SLEEP_ARRAYS:  # MuJoCo's sleeping trees: not in mj_getState
+        arrays[f"sleep/{name}"] = np.array(getattr(ctx.data, name), copy=True)
+    tree["awake_counts"] = [int(getattr(ctx.data, name)) for name in SLEEP_COUNTS]
     for name, value in parts.items():
         tree[name], more = encode(value, f"{name}/")
         arrays.update(more)
