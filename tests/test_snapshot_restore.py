@@ -132,7 +132,8 @@ recorded = run.executor.region.activity.skill.snapshot_state()
 path = Path(tempfile.mkdtemp()) / "count.snap"
 write_run(path, run, stop.header(), local_skill_files())
 del run
-snap = load_run(path, verify=False)
+snap = load_run(path, restore=True)
+assert snap.how == "restored", snap.how
 skill = snap.run.executor.region.activity.skill
 times_back = skill is not None and skill.seen.times == recorded["times"]
 print(json.dumps({
@@ -179,6 +180,7 @@ def test_restoring_is_the_replay(tick, tmp_path, monkeypatch):
     assert run_to(run, stop)
     path = tmp_path / "p.snap"
     write_run(path, run, stop.header(), [])
-    restored, replayed = load_run(path, verify=False), load_run(path, verify=True)
+    restored, replayed = load_run(path, restore=True), load_run(path)
+    assert (restored.how, replayed.how) == ("restored", "verified")
     assert restored.run.ctx.tick == replayed.run.ctx.tick == tick
     assert comparable(drive(restored.run)) == comparable(drive(replayed.run)) == full

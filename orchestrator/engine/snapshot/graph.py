@@ -21,6 +21,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from ...skills.plain_state import attributes, holds_view, is_data, restore_plain
+from ...world.pose import Pose
 from .data import objects
 
 __all__ = ["apply_attributes", "apply_graph", "capture_graph", "type_name", "walk"]
@@ -79,12 +80,20 @@ def _rows(value: Any, rows: tuple[type, ...]) -> dict[str, Any] | None:
     return out
 
 
+VALUES: tuple[type[BaseModel], ...] = (Pose,)
+"""Pydantic models that are a run's state, not its configuration, where a run holds them
+(the IK's target pose): recorded as their fields, made again by their own validation."""
+
+
 def _own_data(obj: Any, rows: tuple[type, ...] = ()) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, value in sorted(attributes(obj).items()):
         table = _rows(value, rows)
         if table is not None:
             out[key] = table
+            continue
+        if type(value) in VALUES:
+            out[key] = {"$value": type(value).__name__, "fields": value.model_dump()}
             continue
         if isinstance(value, BaseModel) or not is_data(value) or holds_view(value):
             continue  # configuration; a view (of MjData, or of an array recorded where it lives)
@@ -139,7 +148,15 @@ def apply_attributes(obj: Any, values: Any, where: str, rows: tuple[type, ...] =
         k: _rebuild_rows(v, rows, f"{where}.{k}") if isinstance(v, dict) and "$rows" in v else v
         for k, v in values.items()
     }
-    restore_plain(obj, values)
+    for key, value in values.items():
+        if isinstance(value, dict) and "$value" in value:
+            cls = next((c for c in VALUES if c.__name__ == value["$value"]), None)
+            if cls is None:
+                raise ValueError(f"{where}.{key}: a value of an undeclared type")
+            setattr(obj, key, cls.model_validate(value["fields"]))
+    restore_plain(
+        obj, {k: v for k, v in values.items() if not (isinstance(v, dict) and "$value" in v)}
+    )
 
 
 def _rebuild_rows(table: dict[str, Any], rows: tuple[type, ...], where: str) -> Any:

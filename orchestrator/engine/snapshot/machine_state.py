@@ -19,10 +19,17 @@ from typing import Any
 from ...guards.base import Violation
 from ...language.loading import MachineNode
 from ...skills import Skill, get_skill
+from ...skills.plain_state import attributes
 from ..executor import Executor, _Model, _ParallelActivity, _Region, _SkillActivity
 from ..safety_stop import SafetyStop
+from .errors import SnapshotError
 
-__all__ = ["capture_machine", "restore_machine", "restore_skill_state"]
+__all__ = ["IncompleteState", "capture_machine", "restore_machine", "restore_skill_state"]
+
+
+class IncompleteState(SnapshotError):
+    """A running skill's declared state does not give back everything it held: the run
+    resumes by replay instead (run_snapshot.load_run)."""
 
 
 def _activity(a: Any) -> dict[str, Any] | None:
@@ -36,7 +43,12 @@ def _activity(a: Any) -> dict[str, Any] | None:
     skill = a.skill
     if skill is None:
         return {"kind": "skill", "params": None, "state": None}
-    return {"kind": "skill", "params": skill.params, "state": skill.snapshot_state()}
+    return {
+        "kind": "skill",
+        "params": skill.params.model_dump(mode="python", by_alias=True),
+        "state": skill.snapshot_state(),
+        "attributes": sorted(attributes(skill)),
+    }
 
 
 def _region(r: _Region) -> dict[str, Any]:
@@ -77,6 +89,14 @@ def restore_skill_state(cls: type[Skill], rec: dict[str, Any], where: str) -> Sk
     if not isinstance(state, dict):
         raise ValueError(f"{where}: the skill's state is not a mapping")
     skill.restore_state(state)
+    had = rec.get("attributes")
+    if isinstance(had, list):
+        missing = sorted(set(map(str, had)) - set(attributes(skill)))
+        if missing:
+            raise IncompleteState(
+                f"skill {cls.name!r} at {where} holds {', '.join(missing[:4])} beyond its "
+                "snapshot_state (declare them in its snapshot_state and restore_state)"
+            )
     return skill
 
 

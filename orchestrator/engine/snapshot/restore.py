@@ -33,7 +33,7 @@ from ..step import SLEEP_ARRAYS, SLEEP_COUNTS
 from .data import objects
 from .errors import SnapshotError
 from .graph import apply_graph, walk
-from .machine_state import restore_machine, settle_machine
+from .machine_state import IncompleteState, restore_machine, settle_machine
 from .state import ROWS, declared, model_digest, own_state
 
 __all__ = ["restore_run"]
@@ -129,7 +129,7 @@ def restore_run(
             settle_machine(run)  # the active guards, activated; their state comes next
         left = apply_graph(run, graph, own_state, ROWS)
         if left:
-            raise ValueError(f"no place in the rebuilt run for {', '.join(left[:4])}")
+            raise IncompleteState(f"no place in the rebuilt run for {', '.join(left[:4])}")
         rngs = recorded["generators"]
         for path, obj in objects(run.episode):
             if isinstance(obj, np.random.Generator) and path in rngs:
@@ -139,7 +139,9 @@ def restore_run(
             if path in states:
                 obj.restore_state(states.pop(path))
         if states:
-            raise ValueError(f"no place in the rebuilt run for {', '.join(sorted(states)[:4])}")
+            raise IncompleteState(
+                f"no place in the rebuilt run for {', '.join(sorted(states)[:4])}"
+            )
         run.ctx.blackboard._values = dict(recorded["blackboard"])
         _put_model(run.ctx.model, recorded, arrays)
         _put_mujoco(run, recorded, arrays)

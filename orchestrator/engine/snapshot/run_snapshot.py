@@ -11,7 +11,8 @@ Reading one back rebuilds the run the normal way — the scenario loaded from it
 world built for the seed — runs it to the snapshot's tick, and checks that it holds exactly
 the recorded state (every array bit for bit). A run is deterministic, so it does; a run that
 does not (other code, another library, a changed machine file) is refused, naming the first
-difference. Nothing of the file is ever turned into an object, a class or a call.
+difference. Or, with `restore`, puts the recorded state into the built run (restore.py: no
+step simulated). Nothing of the file is ever turned into an object, a class or a call.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ import numpy as np
 from ..runner import RunState, new_run
 from .data import decode, first_difference
 from .errors import SnapshotError
+from .machine_state import IncompleteState
 from .restore import restore_run
 from .snapfile import SnapshotFile, pack, read_snapshot, write_snapshot
 from .state import capture, detached
@@ -68,13 +70,16 @@ class RunSnapshot:
         run: The run, ready to continue (`engine.runner.drive`).
         header: The file's header (scenario, seed, time, state, break point, versions).
         path: The file.
-        load_s: Wall time it took to read, rebuild and check it [s].
+        load_s: Wall time it took to read and resume it [s].
+        how: `restored` (from its data), `verified` (re-run from t = 0 and checked), or
+            `replayed: <why>` (a running skill's declared state was not all it held).
     """
 
     run: RunState
     header: dict[str, Any]
     path: Path
     load_s: float
+    how: str = "verified"
 
 
 def file_digest(path: Path) -> str:
@@ -304,13 +309,15 @@ def rebuild_run(snap: SnapshotFile, loaded: Any) -> RunState:
     return run
 
 
-def load_run(path: Path, snap: SnapshotFile | None = None, verify: bool = True) -> RunSnapshot:
+def load_run(path: Path, snap: SnapshotFile | None = None, restore: bool = False) -> RunSnapshot:
     """Read a run snapshot and resume it: its scenario loaded from the header's recipe (the
     scenario's `skills:` folders are imported as a run of it imports them), the run built for
-    the seed, then, with `verify` (the default until restoring is bit for bit on every
-    bundled scenario: docs/time-travel.md), the episode re-run from t = 0 to the snapshot's
-    tick and checked to hold the recorded state, bit for bit (`rebuild_run`); without it,
-    the recorded state put into the built run (`restore_from`, no step simulated).
+    the seed, then the episode re-run from t = 0 to the snapshot's tick and checked to hold
+    the recorded state, bit for bit (`rebuild_run`). With `restore`, instead, the recorded
+    state is put into the built run (`restore_from`: no step simulated; not yet the default,
+    docs/time-travel.md says where it is bit for bit); a running skill whose declared state
+    is not all it held, or an object the built run has no place for, is then replayed as
+    without it (`how` says so).
 
     Raises:
         SnapshotError: Not a run snapshot, not signed with this user's key, written by other
@@ -343,5 +350,10 @@ def load_run(path: Path, snap: SnapshotFile | None = None, verify: bool = True) 
             "pass their folders with --skills (a snapshot never imports code itself)"
         )
     check_versions(snap)
-    run = rebuild_run(snap, loaded) if verify else restore_from(snap, loaded)
-    return RunSnapshot(run, h, Path(path), time.perf_counter() - wall0)
+    how = "restored" if restore else "verified"
+    try:
+        run = restore_from(snap, loaded) if restore else rebuild_run(snap, loaded)
+    except IncompleteState as exc:
+        how = f"replayed: {exc}"
+        run = rebuild_run(snap, loaded)
+    return RunSnapshot(run, h, Path(path), time.perf_counter() - wall0, how)
