@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 from pydantic import BaseModel, ConfigDict
 
-from .plain_state import plain_state
+from .plain_state import plain_state, restore_plain
 
 if TYPE_CHECKING:
     from orchestrator.engine.context import Context
@@ -95,6 +95,14 @@ class Skill(abc.ABC):
         goes on (docs/time-travel.md). Default: every attribute that is plain data. Override it
         to leave out a cache or to add what an object of your own holds."""
         return plain_state(self)
+
+    def restore_state(self, data: dict[str, Any]) -> None:
+        """Take back what `snapshot_state` recorded: a resumed run makes this skill from its
+        recorded parameters (its constructor runs, `start` does not) and hands it the data
+        (docs/skill-api.md). Default: `restore_plain(self, data)`, each plain attribute set
+        back (an array into the one already there). Override it with `snapshot_state` when
+        the skill holds objects of its own: rebuild them from the data you recorded."""
+        restore_plain(self, data)
 
     def written_keys(self) -> list[str]:
         """Blackboard keys this instance writes (the values of its `writes` fields)."""

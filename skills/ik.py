@@ -9,12 +9,13 @@ one tick). A feasible reference passes through unchanged.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from orchestrator.robots import Robot
 
 from .joint_limiter import JointLimiter
+from .plain_state import plain_state, restore_plain
 
 if TYPE_CHECKING:
     import mink
@@ -157,6 +158,42 @@ class IKSolver:
     def q(self) -> np.ndarray:
         """The IK's joint angles (arm) [rad]. Shape (n,)."""
         return self.config.q[: self.n]
+
+    def snapshot_state(self) -> dict[str, Any]:
+        """What the solver holds between two ticks, as plain data (a run snapshot): its own
+        plain attributes, its joint angles, the frame task's target, the posture task's and
+        the limiter's state. The assembled QP (`_problem`) is a cache made again on the next
+        solve from the same tasks and limits."""
+        state: dict[str, Any] = {
+            k: v for k, v in plain_state(self).items() if not k.startswith("_problem")
+        }
+        target = self.frame_task.transform_target_to_world
+        state["$q"] = self.config.q.copy()
+        state["$frame_target"] = None if target is None else target.wxyz_xyz.copy()
+        state["$own_target"] = self._target.wxyz_xyz.copy()
+        state["$posture"] = plain_state(self.posture_task)
+        state["$limiter"] = plain_state(self.limiter)
+        return state
+
+    def restore_state(self, data: dict[str, Any]) -> None:
+        """Take back what `snapshot_state` recorded."""
+        data = dict(data)
+        q, frame_target = data.pop("$q"), data.pop("$frame_target")
+        own_target = data.pop("$own_target")
+        restore_plain(self.posture_task, data.pop("$posture"))
+        restore_plain(self.limiter, data.pop("$limiter"))
+        restore_plain(self, data)
+        self.config.update(np.array(q, dtype=float))
+        if frame_target is not None:
+            self.frame_task.set_target(self._so3_se3(frame_target))
+        np.copyto(self._target.wxyz_xyz, own_target)
+        self._problem, self._problem_key = None, None
+
+    @staticmethod
+    def _so3_se3(wxyz_xyz: np.ndarray) -> Any:
+        import mink
+
+        return mink.SE3(wxyz_xyz=np.array(wxyz_xyz, dtype=float))
 
     def reset(
         self,

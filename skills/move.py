@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import asdict
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
@@ -13,9 +14,10 @@ from orchestrator.world.pose import Pose
 from .base import SCENE_TARGET, Skill, SkillParams
 from .blended_path import BlendedPath
 from .dry_run import DryRun, dry_run
+from .plain_state import plain_state, restore_plain
 from .targets import resolve_target, rot_down, yaw_of_rot
 from .time_scaling import feasible_time_scale, fit_path_to_joints
-from .trajectory import CartesianLine
+from .trajectory import CartesianLine, Profile
 
 if TYPE_CHECKING:
     import mink
@@ -160,6 +162,31 @@ class Move(Skill):
     outcomes: ClassVar[tuple[str, ...]] = ("reached", "unreachable", "timeout")
 
     params: MoveParams
+
+    def snapshot_state(self) -> dict[str, Any]:
+        """Plain data, and the motion it follows: its line (or blended path) and its dry
+        runs, each as its data (`restore_state` makes them again from it)."""
+        state: dict[str, Any] = plain_state(self)
+        line = getattr(self, "line", None)
+        if line is not None:
+            state["$line"] = {"kind": type(line).__name__, "data": _path_state(line)}
+        state["$dry"] = None if getattr(self, "dry", None) is None else asdict(self.dry)
+        state["$tried"] = [asdict(d) for d in getattr(self, "tried", [])]
+        return state
+
+    def restore_state(self, data: dict[str, Any]) -> None:
+        """Take back what `snapshot_state` recorded (a resumed run's move: `start` is not run
+        again; the motion it had planned is made again from its data)."""
+        data = dict(data)
+        line, dry, tried = data.pop("$line", None), data.pop("$dry", None), data.pop("$tried", [])
+        restore_plain(self, data)
+        if line is not None:
+            cls = _PATHS.get(line["kind"])
+            if cls is None:
+                raise ValueError(f"move: no kind of path {str(line['kind'])[:40]!r}")
+            self.line = _path_from(cls, line["data"])
+        self.dry = None if dry is None else _dry_from(dry)
+        self.tried = [_dry_from(d) for d in tried]
 
     def start(self, ctx: Context) -> None:
         p = self.params
@@ -477,3 +504,37 @@ def _rot_to_quat(rot: np.ndarray) -> np.ndarray:
     out = np.zeros(4)
     mujoco.mju_mat2Quat(out, rot.reshape(9))
     return out
+
+
+_PATHS: dict[str, type] = {"CartesianLine": CartesianLine, "BlendedPath": BlendedPath}
+"""The paths a move follows, by their name in its snapshot state."""
+
+
+def _path_state(path: Any) -> dict[str, Any]:
+    """A path's data: its plain attributes, its start orientation (a quaternion) and the
+    arguments of its timing profile (made again from them)."""
+    state: dict[str, Any] = plain_state(path)
+    state["$rot0"] = path.rot0.wxyz.copy()
+    profile = getattr(path, "profile", None)
+    if profile is not None:
+        state["$profile"] = [None if a is None else float(a) for a in profile._args]
+    return state
+
+
+def _path_from(cls: type, state: dict[str, Any]) -> Any:
+    import mink
+
+    state = dict(state)
+    path = cls.__new__(cls)
+    rot0, profile = state.pop("$rot0"), state.pop("$profile", None)
+    restore_plain(path, state)
+    path.rot0 = mink.SO3(wxyz=np.array(rot0, dtype=float))
+    if profile is not None:
+        path.profile = Profile(*profile)
+    return path
+
+
+def _dry_from(fields: dict[str, Any]) -> DryRun:
+    fields = dict(fields)
+    fields["torque_ratio"] = tuple(fields["torque_ratio"])
+    return DryRun(**fields)

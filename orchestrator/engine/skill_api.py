@@ -104,6 +104,11 @@ SECTIONS: tuple[Section, ...] = (
                 "called when a run snapshot is written or checked (override: state of your own)",
                 "yours: plain data only",
             ),
+            Member(
+                "restore_state",
+                "called once when a run resumes from a snapshot, instead of `start`",
+                "yours: override with `snapshot_state`",
+            ),
         ),
     ),
     Section(
@@ -272,6 +277,8 @@ SECTIONS: tuple[Section, ...] = (
             Member("tasks", FRAMEWORK),
             Member("limits", FRAMEWORK),
             Member("damping", FRAMEWORK),
+            Member("snapshot_state", "a run snapshot records it", FRAMEWORK),
+            Member("restore_state", "a resumed run puts it back", FRAMEWORK),
         ),
     ),
     Section(
@@ -331,6 +338,16 @@ SECTIONS: tuple[Section, ...] = (
             Member("params", "evaluate, metrics"),
             Member("evaluate", "called once, at the end of the run", "yours"),
             Member("metrics", "called once, at the end of the run", "yours"),
+            Member(
+                "snapshot_state",
+                "called when a run snapshot is written or checked",
+                "yours: plain data only",
+            ),
+            Member(
+                "restore_state",
+                "called once when a run resumes from a snapshot",
+                "yours: override with `snapshot_state`",
+            ),
         ),
     ),
 )

@@ -43,6 +43,15 @@ _DIVERGED = tuple(
 )
 _DIVERGED_INDEX = as_index(np.array(sorted(_DIVERGED)))
 """The same warnings as one slice of `MjData.warning.number` (an index array if not adjacent)."""
+_INTEGRATION = mujoco.mjtState.mjSTATE_INTEGRATION
+SLEEP_ARRAYS = (
+    "tree_asleep", "tree_awake", "body_awake", "body_awake_ind", "dof_awake_ind",
+    "parent_awake_ind",
+)  # fmt: skip
+"""MjData's arrays of MuJoCo's sleeping trees: state a physics step reads that `mj_getState`
+does not hold (engine/snapshot keeps them)."""
+SLEEP_COUNTS = ("nbody_awake", "nparent_awake", "ntree_awake", "nv_awake")
+"""MjData's counts of what is awake (with `SLEEP_ARRAYS`)."""
 
 OnStep = Callable[["Context"], None]
 
@@ -98,6 +107,17 @@ class StepLoop:
         data = world.data
         self._act_idx = as_index(world.arm_act)
         self._qpos = data.qpos
+        self.before_last_step = np.zeros(mujoco.mj_stateSize(world.model, _INTEGRATION))
+        """MuJoCo's integration state before the last physics step of the last tick: MjData's
+        derived quantities (site poses, sensors, contacts) were computed from it, and a
+        snapshot resumed from its data computes them again from it (engine/snapshot)."""
+        self.sleep_before_last_step = {n: getattr(data, n).copy() for n in SLEEP_ARRAYS}
+        """MuJoCo's sleep arrays then (`SLEEP_ARRAYS`)."""
+        self.awake_before_last_step = [0] * len(SLEEP_COUNTS)
+        """MuJoCo's awake counts then (`SLEEP_COUNTS`)."""
+        self._sleep_views = [
+            (self.sleep_before_last_step[n], getattr(data, n)) for n in SLEEP_ARRAYS
+        ]
         warnings = data.warning.number
         self._diverged_warnings = (
             warnings[_DIVERGED_INDEX].tolist  # a view, bound once
@@ -112,6 +132,15 @@ class StepLoop:
         self.max_force_sq = 0.0
         self.trace_truth = TraceTruth(ctx)
         self._with_trace = [*self._steppers, self.trace_truth.on_step]
+
+    def _keep_before(self) -> None:
+        """Keep MuJoCo's state before this physics step (see `before_last_step`)."""
+        world = self.cell.world
+        data = world.data
+        mujoco.mj_getState(world.model, data, self.before_last_step, _INTEGRATION)
+        for kept, now in self._sleep_views:
+            np.copyto(kept, now)
+        self.awake_before_last_step = [getattr(data, n) for n in SLEEP_COUNTS]
 
     def set_observers(self, observers: Iterable[object]) -> None:
         """Observers whose `on_step(ctx)` runs after every physics step (`StepObserver`: a
@@ -161,11 +190,14 @@ class StepLoop:
         steppers = self._steppers if ctx.trace is None else self._with_trace
         fault = cell.actuator_fault  # set by a fault: only in fire_due()
         cell.hand.advance(executor.rate if executor is not None else 1.0)
-        for _ in range(self.n_sub):
+        last = self.n_sub - 1
+        for i in range(self.n_sub):
             tau = compute(*read_encoders())
             if fault is not None:
                 tau = fault.apply(tau)
             ctrl[act_idx] = tau
+            if i == last:  # what MjData's derived quantities are computed from (a snapshot)
+                self._keep_before()
             mj_step(model, data)
             clock.t += dt  # as mj_step advances MjData.time: the same float, bit for bit
             force_sq = true_force_sq()

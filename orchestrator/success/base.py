@@ -13,7 +13,7 @@ import abc
 from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 from ..skills.base import SCENE_OBJECT, SCENE_TARGET
-from ..skills.plain_state import plain_state
+from ..skills.plain_state import plain_state, restore_plain
 from .params import CheckParams, Vec3
 
 if TYPE_CHECKING:
@@ -62,6 +62,14 @@ class SuccessCheck(abc.ABC):
         snapshot records it, and a resumed run must hold the same (docs/time-travel.md).
         Default: every attribute that is plain data (its validated `params` as their dump)."""
         return plain_state(self)
+
+    def restore_state(self, data: dict[str, Any]) -> None:
+        """Take back what `snapshot_state` recorded: a resumed run makes this check from its
+        recorded parameters (its constructor runs, `start` does not) and hands it the data
+        (docs/skill-api.md). Default: `restore_plain(self, data)`, each plain attribute set
+        back (an array into the one already there). Override it with `snapshot_state` when
+        the check holds objects of its own: rebuild them from the data you recorded."""
+        restore_plain(self, data)
 
     def metrics(self, ctx: Context) -> dict[str, float]:
         """Figures for the result's `metrics`, each key prefixed with the check's name

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from functools import partial
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -59,6 +59,10 @@ def link_mass_scale(realism: Realism, n_bodies: int, seed: int) -> np.ndarray | 
 
 _BLOCK = 512
 """Readings of the wrist force noise drawn at a time."""
+
+
+_STREAM = ("_draws", "_next", "_k", "_tau", "_bias", "_t", "_offset")
+"""What `WristForceNoise` holds of its stream (the rest is its configuration)."""
 
 
 class WristForceNoise:
@@ -112,6 +116,26 @@ class WristForceNoise:
         `offset` then hands over to it."""
         if self.compiled is not None:
             self.offset = self.compiled.offset  # type: ignore[method-assign]
+
+    def snapshot_state(self) -> dict[str, Any]:
+        """Where the stream is, as plain data (a run snapshot, engine/snapshot): the drift
+        walked, the step it is at, the samples drawn ahead (and the compiled stream's own)."""
+        state: dict[str, Any] = {name: getattr(self, name) for name in _STREAM}
+        if self.compiled is not None:
+            state["compiled"] = self.compiled.__reduce__()[2]
+        return state
+
+    def restore_state(self, data: dict[str, Any]) -> None:
+        """Take back what `snapshot_state` recorded (the generator's own state is restored
+        with every other generator of the run)."""
+        compiled = data.get("compiled")
+        for name in _STREAM:
+            value = data[name]
+            setattr(self, name, list(value) if isinstance(self.__dict__[name], list) else value)
+        if self.compiled is not None:
+            if not isinstance(compiled, tuple):
+                raise ValueError("the wrist noise's compiled stream has no recorded state")
+            self.compiled.__setstate__(compiled)
 
     @property
     def bias(self) -> list[float]:

@@ -2,7 +2,9 @@
 
 A value is *data* as skills/plain_state.py says (numbers, strings, arrays, pydantic dumps, and
 lists and dicts of them). `encode` turns data into a JSON tree plus a dict of arrays (each
-array in the tree is `{"$array": NAME}`, a non-finite float `{"$float": "nan"}`); `decode` is
+array in the tree is `{"$array": NAME}`, a tuple `{"$tuple": [...]}`, a dict with integer
+keys `{"$items": [[key, value], ...]}`, a non-finite float
+`{"$float": "nan"}`); `decode` is
 its inverse and never builds anything else: no class is looked up by name, no callable named
 in a file is called. `objects` walks a run's graph to find what a snapshot records
 (generators, skills, checks).
@@ -22,7 +24,8 @@ from ...skills.plain_state import is_data, plain_state
 __all__ = ["decode", "encode", "first_difference", "objects", "is_data", "plain_state"]
 
 _ATOMS = (bool, int, str, type(None))
-_MAX_DEPTH = 12
+_MAX_DEPTH = 40
+"""Nesting of a snapshot's data (a machine nested in a parallel branch of a nested machine...)."""
 
 
 class _Encoder:
@@ -46,11 +49,21 @@ class _Encoder:
             return f if math.isfinite(f) else {"$float": repr(f)}
         if isinstance(value, _ATOMS):
             return value
-        if isinstance(value, (list, tuple)):
+        if isinstance(value, tuple):
+            return {"$tuple": [self.tree(v, depth + 1) for v in value]}
+        if isinstance(value, list):
             return [self.tree(v, depth + 1) for v in value]
         if isinstance(value, dict):
-            return {str(k): self.tree(v, depth + 1) for k, v in value.items()}
+            if all(isinstance(k, str) for k in value):
+                return {k: self.tree(v, depth + 1) for k, v in value.items()}
+            return {"$items": [[_key(k), self.tree(v, depth + 1)] for k, v in value.items()]}
         return {"$repr": type(value).__name__}  # not data: named, never brought back
+
+
+def _key(k: Any) -> Any:
+    return (
+        k.item() if isinstance(k, (np.integer, np.bool_)) else k if isinstance(k, int) else str(k)
+    )
 
 
 def encode(value: Any, prefix: str) -> tuple[Any, dict[str, np.ndarray]]:
@@ -60,12 +73,12 @@ def encode(value: Any, prefix: str) -> tuple[Any, dict[str, np.ndarray]]:
 
 
 def decode(tree: Any, arrays: dict[str, np.ndarray], depth: int = 0) -> Any:
-    """The data `encode` wrote (lists for tuples; unknown markers stay as they are).
+    """The data `encode` wrote (unknown markers stay as they are).
 
     Raises:
         ValueError: A reference to an array the file does not hold, or a tree too deep.
     """
-    if depth > _MAX_DEPTH + 2:
+    if depth > 2 * _MAX_DEPTH + 2:  # a tuple's marker is two levels
         raise ValueError("data nested too deep")
     if isinstance(tree, list):
         return [decode(v, arrays, depth + 1) for v in tree]
@@ -75,6 +88,14 @@ def decode(tree: Any, arrays: dict[str, np.ndarray], depth: int = 0) -> Any:
             if not isinstance(name, str) or name not in arrays:
                 raise ValueError(f"no array {str(name)[:40]!r} in the file")
             return arrays[name]
+        if set(tree) == {"$items"} and isinstance(tree["$items"], list):
+            pairs = tree["$items"]
+            if not all(isinstance(p, list) and len(p) == 2 and isinstance(p[0], (int, str))
+                       for p in pairs):  # fmt: skip
+                raise ValueError("a mapping's items are not [key, value] pairs")
+            return {k: decode(v, arrays, depth + 1) for k, v in pairs}
+        if set(tree) == {"$tuple"} and isinstance(tree["$tuple"], list):
+            return tuple(decode(v, arrays, depth + 1) for v in tree["$tuple"])
         if set(tree) == {"$float"} and tree["$float"] in ("nan", "inf", "-inf"):
             return float(tree["$float"])
         return {k: decode(v, arrays, depth + 1) for k, v in tree.items()}
@@ -96,7 +117,7 @@ def first_difference(a: Any, b: Any, path: str = "") -> str | None:
             if found is not None:
                 return found
         return None
-    if isinstance(a, list) and isinstance(b, list):
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
         if len(a) != len(b):
             return f"{path} (length {len(a)} != {len(b)})"
         for i, (x, y) in enumerate(zip(a, b, strict=True)):

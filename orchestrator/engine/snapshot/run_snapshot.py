@@ -11,7 +11,8 @@ Reading one back rebuilds the run the normal way — the scenario loaded from it
 world built for the seed — runs it to the snapshot's tick, and checks that it holds exactly
 the recorded state (every array bit for bit). A run is deterministic, so it does; a run that
 does not (other code, another library, a changed machine file) is refused, naming the first
-difference. Nothing of the file is ever turned into an object, a class or a call.
+difference. Or, with `restore`, puts the recorded state into the built run (restore.py: no
+step simulated). Nothing of the file is ever turned into an object, a class or a call.
 """
 
 from __future__ import annotations
@@ -30,6 +31,8 @@ import numpy as np
 from ..runner import RunState, new_run
 from .data import decode, first_difference
 from .errors import SnapshotError
+from .machine_state import IncompleteState
+from .restore import restore_run
 from .snapfile import SnapshotFile, pack, read_snapshot, write_snapshot
 from .state import capture, detached
 from .stops import Stop, run_to
@@ -45,8 +48,15 @@ __all__ = [
     "file_digest",
     "load_run",
     "rebuild_run",
+    "restore_from",
     "write_run",
 ]
+
+RESTORE_ONLY = (
+    "declared", "graph", "machine", "model_large", "model_small", "warnings"
+)  # fmt: skip
+"""Parts of the state only a restore uses (every object's data by path, with its scratch
+buffers and caches): the replay's check compares the rest."""
 
 _STATE = "state.json"
 """The array holding the state's JSON tree (UTF-8 bytes as uint8)."""
@@ -60,13 +70,16 @@ class RunSnapshot:
         run: The run, ready to continue (`engine.runner.drive`).
         header: The file's header (scenario, seed, time, state, break point, versions).
         path: The file.
-        load_s: Wall time it took to read, rebuild and check it [s].
+        load_s: Wall time it took to read and resume it [s].
+        how: `restored` (from its data), `verified` (re-run from t = 0 and checked), or
+            `replayed: <why>` (a running skill's declared state was not all it held).
     """
 
     run: RunState
     header: dict[str, Any]
     path: Path
     load_s: float
+    how: str = "verified"
 
 
 def file_digest(path: Path) -> str:
@@ -234,6 +247,35 @@ def _typed(path: Path, h: dict[str, Any], keys: dict[str, tuple[type, ...]], pre
             raise SnapshotError(f"{path}: the header's {pre}{key} is missing or not {want}")
 
 
+def _recorded(snap: SnapshotFile) -> tuple[Any, dict[str, np.ndarray]]:
+    """The payload's state tree, decoded (data only), and its arrays."""
+    arrays = snap.arrays()
+    raw = arrays.pop(_STATE.removesuffix(".json"), None)
+    if raw is None or raw.dtype != np.uint8 or raw.ndim != 1:
+        raise SnapshotError(f"{snap.path}: the payload holds no state")
+    try:
+        recorded = decode(json.loads(raw.tobytes()), arrays)
+    except (ValueError, UnicodeDecodeError, RecursionError) as exc:
+        raise SnapshotError(f"{snap.path}: broken snapshot state: {str(exc)[:200]}") from None
+    if not isinstance(recorded, dict):
+        raise SnapshotError(f"{snap.path}: broken snapshot state: not a mapping")
+    return recorded, arrays
+
+
+def restore_from(snap: SnapshotFile, loaded: Any) -> RunState:
+    """The run of `snap` built from `loaded` (the scenario loaded from the header's recipe)
+    for the seed, the recorded state put into it (restore.py): no step is simulated.
+
+    Raises:
+        SnapshotError: The payload is broken or does not fit the rebuilt run.
+    """
+    recorded, arrays = _recorded(snap)
+    run = restore_run(loaded, snap.header["seed"], recorded, arrays, str(snap.path))
+    if run.ctx.tick != snap.header["tick"]:
+        raise SnapshotError(f"{snap.path}: the state is not of the header's tick")
+    return run
+
+
 def rebuild_run(snap: SnapshotFile, loaded: Any) -> RunState:
     """The run of `snap` rebuilt from `loaded` (the scenario loaded from the header's recipe):
     the world built for the seed, run to the snapshot's tick, checked against the recorded
@@ -243,14 +285,7 @@ def rebuild_run(snap: SnapshotFile, loaded: Any) -> RunState:
         SnapshotError: The payload is broken, or the rebuilt run is not the recorded one.
     """
     h = snap.header
-    arrays = snap.arrays()
-    raw = arrays.pop(_STATE.removesuffix(".json"), None)
-    if raw is None or raw.dtype != np.uint8 or raw.ndim != 1:
-        raise SnapshotError(f"{snap.path}: the payload holds no state")
-    try:
-        recorded = decode(json.loads(raw.tobytes()), arrays)
-    except (ValueError, UnicodeDecodeError, RecursionError) as exc:
-        raise SnapshotError(f"{snap.path}: broken snapshot state: {str(exc)[:200]}") from None
+    recorded, _ = _recorded(snap)
     b, at = h["break"], h["at"]
     stop = Stop(at["tick"], at["before_start"], str(b.get("reason", "")), str(b.get("option", "")))
     run = new_run(loaded, h["seed"])
@@ -260,7 +295,11 @@ def rebuild_run(snap: SnapshotFile, loaded: Any) -> RunState:
             f"{stop.tick}: it is not the run the snapshot was taken of"
         )
     tree, now_arrays = capture(run)
-    found = first_difference(recorded, decode(tree, now_arrays))
+    now = decode(tree, now_arrays)
+    for key in RESTORE_ONLY:  # scratch buffers and caches differ between two equal runs
+        recorded.pop(key, None)
+        now.pop(key, None)
+    found = first_difference(recorded, now)
     if found is not None:
         raise SnapshotError(
             f"{snap.path}: the run rebuilt from {h['scenario_file']} for seed {h['seed']} does "
@@ -270,9 +309,15 @@ def rebuild_run(snap: SnapshotFile, loaded: Any) -> RunState:
     return run
 
 
-def load_run(path: Path, snap: SnapshotFile | None = None) -> RunSnapshot:
-    """Read, rebuild and check a run snapshot (its scenario loaded from the header's recipe;
-    the scenario's `skills:` folders are imported as a run of it imports them).
+def load_run(path: Path, snap: SnapshotFile | None = None, restore: bool = False) -> RunSnapshot:
+    """Read a run snapshot and resume it: its scenario loaded from the header's recipe (the
+    scenario's `skills:` folders are imported as a run of it imports them), the run built for
+    the seed, then the episode re-run from t = 0 to the snapshot's tick and checked to hold
+    the recorded state, bit for bit (`rebuild_run`). With `restore`, instead, the recorded
+    state is put into the built run (`restore_from`: no step simulated; not yet the default,
+    docs/time-travel.md says where it is bit for bit); a running skill whose declared state
+    is not all it held, or an object the built run has no place for, is then replayed as
+    without it (`how` says so).
 
     Raises:
         SnapshotError: Not a run snapshot, not signed with this user's key, written by other
@@ -305,5 +350,10 @@ def load_run(path: Path, snap: SnapshotFile | None = None) -> RunSnapshot:
             "pass their folders with --skills (a snapshot never imports code itself)"
         )
     check_versions(snap)
-    run = rebuild_run(snap, loaded)
-    return RunSnapshot(run, h, Path(path), time.perf_counter() - wall0)
+    how = "restored" if restore else "verified"
+    try:
+        run = restore_from(snap, loaded) if restore else rebuild_run(snap, loaded)
+    except IncompleteState as exc:
+        how = f"replayed: {exc}"
+        run = rebuild_run(snap, loaded)
+    return RunSnapshot(run, h, Path(path), time.perf_counter() - wall0, how)

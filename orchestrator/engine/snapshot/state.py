@@ -29,12 +29,70 @@ import numpy as np
 
 from ...skills import Skill
 from ...success.base import SuccessCheck
-from ..context import Context
+from ..context import Context, Event
 from ..episode import Episode
 from ..runner import RunState
+from ..step import SLEEP_ARRAYS, SLEEP_COUNTS
+from ..tasks import TaskEntry
 from .data import encode, objects, plain_state
+from .graph import capture_graph, walk
+from .machine_state import capture_machine
 
-__all__ = ["capture", "detached", "model_digest", "mujoco_state"]
+__all__ = [
+    "ROWS",
+    "capture",
+    "declared",
+    "detached",
+    "model_arrays",
+    "model_digest",
+    "mujoco_state",
+    "own_state",
+]
+
+ROWS: tuple[type, ...] = (Event, TaskEntry)
+"""The record types a run keeps lists of (its log, its task log): recorded field by field."""
+
+_SMALL = 1 << 20
+"""Model arrays up to this size [bytes] are recorded whole (a run may reshape them: a
+conveyor's parcels, the holding brakes, a friction fault); larger ones by their digest."""
+
+
+def own_state(obj: Any) -> bool:
+    """An object that declares its state (`snapshot_state()` and `restore_state(data)`: a
+    skill, a success check, the IK, the wrist sensor's noise): that is what is recorded."""
+    return (
+        not isinstance(obj, type)
+        and callable(getattr(obj, "snapshot_state", None))
+        and callable(getattr(obj, "restore_state", None))
+    )
+
+
+def declared(run: RunState) -> Iterator[tuple[str, Any]]:
+    """The objects of `run` but its running skills that declare their state, by path (the
+    skills are the machine's: machine_state.py)."""
+    for path, obj in walk(run, own_state):
+        if own_state(obj) and not isinstance(obj, Skill):
+            yield path, obj
+
+
+def model_arrays(model: mujoco.MjModel) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """The model's arrays up to `_SMALL` bytes by name, and the digests of the larger ones."""
+    small: dict[str, np.ndarray] = {}
+    large: dict[str, str] = {}
+    for name in sorted(dir(model)):
+        if name.startswith("_"):
+            continue
+        try:
+            value = getattr(model, name)
+        except Exception:  # noqa: S112 (a property that does not apply to this model)
+            continue
+        if isinstance(value, np.ndarray) and not value.dtype.hasobject:
+            if value.nbytes <= _SMALL:
+                small[name] = np.array(value, copy=True)
+            else:
+                large[name] = hashlib.sha256(np.ascontiguousarray(value).tobytes()).hexdigest()
+    return small, large
+
 
 _INTEGRATION = mujoco.mjtState.mjSTATE_INTEGRATION
 
@@ -130,6 +188,21 @@ def capture(run: RunState) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         "metrics": ctx.metrics,
         "tasks": plain_state(ctx.tasks),
     }
+    with detached(ctx, run.episode):
+        parts["graph"] = capture_graph(run, own_state, ROWS)
+        parts["declared"] = {path: obj.snapshot_state() for path, obj in declared(run)}
+        parts["checks"] = checks
+        if run.started:
+            parts["machine"] = capture_machine(run)
+    small, large = model_arrays(ctx.model)
+    parts["model_large"] = large
+    for name, value in small.items():
+        arrays[f"model/{name}"] = value
+    tree["model_small"] = sorted(small)
+    tree["warnings"] = [[int(w.number), int(w.lastinfo)] for w in ctx.data.warning]
+    for name in SLEEP_ARRAYS:  # MuJoCo's sleeping trees: not in mj_getState
+        arrays[f"sleep/{name}"] = np.array(getattr(ctx.data, name), copy=True)
+    tree["awake_counts"] = [int(getattr(ctx.data, name)) for name in SLEEP_COUNTS]
     for name, value in parts.items():
         tree[name], more = encode(value, f"{name}/")
         arrays.update(more)
