@@ -20,7 +20,11 @@ from ...guards.base import Violation
 from ...language.loading import MachineNode
 from ...skills import Skill, get_skill
 from ...skills.plain_state import attributes
-from ..executor import Executor, _Model, _ParallelActivity, _Region, _SkillActivity
+from ..executor import Executor
+from ..regions import ParallelActivity as _ParallelActivity
+from ..regions import Region as _Region
+from ..regions import SkillActivity as _SkillActivity
+from ..regions import _Model
 from ..safety_stop import SafetyStop
 from .errors import SnapshotError
 
