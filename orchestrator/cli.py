@@ -351,6 +351,7 @@ def run(
             help="Where --break writes the snapshot (default: SCENARIO-seedS-tickN.snap here).",
         ),
     ] = None,
+    strict: Annotated[bool, typer.Option(help="Exit 1 on an invariant violation.")] = False,
 ) -> None:
     """Run one episode. Exit 0 succeeded, 1 failed, 2 invalid
     input, 3 aborted by a guard, 4 outcome `error`: a skill raised or --max-wall-s passed (the
@@ -426,6 +427,11 @@ def run(
         _print_skill_fault(result.error, debug)
     if rrd is not None:
         err.print(f"recording saved to {rrd} (open it with: rerun {rrd})", markup=False)
+    violation = result.strict_violation if strict else None
+    if violation is not None:  # --strict: docs/invariants.md
+        err.print(f"invariant {violation['invariant']} violated: {violation['message']}",
+                  markup=False, soft_wrap=True)  # fmt: skip
+        raise typer.Exit(1)
     raise typer.Exit(result.exit_code)
 
 
@@ -960,8 +966,12 @@ def batch(
         ),
     ] = False,
     skills: SkillPaths = None,
+    strict: Annotated[
+        bool, typer.Option(help="Exit 1 if an episode violates an invariant.")
+    ] = False,
 ) -> None:
-    """Run N seeded episodes in parallel: exit 0 all ran, 1 some raised, 2 invalid input."""
+    """Run N seeded episodes in parallel: exit 0 all ran, 1 some raised or (--strict) violated
+    an invariant, 2 invalid input."""
     import time as _time
 
     from .batch import BatchConfig, BatchError, run_batch
@@ -1021,6 +1031,15 @@ def batch(
         _json_line(summary.to_json_dict())
     else:
         print_summary(summary, _rich(out))
+    if strict:  # docs/invariants.md
+        from .batch.store import ResultsStore
+        from .engine.invariants import violated_names
+
+        names = violated_names(list(ResultsStore(out_dir).load().values()))
+        for name, n in names.items():
+            err.print(f"invariant {name} violated in {n} episodes", markup=False)
+        if names:
+            raise typer.Exit(1)
     raise typer.Exit(1 if summary.errors else 0)
 
 
