@@ -1043,6 +1043,10 @@ def batch(
     raise typer.Exit(1 if summary.errors else 0)
 
 
+from .explore.command import explore_command  # noqa: E402  (docs/explore.md)
+
+app.command(name="explore")(explore_command)
+
 # -- snapshots ----------------------------------------------------------------------------------
 
 snapshot_app = typer.Typer(

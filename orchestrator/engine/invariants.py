@@ -86,6 +86,7 @@ class InvariantsObserver:
     def __init__(self) -> None:
         self.violations: list[dict[str, Any]] = []
         self.first_t: float | None = None
+        self.from_t: float | None = None
 
     # -- the run's start ----------------------------------------------------------------------
     def on_start(self, ctx: Context, executor: Executor) -> None:
@@ -127,8 +128,10 @@ class InvariantsObserver:
         self.belt = w.conveyor is not None
 
     def on_resume(self, ctx: Context, executor: Executor) -> None:
-        """A run restored from a snapshot: measured from here on."""
+        """A run restored from a snapshot: measured from here on (the section's `from_t`:
+        a snapshot holds the run's state, not this observer's)."""
         self.on_start(ctx, executor)
+        self.from_t = ctx.t
 
     # -- every physics step ---------------------------------------------------------------------
     def on_step(self, ctx: Context) -> None:
@@ -232,6 +235,8 @@ class InvariantsObserver:
         }
         result.invariants = {"ok": not self.violations, "violations": self.violations,
                              "worst": worst}  # fmt: skip
+        if self.from_t is not None:
+            result.invariants["from_t"] = _num(self.from_t)
 
     def _task_log(self, ctx: Context, result: RunResult) -> None:
         held = _held(ctx)

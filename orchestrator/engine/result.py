@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal
 
 from pydantic import BaseModel, Field
@@ -60,10 +61,9 @@ class RunResult(BaseModel):
 
     @property
     def strict_violation(self) -> dict[str, Any] | None:
-        """The first invariant violation (`run --strict` exits 1 on it), or None."""
-        from .invariants import first_violation
-
-        return first_violation(self.invariants)
+        """The first invariant violation in time (`run --strict` exits 1 on it), or None."""
+        found = (self.invariants or {}).get("violations") or []
+        return min(found, key=lambda v: v.get("t", math.inf)) if found else None
 
     @property
     def exit_code(self) -> int:
