@@ -11,10 +11,11 @@ from typer.testing import CliRunner
 from orchestrator.cli import app
 from orchestrator.engine.invariants import InvariantsObserver
 from orchestrator.engine.runner import new_run
+from orchestrator.exceptions import ConfigError
 from orchestrator.explore import draw_variations, load_space, shrink
 from orchestrator.explore.params import override_texts
 from orchestrator.explore.verdict import failures, primary
-from orchestrator.language.load import load_scenario
+from orchestrator.language.load import load_scenario, load_world
 from orchestrator.language.scenario import ObjectSpec
 
 
@@ -147,3 +148,14 @@ def test_replay_names_the_valid_counterexamples(tmp_path):
                                       "--replay", "3"])  # fmt: skip
     assert result.exit_code == 2
     assert "no counterexample 3" in result.output and "valid: 4" in result.output
+
+
+def test_a_scene_inside_the_arm_s_start_pose_is_refused_before_anything_moves():
+    # explore's first class on reach_random: a table raised into the home pose was accepted
+    # and the first physics step threw the arm out at 24 rad/s (joint_velocity, t=0.002 s)
+    with pytest.raises(ConfigError) as caught:
+        load_world("reach_random", 0, ["scene.table.height=0.49"])
+    (diag,) = caught.value.diagnostics
+    assert diag.path == "scene" and "inside table_top" in diag.message
+    assert "scene.table.height" in diag.message  # the fix is named
+    load_world("reach_random", 0, ["scene.table.height=0.45"])  # clear of the arm: accepted

@@ -414,10 +414,42 @@ def _compiles(
     from ..world.world import World
 
     try:
-        return World.build(scenario, seed), []
+        world = World.build(scenario, seed)
     except Exception as exc:  # MjSpec reports bad geometry as ValueError or its own errors
         text = " ".join(str(exc).split()) or type(exc).__name__
         return None, [source.diag(("scene",), f"MuJoCo cannot build this scene: {text}")]
+    inside = _start_contacts(world)
+    if inside:
+        # found by `orchestrator explore`: a table raised into the arm's home pose was
+        # accepted, and the first physics step threw the arm out at 24 rad/s
+        name, depth = max(inside.items(), key=lambda kv: kv[1])
+        return None, [source.diag(("scene",), (
+            f"the robot at its start pose is inside {name} ({depth * 1000:.1f} mm deep"
+            f"{' at seed ' + str(seed) if seed else ''}): the scene must leave the arm's start "
+            "pose clear (lower `scene.table.height`, or move what it touches)"))]  # fmt: skip
+    return world, []
+
+
+def _start_contacts(world: World) -> dict[str, float]:
+    """What the robot penetrates at its start pose: geom name -> depth [m] (a copy of the
+    state is forwarded: the run's own `MjData` is not touched)."""
+    import mujoco
+
+    model = world.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = world.data.qpos
+    mujoco.mj_forward(model, data)
+    robot = world.robot_geoms
+    out: dict[str, float] = {}
+    for i in range(data.ncon):
+        c = data.contact[i]
+        g1, g2 = int(c.geom1), int(c.geom2)
+        if (g1 in robot) == (g2 in robot) or c.dist >= 0.0:
+            continue
+        other = g2 if g1 in robot else g1
+        name = model.geom(other).name or f"geom {other}"
+        out[name] = max(out.get(name, 0.0), -float(c.dist))
+    return out
 
 
 def _arm_joints(scenario: Scenario) -> int:
