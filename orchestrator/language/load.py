@@ -31,6 +31,7 @@ from .robot_gains import check_gains
 from .scenario import Scenario
 from .scenario_checks import check_faults, check_scenario_refs, check_scene_names, goal_keys
 from .scenario_skills import hint_unimported, register_scenario_skills
+from .scene_reach import check_scene_reach
 from .success import typed_success, validate_success
 from .validation import blackboard_types, validate_guards, validate_machine
 from .yamlio import SourceMap, load_yaml
@@ -239,6 +240,7 @@ def _load(
     if scenario is not None:
         problems += check_scenario_refs(scenario, doc.source, keys if node else None)
         problems += check_gains(scenario.robot.name, scenario.robot.gains, doc.source)
+        problems += check_scene_reach(scenario, doc.source)
         if node is not None and not problems:  # the box is checked as goals are
             r = scenario.robot
             problems += check_random_goals(
