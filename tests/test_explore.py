@@ -159,3 +159,25 @@ def test_a_scene_inside_the_arm_s_start_pose_is_refused_before_anything_moves():
     assert diag.path == "scene" and "inside table_top" in diag.message
     assert "scene.table.height" in diag.message  # the fix is named
     load_world("reach_random", 0, ["scene.table.height=0.45"])  # clear of the arm: accepted
+
+
+@pytest.mark.parametrize(
+    ("sets", "said"),
+    [
+        # explore on pick_place: the cube randomized up to 10 m off fell beside the table
+        (["scene.objects.cube.randomize.y=[-0.08, 10.0]"], "off the table top"),
+        # a pad on the table, 5.4 m from the arm (explore drew one 9.4 m away)
+        (
+            [
+                "scene.table.center_xy=[3.0, 0.0]",
+                "scene.table.size_xy=[10.0, 0.9]",
+                "scene.markers.pad.xy=[5.4, 0.2]",
+            ],
+            "beyond its reach",
+        ),
+    ],
+)
+def test_a_table_top_object_or_marker_out_of_the_cell_is_refused(sets, said):
+    with pytest.raises(ConfigError) as caught:
+        load_scenario("pick_place", sets)
+    assert any(said in d.message and d.path.startswith("scene.") for d in caught.value.diagnostics)
