@@ -181,3 +181,12 @@ def test_a_table_top_object_or_marker_out_of_the_cell_is_refused(sets, said):
     with pytest.raises(ConfigError) as caught:
         load_scenario("pick_place", sets)
     assert any(said in d.message and d.path.startswith("scene.") for d in caught.value.diagnostics)
+
+
+def test_a_pick_area_off_the_table_is_refused():
+    # explore on sorting: the pick area 6.5 m off; its parcels fell to the floor under no task
+    with pytest.raises(ConfigError) as caught:
+        load_scenario("sorting", ["scene.parcels.area_center_xy=[6.45, -0.2]"])
+    (diag,) = caught.value.diagnostics
+    assert diag.path.startswith("scene.parcels") and "the pick area" in diag.message
+    assert "off the table top" in diag.message

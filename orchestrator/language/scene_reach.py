@@ -1,8 +1,9 @@
-"""Objects and markers of a table-top cell: on the table, within the arm's reach.
+"""Objects, markers and a pick area of a table-top cell: on the table, within the arm's reach.
 
 `orchestrator explore` found pick_place accepting a cube whose randomization range reached
 10 m (it started in the air beside the table, fell to the floor and the flow ended `lost`) and
-a pad 9.4 m away (the flow ended `unreachable`): every value was inside the schema's bounds.
+a pad 9.4 m away (the flow ended `unreachable`), and sorting a pick area 6.5 m off (its
+parcels fell to the floor): every value was inside the schema's bounds.
 So every free object that starts on the table (no `spots`) and every marker is checked over
 its whole randomization range: its centre on the table top, and (for a fixed-base arm) within
 the arm's reach of its shoulder at the table's height. Both regions are convex, so the range's
@@ -44,6 +45,12 @@ def check_scene_reach(scenario: Scenario, source: SourceMap) -> list[Diagnostic]
             r = obj.randomize
             items.append((("scene", "objects", i), obj.name, _corners(obj.xy, r.x, r.y),
                           "`xy` and `randomize.x`/`randomize.y`"))  # fmt: skip
+    parcels = scene.parcels
+    if parcels is not None:  # explore on sorting: a pick area 6.5 m off, its parcels fell
+        half = [parcels.area_size_xy[0] / 2.0, parcels.area_size_xy[1] / 2.0]
+        items.append((("scene", "parcels"), "the pick area",
+                      _corners(parcels.area_center_xy, [-half[0], half[0]], [-half[1], half[1]]),
+                      "`area_center_xy` and `area_size_xy`"))  # fmt: skip
     for i, marker in enumerate(scene.markers):
         items.append((("scene", "markers", i), marker.name, [tuple(marker.xy)], "`xy`"))
     out = []
