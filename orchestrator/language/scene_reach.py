@@ -6,8 +6,9 @@ a pad 9.4 m away (the flow ended `unreachable`), and sorting a pick area 6.5 m o
 parcels fell to the floor): every value was inside the schema's bounds.
 So every free object that starts on the table (no `spots`) and every marker is checked over
 its whole randomization range: its centre on the table top, and (for a fixed-base arm) within
-the arm's reach of its shoulder at the table's height. Both regions are convex, so the range's
-corners decide.
+the arm's reach of its shoulder at the table's height; a pick area of parcels on the table top
+(a parcel out of reach is the sorting flow's to reject with its reason). Both regions are
+convex, so the range's corners decide.
 """
 
 from __future__ import annotations
@@ -44,17 +45,19 @@ def check_scene_reach(scenario: Scenario, source: SourceMap) -> list[Diagnostic]
         if not obj.randomize.spots:
             r = obj.randomize
             items.append((("scene", "objects", i), obj.name, _corners(obj.xy, r.x, r.y),
-                          "`xy` and `randomize.x`/`randomize.y`"))  # fmt: skip
+                          "`xy` and `randomize.x`/`randomize.y`", True))  # fmt: skip
     parcels = scene.parcels
     if parcels is not None:  # explore on sorting: a pick area 6.5 m off, its parcels fell
+        # (on the table only: a parcel out of reach is the sorting flow's to reject, with its
+        # reason, docs/sorting.md)
         half = [parcels.area_size_xy[0] / 2.0, parcels.area_size_xy[1] / 2.0]
         items.append((("scene", "parcels"), "the pick area",
                       _corners(parcels.area_center_xy, [-half[0], half[0]], [-half[1], half[1]]),
-                      "`area_center_xy` and `area_size_xy`"))  # fmt: skip
+                      "`area_center_xy` and `area_size_xy`", False))  # fmt: skip
     for i, marker in enumerate(scene.markers):
-        items.append((("scene", "markers", i), marker.name, [tuple(marker.xy)], "`xy`"))
+        items.append((("scene", "markers", i), marker.name, [tuple(marker.xy)], "`xy`", True))
     out = []
-    for at, name, corners, keys in items:
+    for at, name, corners, keys, reach in items:
         off = [c for c in corners if not (lo[0] <= c[0] <= hi[0] and lo[1] <= c[1] <= hi[1])]
         if off:
             out.append(source.diag(at, (
@@ -62,7 +65,7 @@ def check_scene_reach(scenario: Scenario, source: SourceMap) -> list[Diagnostic]
                 f"(x {lo[0]:g} .. {hi[0]:g}, y {lo[1]:g} .. {hi[1]:g} m): it would not rest on "
                 f"the table; narrow its {keys}")))  # fmt: skip
             continue
-        if shoulder is None:
+        if shoulder is None or not reach:
             continue
         points = [np.array([c[0], c[1], table.height]) for c in corners]
         far = max(points, key=lambda p: float(np.linalg.norm(p - shoulder)))
