@@ -27,9 +27,10 @@ SOURCES = {"orchestrator": REPO / "orchestrator", "orchestrator.skills": REPO / 
 
 ALLOWED: dict[str, set[str]] = {
     "cli": {
-        "batch", "live", "recording", "engine", "language", "success", "skills", "guards",
+        "explore", "batch", "live", "recording", "engine", "language", "success", "skills", "guards",
         "perception", "world", "robots", "exceptions",
     },
+    "explore": {"batch", "recording", "engine", "language", "world", "robots", "exceptions"},
     "batch": {"recording", "engine", "language", "world", "robots", "exceptions"},
     "live": {"recording", "engine", "language", "world", "robots", "exceptions"},
     "recording": {"engine", "language", "guards", "world", "robots", "exceptions"},

@@ -104,7 +104,10 @@ def test_closing_on_a_distractor_of_the_targets_colour_is_wrong_object_named():
     assert (result.outcome, result.final_state) == ("failed", "WRONG_OBJECT")
     closed = next(t for t in result.transitions if t["trigger"] == "wrong_object")
     assert closed["detail"].startswith("holding green_cube, not cube (width 4"), closed
-    assert result.reason is None and result.metrics["max_wrist_force_n"] < 20.0
+    # the reason names the state that closed on it and the cause
+    assert result.reason["kind"] == "final_state" and "wrong_object" in result.reason["message"]
+    assert result.reason["state"] in result.reason["message"]
+    assert result.metrics["max_wrist_force_n"] < 20.0
 
 
 def test_the_base_backs_straight_out_of_a_tight_spot(loaded_mobile):

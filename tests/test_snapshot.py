@@ -145,6 +145,10 @@ def test_run_from_continues_to_the_uninterrupted_result(cli, grasp_snapshot):
     resumed = res.json
     full, resumed = dict(full), dict(resumed)
     full.pop("wall_time"), resumed.pop("wall_time")
+    # the invariants of a resumed run are measured from the resume on (docs/invariants.md)
+    inv_full, inv_resumed = full.pop("invariants"), resumed.pop("invariants")
+    assert inv_resumed["from_t"] > 0.0 and "from_t" not in inv_full
+    assert inv_resumed["ok"] == inv_full["ok"]
     assert resumed == full
 
 

@@ -55,6 +55,8 @@ def test_a_scenario_with_its_own_check_resumes_to_the_uninterrupted_result(cell)
     resumed = json.loads(res.stdout)
     assert set(resumed["success"]) >= {"turned_alike"}  # the page's own check judged it
     resumed.pop("wall_time"), full.pop("wall_time", None)
+    # measured from the resume on (docs/invariants.md): its own section, not the full run's
+    assert resumed.pop("invariants")["from_t"] > 0.0 and full.pop("invariants", None) is not None
     assert resumed == full
 
 

@@ -22,7 +22,7 @@ from ..language.scenario_skills import register_user_skills
 from .memory import release_episode, rss_mb, worker_stamp
 from .task import NOT_WRITTEN, EpisodeTask, error_line, rrd_name, snapshot_name
 
-__all__ = ["prepared_episode", "run_task", "same_episode"]
+__all__ = ["forget_prepared", "prepared_episode", "run_task", "same_episode"]
 
 _PREPARED: dict[tuple[str, tuple[str, ...], tuple[str, ...]], Prepared] = {}
 
@@ -42,6 +42,12 @@ def prepared_episode(task: EpisodeTask) -> Prepared:
             task.scenario, task.seed, task.overrides, allow_paths=task.allow_paths
         )
     return _PREPARED[key].reseeded(task.seed)
+
+
+def forget_prepared(task: EpisodeTask) -> None:
+    """Drop what `prepared_episode` keeps for `task`'s scenario and overrides: an exploration
+    runs each set of overrides once or a few times, and a worker must not keep them all."""
+    _PREPARED.pop((task.scenario, task.overrides, task.allow_paths), None)
 
 
 _DISK_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)

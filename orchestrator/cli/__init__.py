@@ -27,6 +27,7 @@ would be compiled and evaluated: 15 % of `--version`'s instructions, 5 % of `val
 """
 
 from . import batch, inspect, live, run, timetravel
+from ..explore.command import explore_command
 from .root import app, main
 
 __all__ = ["app", "main"]
@@ -40,6 +41,7 @@ COMMANDS = (
     (inspect.list_, "list"),
     (inspect.show, None),
     (batch.batch, None),
+    (explore_command, "explore"),
     (live.serve, None),
     (live.send, None),
     (live.watch, None),

@@ -146,8 +146,12 @@ def batch(
         ),
     ] = False,
     skills: SkillPaths = None,
+    strict: Annotated[
+        bool, typer.Option(help="Exit 1 if an episode violates an invariant.")
+    ] = False,
 ) -> None:
-    """Run N seeded episodes in parallel: exit 0 all ran, 1 some raised, 2 invalid input."""
+    """Run N seeded episodes in parallel: exit 0 all ran, 1 some raised or (--strict) violated
+    an invariant, 2 invalid input."""
     import time as _time
 
     from ..batch import BatchConfig, BatchError, run_batch
@@ -209,4 +213,13 @@ def batch(
         json_line(summary.to_json_dict())
     else:
         print_summary(summary, rich_console(out))
+    if strict:  # docs/invariants.md
+        from ..batch.store import ResultsStore
+        from ..engine.invariants import violated_names
+
+        names = violated_names(list(ResultsStore(out_dir).load().values()))
+        for name, n in names.items():
+            err.print(f"invariant {name} violated in {n} episodes", markup=False)
+        if names:
+            raise typer.Exit(1)
     raise typer.Exit(1 if summary.errors else 0)

@@ -125,6 +125,7 @@ def run(
             help="Where --break writes the snapshot (default: SCENARIO-seedS-tickN.snap here).",
         ),
     ] = None,
+    strict: Annotated[bool, typer.Option(help="Exit 1 on an invariant violation.")] = False,
 ) -> None:
     """Run one episode. Exit 0 succeeded, 1 failed, 2 invalid
     input, 3 aborted by a guard, 4 outcome `error`: a skill raised or --max-wall-s passed (the
@@ -202,4 +203,9 @@ def run(
         print_skill_fault(result.error, debug)
     if rrd is not None:
         err.print(f"recording saved to {rrd} (open it with: rerun {rrd})", markup=False)
+    violation = result.strict_violation if strict else None
+    if violation is not None:  # --strict: docs/invariants.md
+        err.print(f"invariant {violation['invariant']} violated: {violation['message']}",
+                  markup=False, soft_wrap=True)  # fmt: skip
+        raise typer.Exit(1)
     raise typer.Exit(result.exit_code)

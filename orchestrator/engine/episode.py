@@ -216,6 +216,54 @@ class Episode:
             "limit": self.time_limit_s,
         }
 
+    def _reason(
+        self, outcome: str, final_state: str | None, judged: dict[str, tuple[bool, str]]
+    ) -> dict[str, Any] | None:
+        """Why the run did not succeed, naming the state and the cause (None: it succeeded,
+        or it was halted from outside: the caller says why, engine/runner.py)."""
+        ex = self.executor
+        if ex.violation is not None:
+            reason = ex.violation.to_dict()
+            t = round(ex.violation_t if ex.violation_t is not None else self.ctx.t, 6)
+            after = [tr["from"] for tr in ex.transitions if tr["t"] >= t]
+            reason["state"] = after[0] if after else final_state
+            return reason
+        limit = self._limit_reason(final_state)
+        if limit is not None:
+            limit["state"] = final_state
+            return limit
+        if outcome == "succeeded" or self.halt_reason is not None:
+            return None
+        if self.diverged:
+            return {"kind": "diverged", "state": final_state, "message": self.diverged}
+        if ex.fault is not None:
+            fault = ex.fault
+            return {
+                "kind": "skill_error",
+                "state": fault.state,
+                "message": f"skill {fault.skill} raised {fault.type} in state {fault.state}: "
+                f"{fault.message}",
+            }
+        if ex.outcome == "succeeded":  # the machine ended well; a success check did not hold
+            failed = [f"{name}: {text}" for name, (ok, text) in judged.items() if not ok]
+            return {
+                "kind": "success_check",
+                "state": final_state,
+                "message": f"the machine ended in {final_state} but a success check failed: "
+                + "; ".join(failed),
+            }
+        last = ex.transitions[-1] if ex.transitions else None
+        if last is None:
+            return {"kind": "final_state", "state": final_state,
+                    "message": f"the machine ended {outcome} in {final_state}"}  # fmt: skip
+        detail = f": {last['detail']}" if last.get("detail") else ""
+        return {
+            "kind": "final_state",
+            "state": last["from"],
+            "message": f"{last['from']} ended `{last['trigger']}`{detail}, so the machine went "
+            f"to {last['to']} ({outcome})",
+        }
+
     # -- the result -----------------------------------------------------------------------
     def result(
         self,
@@ -293,7 +341,7 @@ class Episode:
             seed=seed,
             outcome=outcome,  # type: ignore[arg-type]
             final_state=final_state,
-            reason=ex.violation.to_dict() if ex.violation else self._limit_reason(final_state),
+            reason=self._reason(outcome, final_state, judged),
             sim_time=round(ctx.t - t0, 6),
             wall_time=round(wall_time, 4),
             transitions=ex.transitions,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal
 
 from pydantic import BaseModel, Field
@@ -26,7 +27,9 @@ class RunResult(BaseModel):
         description="Why the run was cut short: the guard violation that aborted it (`guard`, "
         "`message`, `value`, `limit`), or the time limit it reached (`kind: time_limit`, "
         "`message`, `value` and `limit` in s of simulated time; outcome `failed`), or the "
-        "wall-clock limit (`kind: max_wall_s`; outcome `error`); null otherwise.",
+        "wall-clock limit (`kind: max_wall_s`; outcome `error`), or `kind` `final_state` (the "
+        "state whose outcome led to a failed final state), `success_check`, `skill_error`, "
+        "`diverged`; every one has `state` and `message`. Null only for `succeeded`.",
     )
     sim_time: float = Field(description="Simulated time [s].")
     wall_time: float = Field(description="Wall time of the episode [s] (build + simulate).")
@@ -49,6 +52,19 @@ class RunResult(BaseModel):
         "; absent otherwise.",
     )
 
+    invariants: dict[str, Any] | None = Field(
+        default=None,
+        description="What held at every physics step and at the end (engine/invariants.py): "
+        "`ok`, `violations` (each: `invariant`, `message`, `value`, `limit`, `t`, `state`) and "
+        "`worst` (the largest ratio to each datasheet limit); absent where nothing measured it.",
+    )
+
+    @property
+    def strict_violation(self) -> dict[str, Any] | None:
+        """The first invariant violation in time (`run --strict` exits 1 on it), or None."""
+        found = (self.invariants or {}).get("violations") or []
+        return min(found, key=lambda v: v.get("t", math.inf)) if found else None
+
     @property
     def exit_code(self) -> int:
         return EXIT_CODES[self.outcome]
@@ -59,4 +75,6 @@ class RunResult(BaseModel):
             del out["tasks"]  # runs without parcels print what they always printed
         if out["error"] is None:
             del out["error"]  # only a run whose skill raised has one
+        if out["invariants"] is None:
+            del out["invariants"]
         return out

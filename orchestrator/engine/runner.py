@@ -23,6 +23,7 @@ from .episode import (
 from .executor import Executor
 from .faults import FaultInjector
 from .hardware import Hardware
+from .invariants import InvariantsObserver
 from .result import RunResult
 
 __all__ = [
@@ -189,7 +190,7 @@ def drive(
     Raises:
         WallTimeExceeded: The episode ran past `max_wall_s`.
     """
-    observers = list(observers or [])
+    observers = [*(observers or []), InvariantsObserver()]  # every run: engine/invariants.py
     wall0 = time.perf_counter()
     episode, injector, ctx, executor = run.episode, run.injector, run.ctx, run.executor
     episode.loop.set_observers(observers)

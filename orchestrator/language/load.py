@@ -31,6 +31,7 @@ from .robot_gains import check_gains
 from .scenario import Scenario
 from .scenario_checks import check_faults, check_scenario_refs, check_scene_names, goal_keys
 from .scenario_skills import hint_unimported, register_scenario_skills
+from .scene_reach import check_scene_reach
 from .success import typed_success, validate_success
 from .validation import blackboard_types, validate_guards, validate_machine
 from .yamlio import SourceMap, load_yaml
@@ -239,6 +240,7 @@ def _load(
     if scenario is not None:
         problems += check_scenario_refs(scenario, doc.source, keys if node else None)
         problems += check_gains(scenario.robot.name, scenario.robot.gains, doc.source)
+        problems += check_scene_reach(scenario, doc.source)
         if node is not None and not problems:  # the box is checked as goals are
             r = scenario.robot
             problems += check_random_goals(
@@ -414,10 +416,42 @@ def _compiles(
     from ..world.world import World
 
     try:
-        return World.build(scenario, seed), []
+        world = World.build(scenario, seed)
     except Exception as exc:  # MjSpec reports bad geometry as ValueError or its own errors
         text = " ".join(str(exc).split()) or type(exc).__name__
         return None, [source.diag(("scene",), f"MuJoCo cannot build this scene: {text}")]
+    inside = _start_contacts(world)
+    if inside:
+        # found by `orchestrator explore`: a table raised into the arm's home pose was
+        # accepted, and the first physics step threw the arm out at 24 rad/s
+        name, depth = max(inside.items(), key=lambda kv: kv[1])
+        return None, [source.diag(("scene",), (
+            f"the robot at its start pose is inside {name} ({depth * 1000:.1f} mm deep"
+            f"{' at seed ' + str(seed) if seed else ''}): the scene must leave the arm's start "
+            "pose clear (lower `scene.table.height`, or move what it touches)"))]  # fmt: skip
+    return world, []
+
+
+def _start_contacts(world: World) -> dict[str, float]:
+    """What the robot penetrates at its start pose: geom name -> depth [m] (a copy of the
+    state is forwarded: the run's own `MjData` is not touched)."""
+    import mujoco
+
+    model = world.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = world.data.qpos
+    mujoco.mj_forward(model, data)
+    robot = world.robot_geoms
+    out: dict[str, float] = {}
+    for i in range(data.ncon):
+        c = data.contact[i]
+        g1, g2 = int(c.geom1), int(c.geom2)
+        if (g1 in robot) == (g2 in robot) or c.dist >= 0.0:
+            continue
+        other = g2 if g1 in robot else g1
+        name = model.geom(other).name or f"geom {other}"
+        out[name] = max(out.get(name, 0.0), -float(c.dist))
+    return out
 
 
 def _arm_joints(scenario: Scenario) -> int:

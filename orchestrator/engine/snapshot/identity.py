@@ -68,6 +68,7 @@ def comparable(result: RunResult) -> dict[str, Any]:
     wall time)."""
     out = result.to_json_dict()
     out.pop("wall_time", None)
+    out.pop("invariants", None)  # a resumed run measures them from the resume on (its `from_t`)
     return out
 
 

@@ -1,0 +1,74 @@
+"""What the invariants cost a run: CPU time of the same episodes with and without them.
+
+Every run measures its invariants (engine/invariants.py: an observer called after every
+physics step). This bench runs each seed twice in one process, paired and in alternating
+order (with, without; then without, with on the next seed), timing each episode's CPU time
+(`time.process_time`, so other processes on a shared host count less), and reports the median
+and worst ratio over the pairs. "Without" swaps the observer for one with no per-step hook
+(the run is otherwise the same, bit for bit: the observer only reads).
+
+    python bench/invariants_cost.py                       # sorting, seeds 0-3
+    python bench/invariants_cost.py --scenario pick_place --seeds 6
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+from orchestrator.engine import runner
+from orchestrator.engine.invariants import InvariantsObserver
+from orchestrator.engine.runner import run_episode
+from orchestrator.language.load import load_scenario
+
+
+class _Off:
+    """The observer's place in the run, with nothing measured."""
+
+    def on_start(self, ctx, executor) -> None:
+        pass
+
+    def on_tick(self, ctx, executor) -> None:
+        pass
+
+    def on_end(self, ctx, executor, result) -> None:
+        pass
+
+
+def _episode(loaded, seed: int, on: bool) -> tuple[float, dict]:
+    runner.InvariantsObserver = InvariantsObserver if on else _Off  # type: ignore[misc,assignment]
+    t0 = time.process_time()
+    result = run_episode(loaded, seed)
+    cpu = time.process_time() - t0
+    runner.InvariantsObserver = InvariantsObserver  # type: ignore[misc]
+    out = result.to_json_dict()
+    out.pop("wall_time")
+    out.pop("invariants", None)
+    return cpu, out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenario", default="sorting")
+    parser.add_argument("--seeds", type=int, default=4)
+    args = parser.parse_args()
+    loaded = load_scenario(args.scenario)
+    _episode(loaded, 0, True)  # warm-up: imports, compiled models, caches
+    ratios = []
+    for seed in range(args.seeds):
+        order = (True, False) if seed % 2 == 0 else (False, True)
+        cpu: dict[bool, float] = {}
+        same: dict[bool, dict] = {}
+        for on in order:
+            cpu[on], same[on] = _episode(loaded, seed, on)
+        assert same[True] == same[False], "the observer changed the run"
+        ratios.append(cpu[True] / cpu[False])
+        print(f"seed {seed}: with {cpu[True]:.2f} s, without {cpu[False]:.2f} s CPU, "
+              f"ratio {ratios[-1]:.4f}", flush=True)  # fmt: skip
+    print(f"{args.scenario}: {len(ratios)} pairs, CPU with/without invariants: median "
+          f"{statistics.median(ratios):.4f}, worst {max(ratios):.4f} (target <= 1.05)")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
