@@ -145,6 +145,12 @@ def figures(result: dict[str, Any]) -> dict[str, Any]:
         out[f"success_detail.{key}"] = _NUMBER.sub("#", text)
         for i, number in enumerate(_NUMBER.findall(text)):
             out[f"success_detail.{key}#{i}"] = float(number) if "." in number else int(number)
+    invariants = result.get("invariants") or {}
+    if invariants:  # docs/invariants.md: what held, and how close each limit came
+        out["invariants.ok"] = invariants.get("ok")
+        out["invariants.violations"] = len(invariants.get("violations") or [])
+        for key, value in (invariants.get("worst") or {}).items():
+            out[f"invariants.worst.{key}"] = value
     return out
 
 

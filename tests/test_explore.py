@@ -12,8 +12,10 @@ from orchestrator.cli import app
 from orchestrator.engine.invariants import InvariantsObserver
 from orchestrator.engine.runner import new_run
 from orchestrator.exceptions import ConfigError
-from orchestrator.explore import draw_variations, load_space, shrink
+from orchestrator.explore.campaign import load_space
 from orchestrator.explore.params import override_texts
+from orchestrator.explore.sampler import draw_variations
+from orchestrator.explore.shrink import shrink
 from orchestrator.explore.verdict import failures, primary
 from orchestrator.language.load import load_scenario, load_world
 from orchestrator.language.scenario import ObjectSpec

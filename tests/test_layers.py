@@ -27,8 +27,8 @@ SOURCES = {"orchestrator": REPO / "orchestrator", "orchestrator.skills": REPO / 
 
 ALLOWED: dict[str, set[str]] = {
     "cli": {
-        "explore", "batch", "live", "recording", "engine", "language", "success", "skills", "guards",
-        "perception", "world", "robots", "exceptions",
+        "explore", "batch", "live", "recording", "engine", "language", "success", "skills",
+        "guards", "perception", "world", "robots", "exceptions",
     },
     "explore": {"batch", "recording", "engine", "language", "world", "robots", "exceptions"},
     "batch": {"recording", "engine", "language", "world", "robots", "exceptions"},

@@ -80,6 +80,12 @@ def test_the_readme_json_example_is_the_real_run(cli):
                 _same_text(text, real[key][check], check)
         elif key == "sim_time":
             _close(value, real[key], "sim_time", key)
+        elif key == "invariants":  # what held exactly; how close each limit came, in tolerance
+            _same({**value, "worst": None}, {**real[key], "worst": None}, key)
+            assert list(value["worst"]) == list(real[key]["worst"]), f"invariants; {FIX}"
+            for name, figure in value["worst"].items():
+                where = f"invariants.worst.{name}"
+                _close(figure, real[key]["worst"][name], where, where)
         else:
             _same(value, real[key], key)
 

@@ -230,7 +230,7 @@ def test_a_joint_stopped_past_its_range_is_turned_back_by_recover(tmp_path):
     (tmp_path / "past_the_stop.yaml").write_text(PAST_THE_STOP)
     loaded = load_scenario("pick_place", machine=str(tmp_path / "past_the_stop.yaml"),
                            allow_paths=[tmp_path])  # fmt: skip
-    session.tasks.append(Task(100, loaded, session.ctx, "past_the_stop", session.loop))
+    session.tasks.append(Task(100, loaded, session.cell, "past_the_stop"))
     _step(session)  # a task started locally, past the channel's rules
     for _ in range(10):
         session._tick()

@@ -118,7 +118,10 @@ def test_the_error_result_names_the_exception_and_the_measured_stop(cli, folder)
     assert res.exit_code == 4
     result = res.json
     assert result["outcome"] == "error" and result["final_state"] == "SWING"
-    assert result["reason"] is None
+    # every outcome but `succeeded` says why, naming the state and the cause (docs/invariants.md)
+    reason = result["reason"]
+    assert (reason["kind"], reason["state"]) == ("skill_error", "SWING")
+    assert "swing" in reason["message"] and "ZeroDivisionError" in reason["message"]
     error = result["error"]
     assert (error["skill"], error["method"], error["type"]) == (
         "swing",

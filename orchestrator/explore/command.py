@@ -1,6 +1,5 @@
 """`orchestrator explore`: the command (registered on the CLI's typer app, orchestrator/cli.py)."""
 
-
 import sys
 from pathlib import Path
 from typing import Annotated, Literal

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ..world.random_streams import stream
 from .params import Parameter, override_texts
 
 __all__ = ["CORNER_SHARE", "EDGE_SHARE", "MAX_MOVED", "Variation", "draw_variations"]
@@ -113,7 +114,7 @@ def draw_variations(
     """
     if not params:
         return []
-    rng = np.random.default_rng(seed)
+    rng = stream(seed, "explore")
     by_path = {p.path: p for p in params}
     out: list[Variation] = []
     seeds: set[int] = set()

@@ -28,10 +28,11 @@ STREAMS = MappingProxyType({
     "conveyor_feed": 0xC07E,       # world/conveyor.py: each fed parcel (with its index)
     "mass_mismatch": 0x3A55,       # world/realism.py: the controller model's link masses
     "wrist_noise": 0xF7,           # world/realism.py: the wrist force sensor's noise
-    "encoders": 0xE2C0,            # engine/context.py: encoder noise
-    "skills": 1,                   # engine/runner.py: ctx.rng, the skills' own draws
+    "encoders": 0xE2C0,            # engine/cell.py: encoder noise
+    "skills": 1,                   # engine/cell.py: ctx.rng, the skills' own draws
     "blackboard_goals": 0xB1ACB0A2,  # language/random_goals.py: `randomize: {blackboard: ...}`
     "parcels": 0x9A4C,             # language/parcels.py: the sorting scene's parcels
+    "explore": 0xE8B1,             # explore/sampler.py: an exploration's variations
 })  # fmt: skip
 """Stream name -> tag (the second word of the generator's seed)."""
 
