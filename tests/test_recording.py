@@ -421,7 +421,7 @@ def test_the_recording_opens_with_the_default_blueprint(recorded):
     assert len(reader.blueprints()) == 1
 
 
-LONG_EPISODES = {"sorting", "sorting_conveyor", "surgical", "surgical_complication"}
+LONG_EPISODES = {"sorting", "sorting_conveyor", "sorting_ur5", "surgical", "surgical_complication"}
 """Scenarios whose episode takes 10-40 s (the surgical ones register by touch first): their
 recordings run with the slow suite."""
 

@@ -82,6 +82,8 @@ def test_a_snapshot_resumes_in_another_process(name, tmp_path):
     )  # fmt: skip
     got = json.loads(proc.stdout)
     got.pop("wall_time")
+    # `comparable` leaves out the invariants: the resumed run measures them from the resume
+    assert got.pop("invariants")["from_t"] > 0.0
     assert got == expected
 
 
@@ -135,4 +137,7 @@ def test_a_batch_keeps_each_failures_snapshot_and_reruns_from_it(tmp_path, cli):
     for key in ("wall_time", "worker", "snapshot", "snapshot_state"):
         got.pop(key, None)
         want.pop(key, None)
+    # the resumed run measures its invariants from the resume on (docs/invariants.md)
+    inv_got, inv_want = got.pop("invariants"), want.pop("invariants")
+    assert inv_got["from_t"] > 0.0 and inv_got["ok"] == inv_want["ok"]
     assert got == want
