@@ -49,8 +49,8 @@ class Profile:
         import ruckig
 
         self._args = (distance, v_max, a_max, j_max, v0, a0)
-        """What it was made from: a snapshot (engine/snapshot) pickles these and computes the
-        same trajectory again (Ruckig's objects do not pickle; it never re-plans)."""
+        """What it was made from: a snapshot (engine/snapshot) records these as data and a
+        restore computes the same trajectory again from them (it never re-plans)."""
         self.distance, self.v_max, self.a_max = float(distance), float(v_max), float(a_max)
         self.j_max = float(j_max) if j_max is not None else JERK_PER_ACCEL * self.a_max
         self._trajectory: ruckig.Trajectory | None = None

@@ -86,7 +86,7 @@ def make_executor(loaded: LoadedScenario, ctx: Context) -> Executor:
         loaded.machine,
         ctx,
         make_guards(loaded.scenario.guards, ctx),
-        partial(SafetyStop, ctx, safe_stop),  # not a lambda: a snapshot pickles it
+        partial(SafetyStop, ctx, safe_stop),  # a method's partial, not a closure
         safe_stop.hold_s,
         make_guards(["joint_limits"], ctx),
         make_guards([{"contact_force": {"max_n": safe_stop.force_ceiling_n}}], ctx),

@@ -86,8 +86,8 @@ class FaultInjector:
         for i, fault in self._on_enter.pop(path, []):
             self._schedule(self.ctx.t + fault.delay_s, self._starter(i, fault))
 
-    # scheduled actions are partials of methods, not closures: a snapshot (engine/snapshot)
-    # pickles the queue with the rest of the run
+    # scheduled actions are partials of methods, not closures: what is due is plain data (a
+    # snapshot records the queue by index in the scenario, engine/snapshot)
     def _sender(self, name: str, source: str) -> Callable[[], object]:
         return partial(self.executor.event, name, source)
 

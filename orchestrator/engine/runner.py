@@ -94,7 +94,7 @@ def tell_start(
 @dataclass
 class RunState:
     """One episode of `orchestrator run`, between two control ticks: everything the rest of
-    the run depends on (a snapshot pickles exactly this, engine/snapshot).
+    the run depends on (a snapshot records this as data, engine/snapshot).
 
     Attributes:
         loaded: The scenario (with the run's `--set`, `--fault` and `--event`).
