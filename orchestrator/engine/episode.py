@@ -271,7 +271,7 @@ class Episode:
         wall_time: float,
         faults: list[dict[str, Any]] | None = None,
     ) -> RunResult:
-        """What happened: the `run --json` object (DESIGN.md's contract).
+        """What happened: the `run --json` object (a contract: the README's `run --json` example).
 
         Args:
             seed: The episode's seed.

@@ -1,4 +1,5 @@
-"""RunResult: the JSON a run prints (the contract in DESIGN.md)."""
+"""RunResult: the JSON a run prints (a contract: the README's `run --json` example and
+docs/invariants.md)."""
 
 from __future__ import annotations
 

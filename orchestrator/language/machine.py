@@ -1,4 +1,5 @@
-"""The machine language as pydantic models (the YAML keys are a contract: see DESIGN.md)."""
+"""The machine language as pydantic models (the YAML keys are a contract: see
+docs/machine-language.md)."""
 
 from __future__ import annotations
 
