@@ -141,6 +141,23 @@ def test_every_run_reports_its_invariants_and_strict_keeps_exit_zero_when_they_h
     assert 0.0 < inv["worst"]["joint_velocity"] <= 1.0
 
 
+def test_strict_exits_1_naming_the_invariant_a_run_violated(monkeypatch):
+    start = InvariantsObserver.on_start
+
+    def tenth_of_the_datasheet(self, ctx, executor):  # the arm's speed limit read 10x lower
+        start(self, ctx, executor)
+        self.vlim = 0.1 * self.vlim
+        self.inv_v = (1.0 / self.vlim).tolist()
+
+    monkeypatch.setattr(InvariantsObserver, "on_start", tenth_of_the_datasheet)
+    plain = CliRunner().invoke(app, ["run", "reach_random", "--json"])
+    assert plain.exit_code == 0, plain.output  # without --strict: the run's own exit code
+    assert not json.loads(plain.stdout)["invariants"]["ok"]
+    strict = CliRunner().invoke(app, ["run", "reach_random", "--json", "--strict"])
+    assert strict.exit_code == 1, strict.output
+    assert "invariant joint_velocity violated" in strict.stderr
+
+
 def test_replay_names_the_valid_counterexamples(tmp_path):
     (tmp_path / "counterexamples.jsonl").write_text(
         json.dumps({"k": 4, "seed": 1, "set": [], "violated": "check:x", "message": ""}) + "\n"

@@ -13,8 +13,9 @@ _TABLE_ENDS = 20
 """Transitions printed at each end of a long run's table."""
 
 
-def finish(result, as_json: bool, debug: bool, rrd: Path | None) -> None:
-    """Print a run's result and exit with its code."""
+def finish(result, as_json: bool, debug: bool, rrd: Path | None, strict: bool = False) -> None:
+    """Print a run's result and exit with its code (`strict`: 1 on an invariant violation,
+    docs/invariants.md)."""
     if as_json:
         json_line(result.to_json_dict())
     else:
@@ -23,6 +24,11 @@ def finish(result, as_json: bool, debug: bool, rrd: Path | None) -> None:
         print_skill_fault(result.error, debug)
     if rrd is not None:
         err.print(f"recording saved to {rrd} (open it with: rerun {rrd})", markup=False)
+    violation = result.strict_violation if strict else None
+    if violation is not None:
+        err.print(f"invariant {violation['invariant']} violated: {violation['message']}",
+                  markup=False, soft_wrap=True)  # fmt: skip
+        raise typer.Exit(1)
     raise typer.Exit(result.exit_code)
 
 

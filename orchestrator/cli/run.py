@@ -21,7 +21,7 @@ from .options import (
     note_entry,
     use_skills,
 )
-from .results import print_result, print_skill_fault
+from .results import finish
 from .timetravel import checked_break_points, run_from, run_to_break
 
 
@@ -195,17 +195,4 @@ def run(
     except OrchestratorError as exc:
         err.print(f"error: {exc}", markup=False)
         raise typer.Exit(EXIT_INVALID) from None
-    if as_json:
-        json_line(result.to_json_dict())
-    else:
-        print_result(result)
-    if result.error is not None:
-        print_skill_fault(result.error, debug)
-    if rrd is not None:
-        err.print(f"recording saved to {rrd} (open it with: rerun {rrd})", markup=False)
-    violation = result.strict_violation if strict else None
-    if violation is not None:  # --strict: docs/invariants.md
-        err.print(f"invariant {violation['invariant']} violated: {violation['message']}",
-                  markup=False, soft_wrap=True)  # fmt: skip
-        raise typer.Exit(1)
-    raise typer.Exit(result.exit_code)
+    finish(result, as_json, debug, rrd, strict)
