@@ -20,7 +20,7 @@ from .self_collision import add_self_collision_proxies
 if TYPE_CHECKING:
     import mujoco
 
-__all__ = ["assemble", "urdf_efforts"]
+__all__ = ["assemble", "urdf_efforts", "write_urdf"]
 
 
 def assemble(robot: Robot, mesh_dir: Path) -> mujoco.MjSpec:
@@ -175,3 +175,19 @@ def urdf_efforts(urdf: str) -> dict[str, float]:
         if limit is not None and "effort" in limit.attrib:
             out[joint.attrib["name"]] = float(limit.attrib["effort"])
     return out
+
+
+def write_urdf(robot: str, text: str) -> Path:
+    """`text` (a URDF the robot's class composed) as a file MuJoCo and pinocchio can read: in
+    the temporary folder, named by its content, so a worker reuses the file another wrote."""
+    import hashlib  # here: reading the robot's declaration (validate) needs no digest
+    import os
+    import tempfile
+
+    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+    path = Path(tempfile.gettempdir()) / f"orchestrator-{robot}-{digest}.urdf"
+    if not path.exists():
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)  # atomic: parallel workers never read half a file
+    return path

@@ -15,14 +15,13 @@ from __future__ import annotations
 
 import functools
 import math
-import os
 import re
-import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from ..assembly import write_urdf
 from ..base import Datasheet, Gains
 from ..panda.model import ROBOT_CONAFFINITY, ROBOT_CONTYPE, Panda, panda_urdf_path
 
@@ -137,15 +136,7 @@ def mobile_panda_urdf() -> Path:
     text = re.sub(r'<robot name="panda"', '<robot name="mobile_panda"', panda, count=1)
     first_link = text.index("<link ")
     text = text[:first_link] + _base_chain() + text[first_link:]
-    import hashlib  # here: reading the robot's declaration (validate) needs no digest
-
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    path = Path(tempfile.gettempdir()) / f"orchestrator-mobile_panda-{digest}.urdf"
-    if not path.exists():
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, path)  # atomic: parallel workers never read half a file
-    return path
+    return write_urdf("mobile_panda", text)
 
 
 class MobilePanda(Panda):

@@ -16,17 +16,14 @@ process into the temporary directory (named by its content's hash), from the shi
 from __future__ import annotations
 
 import functools
-import hashlib
 import math
-import os
 import re
-import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ..assembly import assemble
+from ..assembly import assemble, write_urdf
 from ..base import (
     CONTACT_SOLIMP,
     CONTACT_TIMECONST_S,
@@ -154,13 +151,7 @@ def so101_urdf() -> Path:
         "</joint>"
     )
     text = text.replace("</robot>", tcp + "\n</robot>")
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    path = Path(tempfile.gettempdir()) / f"orchestrator-so101-{digest}.urdf"
-    if not path.exists():
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, path)  # atomic: parallel workers never read half a file
-    return path
+    return write_urdf("so101", text)
 
 
 class SO101(Robot):

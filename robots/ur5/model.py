@@ -8,17 +8,14 @@ per process into the temporary directory (named by its content's hash), as the m
 from __future__ import annotations
 
 import functools
-import hashlib
 import math
-import os
 import re
-import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ..assembly import assemble
+from ..assembly import assemble, write_urdf
 from ..base import Datasheet, Gains, Robot
 from ..exceptions import RobotError
 from ..grippers import ROBOTIQ_2F85_CLASS
@@ -88,13 +85,7 @@ def ur5_urdf() -> Path:
         if n != 1:
             raise RobotError(f"ur5_robot.urdf has no limit on {name}: the file changed")
     text = text.replace("</robot>", GRIPPER.urdf("tool0") + "\n</robot>")
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    path = Path(tempfile.gettempdir()) / f"orchestrator-ur5-{digest}.urdf"
-    if not path.exists():
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, path)  # atomic: parallel workers never read half a file
-    return path
+    return write_urdf("ur5", text)
 
 
 class UR5(Robot):
