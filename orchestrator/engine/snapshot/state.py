@@ -75,10 +75,8 @@ def declared(run: RunState) -> Iterator[tuple[str, Any]]:
             yield path, obj
 
 
-def model_arrays(model: mujoco.MjModel) -> tuple[dict[str, np.ndarray], dict[str, str]]:
-    """The model's arrays up to `_SMALL` bytes by name, and the digests of the larger ones."""
-    small: dict[str, np.ndarray] = {}
-    large: dict[str, str] = {}
+def _numeric_arrays(model: mujoco.MjModel) -> Iterator[tuple[str, np.ndarray]]:
+    """Every numeric array of `model`, by name in name order."""
     for name in sorted(dir(model)):
         if name.startswith("_"):
             continue
@@ -87,10 +85,18 @@ def model_arrays(model: mujoco.MjModel) -> tuple[dict[str, np.ndarray], dict[str
         except Exception:  # noqa: S112 (a property that does not apply to this model)
             continue
         if isinstance(value, np.ndarray) and not value.dtype.hasobject:
-            if value.nbytes <= _SMALL:
-                small[name] = np.array(value, copy=True)
-            else:
-                large[name] = hashlib.sha256(np.ascontiguousarray(value).tobytes()).hexdigest()
+            yield name, value
+
+
+def model_arrays(model: mujoco.MjModel) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """The model's arrays up to `_SMALL` bytes by name, and the digests of the larger ones."""
+    small: dict[str, np.ndarray] = {}
+    large: dict[str, str] = {}
+    for name, value in _numeric_arrays(model):
+        if value.nbytes <= _SMALL:
+            small[name] = np.array(value, copy=True)
+        else:
+            large[name] = hashlib.sha256(np.ascontiguousarray(value).tobytes()).hexdigest()
     return small, large
 
 
@@ -136,14 +142,8 @@ with it (world_state.py), not part of the model's identity."""
 def model_digest(model: mujoco.MjModel) -> str:
     """SHA-256 of every array of `model` (by name, in name order) but `BRAKE_FIELDS`."""
     h = hashlib.sha256()
-    for name in sorted(dir(model)):
-        if name.startswith("_") or name in BRAKE_FIELDS:
-            continue
-        try:
-            value = getattr(model, name)
-        except Exception:  # noqa: S112 (a property that does not apply to this model)
-            continue
-        if isinstance(value, np.ndarray) and not value.dtype.hasobject:
+    for name, value in _numeric_arrays(model):
+        if name not in BRAKE_FIELDS:
             h.update(name.encode() + b"\0")
             h.update(np.ascontiguousarray(value).tobytes())
     return h.hexdigest()
