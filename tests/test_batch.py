@@ -333,6 +333,30 @@ def test_a_dead_worker_is_replaced_and_its_episode_retried_once(tmp_path):
     assert (summary.succeeded, summary.errors, summary.failing_seeds) == (4, 1, [1])
 
 
+def environment_run(task: EpisodeTask) -> dict[str, Any]:
+    """A worker function: reports the worker's $ORCHESTRATOR_TEST_MARK as its metric."""
+    return {
+        "scenario": "fake",
+        "seed": task.seed,
+        "outcome": "succeeded",
+        "metrics": {"mark": float(os.environ.get("ORCHESTRATOR_TEST_MARK", "-1"))},
+    }
+
+
+def test_workers_see_the_parents_environment_of_now_not_the_fork_servers(tmp_path, monkeypatch):
+    # the fork server is started once per process and keeps the environment of that moment:
+    # a snapshot key changed since (as a test fixture or a library user does) must still reach
+    # the workers, or their snapshots are signed with a key nobody else reads
+    marks = []
+    for mark in ("1", "2"):
+        monkeypatch.setenv("ORCHESTRATOR_TEST_MARK", mark)
+        config = BatchConfig("pick_place", 1, tmp_path / f"b{mark}", record="none")
+        run_batch(config, backend=LocalBackend(1, run_fn=environment_run))
+        (line,) = _lines(tmp_path / f"b{mark}" / "results.jsonl")
+        marks.append(line["metrics"]["mark"])
+    assert marks == [1.0, 2.0]
+
+
 # -- resume after SIGKILL -----------------------------------------------------------------
 @pytest.mark.slow  # a batch killed and resumed (~12 s)
 def test_sigkill_then_resume_runs_every_seed_exactly_once(tmp_path, cli_process):

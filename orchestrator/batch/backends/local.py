@@ -4,13 +4,16 @@ Each worker gets one task at a time over its own pipe, so when a worker process 
 parent knows exactly which episode it was running: that episode is retried once on a fresh
 worker, then recorded as `error`. Workers are forked from a fork server that imported the
 framework once, so starting (or replacing) one is cheap and never inherits the parent's
-threads (the progress bar's).
+threads (the progress bar's). A fork server keeps the environment it was started with, so each
+worker is handed the parent's environment as it is when its batch starts (the snapshot key's
+location, `$ORCHESTRATOR_SNAPSHOT_KEY`, and anything else a run reads from it).
 """
 
 from __future__ import annotations
 
 import math
 import multiprocessing
+import os
 import signal
 import time
 from collections import deque
@@ -116,7 +119,8 @@ class _Worker:
 
     def __init__(self, mp: Any, run_fn: RunFn) -> None:
         self.conn, child = mp.Pipe(duplex=True)
-        self.process = mp.Process(target=_worker_main, args=(child, run_fn), daemon=True)
+        env = dict(os.environ)
+        self.process = mp.Process(target=_worker_main, args=(child, run_fn, env), daemon=True)
         self.process.start()
         child.close()  # so that the parent sees EOF when the worker dies
         self.task: EpisodeTask | None = None
@@ -179,9 +183,11 @@ class _Worker:
         self.conn.close()
 
 
-def _worker_main(conn: Connection, run_fn: RunFn) -> None:
+def _worker_main(conn: Connection, run_fn: RunFn, env: dict[str, str]) -> None:
     """A worker: run tasks from the pipe until told to stop (None) or the parent is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    os.environ.clear()  # the parent's environment now, not the fork server's at its start
+    os.environ.update(env)
     try:
         while True:
             task = conn.recv()
