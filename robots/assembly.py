@@ -95,7 +95,8 @@ def add_gripper(robot: Robot, spec: mujoco.MjSpec) -> None:
     for jname in robot.finger_joints:
         joint = spec.joint(jname)
         if jaw:  # the motor's 2F at `gear`: F at the jaw; free, each side at v_max
-            joint.armature = 0.01 * gear * gear  # 10 g at the jaw, as a slide finger's
+            rotor = robot.gripper_armature  # the servo's rotor; else 10 g at the jaw
+            joint.armature = 0.01 * gear * gear if rotor is None else rotor
             joint.damping = [2.0 * force * gear * gear / speed, 0.0, 0.0]
         else:
             joint.armature = 0.01

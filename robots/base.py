@@ -160,6 +160,11 @@ class Robot(abc.ABC):
     0 where the two meet), half the jaw's radius [m/rad]: the angle times the radius is the gap
     at the jaw, and each side's opening is half the gap. `gripper_open_m`, `gripper_speed_mps`
     and every opening a skill commands are in metres either way."""
+    gripper_armature: ClassVar[float | None] = None
+    """Rotor inertia of a revolute jaw's servo seen at its joint [kg m^2] (the plant's
+    `armature` there); None: 10 g at the jaw, as a slide finger's, a motor that answers
+    within a control tick. A geared servo's rotor makes the jaw a flywheel the motor takes
+    `gripper_time_constant_s` to spin up (`HandDrive` allows for it)."""
     gains: Gains
     """The controller's gains: the robot's defaults (a class attribute), replaced on an
     instance by a scenario's `robot.gains` (`with_gains`)."""
@@ -225,6 +230,17 @@ class Robot(abc.ABC):
     def joint_velocity_limits(self) -> np.ndarray:
         """Speed limit of each arm joint [rad/s] (the URDF's `velocity`). Shape (n_arm,)."""
         return np.asarray(_pinocchio_model(self.urdf_path()).velocityLimit[: self.n_arm], float)
+
+    @property
+    def gripper_time_constant_s(self) -> float:
+        """The gripper motor's mechanical time constant [s]: its rotor inertia over its
+        back-EMF damping (robots/assembly.py `add_gripper`), the time a free jaw takes to
+        reach 63 % of the speed a voltage step asks for. 0 without `gripper_armature`."""
+        if self.gripper_armature is None:
+            return 0.0
+        gear = self.finger_m_per_unit
+        damping = 2.0 * self.gripper_force_n * gear * gear / self.gripper_speed_mps
+        return self.gripper_armature / damping
 
     def joint_armature(self, joint: str) -> float:
         """Rotor inertia of arm joint `joint` seen at the joint [kg m^2]: the motor's and

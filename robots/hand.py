@@ -113,6 +113,13 @@ class HandDrive:
         """The finger's position at the last control tick [m]."""
         self._ramp = dt_control / GRIP_SQUEEZE_RAMP_S * (1.0 - GRIP_MOVE_FORCE_FRACTION)
         """Rise of that limit per control tick while squeezing."""
+        tau = robot.gripper_time_constant_s
+        self._lag = tau / dt_control * -math.expm1(-dt_control / tau) if tau > 0.0 else 0.0
+        """Of the change a tick's voltage asks of the finger's speed, the fraction a motor
+        with that time constant leaves behind over the tick, in distance (0: it answers at
+        once): a free finger moving `s` per tick goes u V + (s - u V) lag in the next."""
+        self._moved = 0.0
+        """How far the finger moved over the last control tick [m], signed."""
 
     def width(self) -> float:
         """Distance between the fingers [m]."""
@@ -150,6 +157,10 @@ class HandDrive:
         # what the last tick's voltage would have moved a free finger [m]; only a finger the
         # drive pushed can be held back (not one a pause holds still)
         free = abs(self._ctrl[self._act]) * self._volt_step
+        if self._lag:  # a motor still spinning up (or down) is not held back by an object
+            pushed_to = self._ctrl[self._act] * self._volt_step
+            free = abs(pushed_to + (self._moved - pushed_to) * self._lag)
+        self._moved = moved
         if self._squeeze is not None:  # until the target opens or the fingers reach it
             if not short:  # (an object that slips out: they close on, at the motor's speed)
                 self._squeeze, self._still = None, 0

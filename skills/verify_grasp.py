@@ -81,3 +81,10 @@ class VerifyGrasp(Skill):
             )
             return "dropped"
         return "held" if ctx.clock - self.t0 >= p.duration_s else None
+
+    def stop(self, ctx: Context) -> None:
+        # The setpoint may still be coming to rest from the lift (`start`'s hold_setpoint):
+        # the default stop, a hold at the measured joints, would step its velocity to zero
+        # and the damping kick the arm (pick_place_so101's wrist at 1.3x its acceleration
+        # limit as TRANSPORT took over, seed 2). Keep bringing it to rest instead.
+        ctx.controller.hold_setpoint()

@@ -189,8 +189,8 @@ class SO101(Robot):
     """[rad/s^2]: Feetech publishes no limit (the STS3215's acceleration register tops out at
     254 x 100 steps/s^2, 39 rad/s^2): an assumption, about half of that. At 39 the IK's
     commands (0.7 of it) made the light elbow ring on pick_place_so101's carry, 187 rad/s^2
-    for a few steps (bench/physical_honesty.py); at 20 the worst is the jaw's squeeze jolting
-    the links, 1.7x for up to 9 steps an episode."""
+    for a few steps (bench/physical_honesty.py); at 20, with the jaw's servo rotor in the
+    plant (`gripper_armature`), no physics step is above it (BENCHMARKS.md, issue 44)."""
     jerk_limits: ClassVar[tuple[float, ...]] = (2000.0,) * 5
     """[rad/s^3], an assumption likewise."""
     shoulder_height_m: ClassVar[float] = 0.1166
@@ -205,6 +205,16 @@ class SO101(Robot):
     armature: ClassVar[float] = 0.01
     """Rotor inertia seen at each joint [kg m^2]: a coreless motor's ~1e-7 kg m^2 through the
     STS3215's 1:345 gear (an assumption: Feetech publishes no figure)."""
+
+    gripper_armature: ClassVar[float | None] = 0.01
+    """The jaw's servo is an STS3215 with the same 1:345 gear as the arm's: the same rotor
+    inertia at its joint (`armature`). Modelled as 10 g at the jaw (1.1e-5 kg m^2, the jaw's
+    link adding 1.6e-5), the jaw was so light that every step of its motor's torque (the
+    drive's current limit as it met the cube, its squeeze ramp) threw it against the cube
+    and back at up to 1 rad/s, the reaction landing on the wrist-flex axis, parallel to the
+    jaw's: 1.73x the wrist's acceleration limit during CLOSE (bench/physical_honesty.py).
+    With the rotor the motor's torque spins the rotor, not the hand; the jaw takes 22 ms
+    (`gripper_time_constant_s`) to reach its speed."""
 
     def urdf_path(self) -> str:
         return str(so101_urdf())
