@@ -307,6 +307,38 @@ def test_gripper_opens_and_closes_to_its_stroke_at_its_speed(name):
 
 
 @pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_hand_drive_closes_free_fingers_within_its_moving_limit(name):
+    """The hand's drive (robots/hand.py) closes free fingers (nothing between them) from open
+    to a third of it at its moving pace: a finger still spinning up (a servo jaw's rotor,
+    `gripper_time_constant_s`) is not one an object holds back, so the drive never squeezes
+    with the full voltage on the way, and each side stays under the gripper's speed."""
+    from orchestrator.robots.hand import GRIP_SPEED_MARGIN, HandDrive
+
+    from orchestrator.world.indexing import as_index
+
+    robot, model, data, arm_q, arm_v = _alone(name)
+    fingers = np.array([model.joint(j).qposadr[0] for j in robot.finger_joints])
+    finger_v = np.array([model.joint(j).dofadr[0] for j in robot.finger_joints])
+    act = model.actuator(robot.gripper_actuator).id
+    dt_control = 0.01
+    drive = HandDrive(robot, data.qpos, as_index(fingers), data.ctrl, act, dt_control)
+    target = robot.gripper_open_m / 3.0
+    voltage, speed = 0.0, 0.0
+    ticks = round(1.5 * (robot.gripper_open_m - target) / robot.gripper_speed_mps / dt_control)
+    for tick in range(-20, ticks + 20):  # held open for 0.2 s (as a grasp finds them), closed
+        drive.target = robot.gripper_open_m if tick < 0 else target
+        drive.advance()
+        voltage = max(voltage, abs(float(data.ctrl[act])) if tick >= 0 else 0.0)
+        for _ in range(round(dt_control / model.opt.timestep)):
+            data.ctrl[: robot.n_arm] = data.qfrc_bias[arm_v]  # the arm held against gravity
+            mujoco.mj_step(model, data)
+            speed = max(speed, float(np.max(np.abs(data.qvel[finger_v]))) * robot.finger_m_per_unit)
+    assert 0.5 * drive.width() == pytest.approx(target, abs=5e-4)
+    assert voltage <= GRIP_SPEED_MARGIN, f"{name}: the drive squeezed free fingers ({voltage:.3f})"
+    assert speed <= robot.gripper_speed_mps, f"{name}: {speed:.5f} m/s a side"
+
+
+@pytest.mark.parametrize("name", sorted(ROBOTS))
 def test_show_robot_prints_its_joints_limits_and_their_source(cli, name):
     robot = get_robot(name)
     res = cli("show", "robot", name)
