@@ -157,16 +157,19 @@ class HandDrive:
         # what the last tick's voltage would have moved a free finger [m]; only a finger the
         # drive pushed can be held back (not one a pause holds still)
         free = abs(self._ctrl[self._act]) * self._volt_step
-        if self._lag:  # a motor still spinning up (or down) is not held back by an object
+        # and what it did move it, free, from the speed it had (a motor still spinning up or
+        # down is not held back by an object): the same when the motor answers at once
+        expected = free
+        if self._lag:
             pushed_to = self._ctrl[self._act] * self._volt_step
-            free = abs(pushed_to + (self._moved - pushed_to) * self._lag)
+            expected = abs(pushed_to + (self._moved - pushed_to) * self._lag)
         self._moved = moved
         if self._squeeze is not None:  # until the target opens or the fingers reach it
             if not short:  # (an object that slips out: they close on, at the motor's speed)
                 self._squeeze, self._still = None, 0
         else:
             pushed = rate > 0.0 and free > GRIP_MOVE_FORCE_FRACTION * self._volt_step
-            held = short and pushed and -moved < _GRIP_HELD * free
+            held = short and pushed and -moved < _GRIP_HELD * expected
             self._still = self._still + 1 if held else 0
             if self._still >= _GRIP_STILL_TICKS:
                 self._squeeze = finger
@@ -182,7 +185,7 @@ class HandDrive:
         voltage = (new - ref) / self._volt_step + self._gain * (new - finger)
         if squeeze:  # the force rises to the full grip force
             limit = min(self._limit + self._ramp * rate, 1.0)
-        elif abs(moved) >= _GRIP_HELD * free:  # the fingers went where the voltage sent them
+        elif abs(moved) >= _GRIP_HELD * expected:  # the fingers went where the voltage sent them
             limit = margin
         else:  # held back: the current limit, stall force x (voltage - speed / v_max) <= move
             limit = min(GRIP_MOVE_FORCE_FRACTION + abs(moved) / self._volt_step, margin)
