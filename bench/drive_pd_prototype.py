@@ -48,7 +48,7 @@ from orchestrator.language.load import load_scenario
 class DrivePD(HandWritten):
     """The hand-written loop with the joint impedance in the drives (see the module doc)."""
 
-    def __init__(self, *args: object, per_step: bool = False) -> None:
+    def __init__(self, *args: object, mode: str = "nstep", copy_data: bool = False) -> None:
         super().__init__(*args)  # type: ignore[arg-type]
         m, act = self.model, self.act
         self.motor = {
@@ -72,8 +72,29 @@ class DrivePD(HandWritten):
         servo["actuator_forcerange"][:] = np.column_stack([-c.effort_limit, c.effort_limit])
         self.servo = servo
         self._use(self.servo)
-        self.per_step = per_step
+        self.mode = mode
+        """`nstep`: one mj_step call per tick; `record`: the tick's steps one call each,
+        each step's arm velocities and motor forces copied for a check of all of them once
+        per tick; `resim`: as `record`, then every tick re-simulated step by step from its
+        start and compared (what a guard's violation would do); `per_step`: the tracking
+        error read on every step."""
         self.worst_rad = 0.0
+        self.resim_ticks = 0
+        self.resim_mismatches = 0
+        self.flagged = [0, 0, 0]
+        """Steps over the joint speed, acceleration and 90 %-torque bounds."""
+        self._copy: mujoco.MjData | None = mujoco.MjData(self.model) if copy_data else None
+        """With `copy_data`, the tick's start is a whole copy of MjData (mj_copyData), not
+        the integration state (mj_getState, mjSTATE_INTEGRATION)."""
+        n_sub, n = self.n_sub, self.n
+        self._qd_rows = np.empty((n_sub + 1, n))
+        self._force_rows = np.empty((n_sub, n))
+        self._state_kind = mujoco.mjtState.mjSTATE_INTEGRATION
+        self._state = np.empty(mujoco.mj_stateSize(self.model, self._state_kind))
+        robot = self.world.robot
+        self._v_max = np.asarray(robot.joint_velocity_limits(), float)
+        self._a_max = np.asarray(robot.acceleration_limits, float) * self.dt
+        self._tau_max = 0.9 * c.effort_limit
         self._q_full = np.zeros(c.model.nq)
         self._v_full = np.zeros(c.model.nv)
         self._a_full = np.zeros(c.model.nv)
@@ -101,14 +122,17 @@ class DrivePD(HandWritten):
         a_full[:n] = a
         tau = pin.rnea(c.model, c.data, q_full, v_full, a_full)[:n]
         d.ctrl[self.act] = q_mid + (c.kd * v_mid + tau) / c.kp
-        if self.per_step:  # the same steps, one at a time, the tracking error on each
+        m = self.model
+        if self.mode == "nstep":
+            mujoco.mj_step(m, d, self.n_sub)
+        elif self.mode == "per_step":  # the same steps, one at a time, the tracking error
             for i in range(1, self.n_sub + 1):
-                mujoco.mj_step(self.model, d)
+                mujoco.mj_step(m, d)
                 t = i * self.dt
                 ref = q0 + v0 * t + 0.5 * a * t * t
                 self.worst_rad = max(self.worst_rad, float(np.max(np.abs(self.arm_q - ref))))
         else:
-            mujoco.mj_step(self.model, d, self.n_sub)
+            self._recorded_tick()
         self.clock.t += dt_c
         # the setpoint moves on as Controller.compute moves it, by a whole tick
         c.q_d[:] = q0 + v0 * dt_c + 0.5 * a * dt_c * dt_c
@@ -117,6 +141,46 @@ class DrivePD(HandWritten):
             c._rest_left_s -= dt_c
             if c._rest_left_s <= 1e-9:
                 c.hold(c.q_d)
+
+    def _recorded_tick(self) -> None:
+        """The tick's physics steps with each step's data recorded, then checked at once:
+        joint speed, acceleration (velocity change per step) and motor torque, on every
+        step. A step over a bound (or, in `resim` mode, every tick) re-simulates the tick from
+        its start one step at a time, where a guard would react on the next step: the
+        re-simulated steps must be the recorded ones, bit for bit."""
+        m, d, kind = self.model, self.data, self._state_kind
+        qd, force = self._qd_rows, self._force_rows
+        if self._copy is not None:
+            mujoco.mj_copyData(self._copy, m, d)
+        else:
+            mujoco.mj_getState(m, d, self._state, kind)
+        arm_qd, act = self.arm_qd, self.act
+        qd[0] = arm_qd
+        for i in range(self.n_sub):
+            mujoco.mj_step(m, d)
+            qd[i + 1] = arm_qd
+            force[i] = d.actuator_force[act]
+        over = (
+            np.abs(qd[1:]) > self._v_max,
+            np.abs(np.diff(qd, axis=0)) > self._a_max,
+            np.abs(force) > self._tau_max,
+        )
+        flagged = False
+        for k, rows in enumerate(over):
+            hits = int(rows.any(axis=1).sum())
+            self.flagged[k] += hits
+            flagged = flagged or hits > 0
+        if flagged or self.mode == "resim":
+            self.resim_ticks += 1
+            recorded = qd.copy()
+            if self._copy is not None:
+                mujoco.mj_copyData(d, m, self._copy)
+            else:
+                mujoco.mj_setState(m, d, self._state, kind)
+            for i in range(self.n_sub):
+                mujoco.mj_step(m, d)  # (a guard's check of step i here)
+                if not np.array_equal(arm_qd, recorded[i + 1]):
+                    self.resim_mismatches += 1
 
     def stop_and_settle(self) -> None:
         self._use(self.motor)  # the controlled stop keeps the per-step path
@@ -129,11 +193,17 @@ class Tracked(HandWritten):
     def __init__(self, *args: object) -> None:
         super().__init__(*args)  # type: ignore[arg-type]
         self.worst_rad = 0.0
+        self.flagged = [0, 0, 0]
+        robot = self.world.robot
+        self._v_max = np.asarray(robot.joint_velocity_limits(), float)
+        self._a_max = np.asarray(robot.acceleration_limits, float) * self.dt
+        self._tau_max = 0.9 * self.ctrl.effort_limit
 
     def physics(self) -> None:
         self.advance_gripper()
         m, d, c = self.model, self.data, self.ctrl
         read, act = self.loop_views
+        before = self.arm_qd.copy()
         for _ in range(self.n_sub):
             commanded = c.mode in (ControlMode.JOINT, ControlMode.HOLD)
             d.ctrl[act] = c.compute(*read())
@@ -141,6 +211,11 @@ class Tracked(HandWritten):
             self.clock.t += self.dt
             if commanded:  # compute advanced q_d to this step's end
                 self.worst_rad = max(self.worst_rad, float(np.max(np.abs(self.arm_q - c.q_d))))
+            qd = self.arm_qd
+            self.flagged[0] += bool(np.any(np.abs(qd) > self._v_max))
+            self.flagged[1] += bool(np.any(np.abs(qd - before) > self._a_max))
+            self.flagged[2] += bool(np.any(np.abs(d.actuator_force[act]) > self._tau_max))
+            before = qd.copy()
 
 
 def _episode(loop: HandWritten) -> tuple[float, float, float | None, bool]:
@@ -149,54 +224,87 @@ def _episode(loop: HandWritten) -> tuple[float, float, float | None, bool]:
     return time.thread_time() - c0, loop.t, loop.cycle_s, ok
 
 
+VARIANTS = ("baseline", "nstep", "record")
+"""The loops timed: bench/overhead.py's, the drive PD with one mj_step call per tick, and the
+drive PD with each step's data recorded and checked once per tick."""
+
+
+def _loop(which: str, scenario: object, seed: int) -> HandWritten:
+    if which == "baseline":
+        return HandWritten(scenario, seed)  # type: ignore[arg-type]
+    return DrivePD(scenario, seed, mode=which)
+
+
+def _add(a: list[int], b: list[int]) -> list[int]:
+    return [x + y for x, y in zip(a, b, strict=True)]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10)
     args = parser.parse_args()
     scenario = load_scenario("pick_place").scenario
     load0 = os.getloadavg()[0]
-    _episode(HandWritten(scenario, 10_000))
-    _episode(DrivePD(scenario, 10_000))
-    ratios, oks, cycles = [], [0, 0], ([], [])
+    for which in VARIANTS:
+        _episode(_loop(which, scenario, 10_000))  # warm caches
+    per: dict[str, list[tuple[float, float, float | None, bool]]] = {v: [] for v in VARIANTS}
     for seed in range(args.seeds):
-        runs = {}
-        order = ("base", "proto") if seed % 2 == 0 else ("proto", "base")
-        for which in order:
-            # the world is built outside the timed part for both alike
-            loop = HandWritten(scenario, seed) if which == "base" else DrivePD(scenario, seed)
-            runs[which] = _episode(loop)
-        (cb, sb, yb, okb), (cp, sp, yp, okp) = runs["base"], runs["proto"]
-        ratios.append((cp / sp) / (cb / sb))
-        oks[0] += okb
-        oks[1] += okp
-        if yb is not None:
-            cycles[0].append(yb)
-        if yp is not None:
-            cycles[1].append(yp)
-        print(
-            f"seed {seed:3d}: baseline {cb / sb * 1e3:6.1f} ms CPU/sim s {'ok' if okb else 'FAIL'}"
-            f" | drive PD {cp / sp * 1e3:6.1f} {'ok' if okp else 'FAIL'} | ratio {ratios[-1]:.3f}",
-            flush=True,
+        order = VARIANTS if seed % 2 == 0 else VARIANTS[::-1]
+        for which in order:  # the world is built outside the timed part, for all alike
+            per[which].append(_episode(_loop(which, scenario, seed)))
+        row = " | ".join(
+            f"{v} {per[v][-1][0] / per[v][-1][1] * 1e3:6.1f}{'' if per[v][-1][3] else ' FAIL'}"
+            for v in VARIANTS
         )
+        print(f"seed {seed:3d} ms CPU per simulated s: {row}", flush=True)
     worst = [0.0, 0.0]
+    resim = {"mj_getState": [0, 0], "mj_copyData": [0, 0]}  # ticks, steps that differed
+    flagged = {"baseline": [0, 0, 0], "drive PD": [0, 0, 0]}
     for seed in range(min(args.seeds, 5)):
-        base, proto = Tracked(scenario, seed), DrivePD(scenario, seed, per_step=True)
+        base, proto = Tracked(scenario, seed), DrivePD(scenario, seed, mode="per_step")
         base.run()
         proto.run()
         worst = [max(worst[0], base.worst_rad), max(worst[1], proto.worst_rad)]
+        for how, counts in resim.items():
+            again = DrivePD(scenario, seed, mode="resim", copy_data=how == "mj_copyData")
+            again.run()
+            counts[0] += again.resim_ticks
+            counts[1] += again.resim_mismatches
+            if how == "mj_copyData":
+                flagged["drive PD"] = _add(flagged["drive PD"], again.flagged)
+        flagged["baseline"] = _add(flagged["baseline"], base.flagged)
     med = statistics.median
-    q = statistics.quantiles(ratios, n=4) if len(ratios) > 1 else [ratios[0]] * 3
+    print()
+    for which in VARIANTS[1:]:
+        ratios = [
+            (c / s) / (cb / sb)
+            for (c, s, _, _), (cb, sb, _, _) in zip(per[which], per["baseline"], strict=True)
+        ]
+        q = statistics.quantiles(ratios, n=4) if len(ratios) > 1 else [ratios[0]] * 3
+        print(
+            f"CPU per simulated second, drive PD ({which}) / baseline: median "
+            f"{med(ratios):.3f} (IQR {q[0]:.3f}-{q[2]:.3f}, {len(ratios)} seeds)"
+        )
+    for which in VARIANTS:
+        ok = sum(e[3] for e in per[which])
+        cycles = [e[2] for e in per[which] if e[2] is not None]
+        p50 = f", cycle p50 {med(cycles):.2f} s" if cycles else ""
+        print(f"{which:9s} success {ok}/{args.seeds}{p50}")
+    n = min(args.seeds, 5)
     print(
-        f"\nCPU per simulated second, drive PD / baseline: median {med(ratios):.3f} "
-        f"(IQR {q[0]:.3f}-{q[2]:.3f}, {len(ratios)} seeds)"
-    )
-    print(f"success: baseline {oks[0]}/{args.seeds}, drive PD {oks[1]}/{args.seeds}")
-    if cycles[0] and cycles[1]:
-        print(f"cycle p50: baseline {med(cycles[0]):.2f} s, drive PD {med(cycles[1]):.2f} s")
-    print(
-        f"worst joint tracking error per physics step (seeds 0-{min(args.seeds, 5) - 1}): "
+        f"worst joint tracking error per physics step (seeds 0-{n - 1}): "
         f"baseline {worst[0] * 1e3:.2f} mrad, drive PD {worst[1] * 1e3:.2f} mrad"
     )
+    for how, (ticks, differ) in resim.items():
+        print(
+            f"every tick re-simulated step by step from its start ({how}, seeds 0-{n - 1}): "
+            f"{ticks} ticks, {differ} steps differing from the recorded ones"
+        )
+    for who, (v, a, t) in flagged.items():
+        print(
+            f"{who:9s} steps over the datasheet speed {v}, acceleration {a}, 90 % torque {t} "
+            f"(seeds 0-{n - 1})"
+        )
     print(f"load average (1 min) {load0:.1f} at the start, {os.getloadavg()[0]:.1f} at the end")
 
 
