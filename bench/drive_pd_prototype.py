@@ -48,7 +48,9 @@ from orchestrator.language.load import load_scenario
 class DrivePD(HandWritten):
     """The hand-written loop with the joint impedance in the drives (see the module doc)."""
 
-    def __init__(self, *args: object, mode: str = "nstep", copy_data: bool = False) -> None:
+    def __init__(
+        self, *args: object, mode: str = "nstep", copy_data: bool = False, ramp: bool = False
+    ) -> None:
         super().__init__(*args)  # type: ignore[arg-type]
         m, act = self.model, self.act
         self.motor = {
@@ -83,6 +85,12 @@ class DrivePD(HandWritten):
         self.resim_mismatches = 0
         self.flagged = [0, 0, 0]
         """Steps over the joint speed, acceleration and 90 %-torque bounds."""
+        self.ramp = ramp
+        """The servo's setpoint written on every physics step along the tick's constant
+        acceleration (the feed-forward still once per tick), not held at the tick's middle:
+        not with `nstep`, whose one call takes one ctrl."""
+        self._ctrl_rows: np.ndarray | None = None
+        self._steps_t = np.arange(self.n_sub)[:, None] * self.dt
         self._copy: mujoco.MjData | None = mujoco.MjData(self.model) if copy_data else None
         """With `copy_data`, the tick's start is a whole copy of MjData (mj_copyData), not
         the integration state (mj_getState, mjSTATE_INTEGRATION)."""
@@ -122,11 +130,17 @@ class DrivePD(HandWritten):
         a_full[:n] = a
         tau = pin.rnea(c.model, c.data, q_full, v_full, a_full)[:n]
         d.ctrl[self.act] = q_mid + (c.kd * v_mid + tau) / c.kp
+        if self.ramp:  # the setpoint at each step's start, as Controller.compute has it
+            t = self._steps_t
+            q_t, v_t = q0 + v0 * t + 0.5 * a * t * t, v0 + a * t
+            self._ctrl_rows = q_t + (c.kd * v_t + tau) / c.kp
         m = self.model
         if self.mode == "nstep":
             mujoco.mj_step(m, d, self.n_sub)
         elif self.mode == "per_step":  # the same steps, one at a time, the tracking error
             for i in range(1, self.n_sub + 1):
+                if self._ctrl_rows is not None:
+                    d.ctrl[self.act] = self._ctrl_rows[i - 1]
                 mujoco.mj_step(m, d)
                 t = i * self.dt
                 ref = q0 + v0 * t + 0.5 * a * t * t
@@ -156,7 +170,10 @@ class DrivePD(HandWritten):
             mujoco.mj_getState(m, d, self._state, kind)
         arm_qd, act = self.arm_qd, self.act
         qd[0] = arm_qd
+        rows = self._ctrl_rows
         for i in range(self.n_sub):
+            if rows is not None:
+                d.ctrl[act] = rows[i]
             mujoco.mj_step(m, d)
             qd[i + 1] = arm_qd
             force[i] = d.actuator_force[act]
@@ -166,8 +183,8 @@ class DrivePD(HandWritten):
             np.abs(force) > self._tau_max,
         )
         flagged = False
-        for k, rows in enumerate(over):
-            hits = int(rows.any(axis=1).sum())
+        for k, bad in enumerate(over):
+            hits = int(bad.any(axis=1).sum())
             self.flagged[k] += hits
             flagged = flagged or hits > 0
         if flagged or self.mode == "resim":
@@ -178,6 +195,8 @@ class DrivePD(HandWritten):
             else:
                 mujoco.mj_setState(m, d, self._state, kind)
             for i in range(self.n_sub):
+                if rows is not None:
+                    d.ctrl[act] = rows[i]
                 mujoco.mj_step(m, d)  # (a guard's check of step i here)
                 if not np.array_equal(arm_qd, recorded[i + 1]):
                     self.resim_mismatches += 1
@@ -224,14 +243,17 @@ def _episode(loop: HandWritten) -> tuple[float, float, float | None, bool]:
     return time.thread_time() - c0, loop.t, loop.cycle_s, ok
 
 
-VARIANTS = ("baseline", "nstep", "record")
-"""The loops timed: bench/overhead.py's, the drive PD with one mj_step call per tick, and the
-drive PD with each step's data recorded and checked once per tick."""
+VARIANTS = ("baseline", "nstep", "record", "ramp")
+"""The loops timed: bench/overhead.py's; the drive PD with one mj_step call per tick; the
+drive PD with each step's data recorded and checked once per tick; that with the servo's
+setpoint written every step along the tick's acceleration."""
 
 
 def _loop(which: str, scenario: object, seed: int) -> HandWritten:
     if which == "baseline":
         return HandWritten(scenario, seed)  # type: ignore[arg-type]
+    if which == "ramp":
+        return DrivePD(scenario, seed, mode="record", ramp=True)
     return DrivePD(scenario, seed, mode=which)
 
 
@@ -257,22 +279,27 @@ def main() -> None:
             for v in VARIANTS
         )
         print(f"seed {seed:3d} ms CPU per simulated s: {row}", flush=True)
-    worst = [0.0, 0.0]
+    worst = {"baseline": 0.0, "drive PD": 0.0, "drive PD, ramp": 0.0}
     resim = {"mj_getState": [0, 0], "mj_copyData": [0, 0]}  # ticks, steps that differed
-    flagged = {"baseline": [0, 0, 0], "drive PD": [0, 0, 0]}
+    flagged = {k: [0, 0, 0] for k in worst}
     for seed in range(min(args.seeds, 5)):
-        base, proto = Tracked(scenario, seed), DrivePD(scenario, seed, mode="per_step")
+        base = Tracked(scenario, seed)
         base.run()
-        proto.run()
-        worst = [max(worst[0], base.worst_rad), max(worst[1], proto.worst_rad)]
-        for how, counts in resim.items():
-            again = DrivePD(scenario, seed, mode="resim", copy_data=how == "mj_copyData")
-            again.run()
-            counts[0] += again.resim_ticks
-            counts[1] += again.resim_mismatches
-            if how == "mj_copyData":
-                flagged["drive PD"] = _add(flagged["drive PD"], again.flagged)
+        worst["baseline"] = max(worst["baseline"], base.worst_rad)
         flagged["baseline"] = _add(flagged["baseline"], base.flagged)
+        for name, ramp in (("drive PD", False), ("drive PD, ramp", True)):
+            proto = DrivePD(scenario, seed, mode="per_step", ramp=ramp)
+            proto.run()
+            worst[name] = max(worst[name], proto.worst_rad)
+            again = DrivePD(scenario, seed, mode="resim", copy_data=True, ramp=ramp)
+            again.run()
+            flagged[name] = _add(flagged[name], again.flagged)
+            resim["mj_copyData"][0] += again.resim_ticks
+            resim["mj_copyData"][1] += again.resim_mismatches
+        again = DrivePD(scenario, seed, mode="resim")
+        again.run()
+        resim["mj_getState"][0] += again.resim_ticks
+        resim["mj_getState"][1] += again.resim_mismatches
     med = statistics.median
     print()
     for which in VARIANTS[1:]:
@@ -293,7 +320,7 @@ def main() -> None:
     n = min(args.seeds, 5)
     print(
         f"worst joint tracking error per physics step (seeds 0-{n - 1}): "
-        f"baseline {worst[0] * 1e3:.2f} mrad, drive PD {worst[1] * 1e3:.2f} mrad"
+        + ", ".join(f"{k} {v * 1e3:.2f} mrad" for k, v in worst.items())
     )
     for how, (ticks, differ) in resim.items():
         print(
@@ -302,7 +329,7 @@ def main() -> None:
         )
     for who, (v, a, t) in flagged.items():
         print(
-            f"{who:9s} steps over the datasheet speed {v}, acceleration {a}, 90 % torque {t} "
+            f"{who:14s} steps over the datasheet speed {v}, acceleration {a}, 90 % torque {t} "
             f"(seeds 0-{n - 1})"
         )
     print(f"load average (1 min) {load0:.1f} at the start, {os.getloadavg()[0]:.1f} at the end")
