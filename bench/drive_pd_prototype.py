@@ -16,11 +16,19 @@ advanced along the tick's constant acceleration). The prototype changes only tha
 * `mujoco.mj_step(m, d, nstep)` for the whole tick; the controlled stop at the end keeps the
   per-step path (the motors switched back).
 
-Measured, per seed and alternating the order: CPU per simulated second of each (the ratio
-prototype / baseline, median), success and cycle time, and in separate runs stepped one
-physics step at a time (the same arithmetic), the worst joint tracking error against the
-tick's setpoint trajectory (the baseline's `q_d`, which it advances every step; the quadratic
-the prototype's setpoint follows) on every physics step while the arm is commanded.
+Variants timed (`VARIANTS`): `nstep` as above; `record`, the tick's steps one call each with
+each step's arm velocities and motor forces copied and checked (datasheet speed,
+acceleration, 90 % torque) once per tick, the tick re-simulated from its start on a violation
+(the guarantee issue 43 keeps); `ramp`, as `record` with the servo's setpoint written every
+step along the tick's acceleration.
+
+Measured, per seed and alternating the order: CPU per simulated second of each (the ratio to
+the baseline, median), success and cycle time; in separate runs stepped one physics step at a
+time (the same arithmetic), the worst joint tracking error against the tick's setpoint
+trajectory (the baseline's `q_d`, which it advances every step; the quadratic the prototype's
+setpoint follows) on every physics step while the arm is commanded, the steps over the
+datasheet, and whether re-simulating every tick from its start (`mj_getState` of the
+integration state, or a whole `mj_copyData`) reproduces the recorded steps bit for bit.
 
     python bench/drive_pd_prototype.py [--seeds 10]
 """
