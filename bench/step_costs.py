@@ -61,7 +61,7 @@ HOT: list[tuple[str, str, str]] = [
 """(module, class, method) of the functions on or near the per-step path."""
 
 MODULE_HOT: list[tuple[str, str, str]] = [
-    ("orchestrator.engine.executor", "_start_skill", "skill starts"),
+    ("orchestrator.engine.regions", "_start_skill", "skill starts"),
 ]
 """(module, function, row) of module-level functions: a state's skill starting (a move's
 dry runs of the IK, an approach's planning) runs inside `Executor.tick`, once per state."""
