@@ -155,3 +155,25 @@ def test_a_status_window_across_a_restore_covers_both_sides(tmp_path):
     assert window["peak"] > STILL_RAD_S  # the restored pick moved before the e-stop
     (run, stop_t), = latched_runs(statuses)
     assert not motion_while_latched(run, stop_t), window
+
+
+def test_a_run_accepted_before_a_restore_is_applied_runs_on_the_restored_world(tmp_path):
+    """A `run` made for the world before a restore and started after it ran on the replaced
+    world: a second world stepped beside the session's, with its own time (the long
+    profile's windows alternated between 37.9-39.2 s and 38.1-38.3 s while ESTOPPED)."""
+    events: list[dict] = []
+    session = _session(tmp_path, events)
+    _step(session, 20)
+    _snapshot(session, events, "early")
+    _step(session, 100)
+    assert session.submit(Command(op="restore", snapshot="early")).accepted
+    assert session.submit(Command(op="run")).accepted  # made for the world before the restore
+    _step(session, 1)
+    task = session.task
+    assert task is not None and task.ctx is not None
+    assert task.cell is session.cell
+    assert task.ctx.t == session.ctx.t < 0.5  # one world, one clock: the restored one
+    session.probe.window()
+    _step(session, 30)
+    window = session.probe.window()
+    assert window["t1"] == pytest.approx(session.ctx.t) and window["peak"] > STILL_RAD_S
