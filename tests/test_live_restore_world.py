@@ -153,7 +153,7 @@ def test_a_status_window_across_a_restore_covers_both_sides(tmp_path):
     window = statuses[-1]["arm_speed"]
     assert window["t0"] <= t_restored + 1e-6 and window["t1"] >= t_before - 1e-6, window
     assert window["peak"] > STILL_RAD_S  # the restored pick moved before the e-stop
-    (run, stop_t), = latched_runs(statuses)
+    ((run, stop_t),) = latched_runs(statuses)
     assert not motion_while_latched(run, stop_t), window
 
 
