@@ -166,6 +166,7 @@ class Driver:
         with server.lock:
             self._events_seen = self._first_event = len(server.events)
             self._status_from = len(server.statuses)
+            self._published_from = len(server.published)
         self._beat_stop = threading.Event()
         self._beats = threading.Thread(target=self._beat, daemon=True)
         self._beats.start()
@@ -256,12 +257,35 @@ class Driver:
         return self.violations
 
     def report(self) -> str:
-        """The violations and the script that produced them (replayable)."""
+        """The violations, what the session published meanwhile (its events and statuses,
+        in short: a timing-dependent finding may not replay), and the script that produced
+        them (replayable)."""
         return (
             "protocol violations:\n  " + "\n  ".join(self.violations)
+            + "\npublished (events and statuses, in the order received):\n  "
+            + "\n  ".join(self.published())
             + "\nreplay: save this script as a file and run "
             "`python -m tests.live_model FILE`:\n" + json.dumps(self.script)
         )  # fmt: skip
+
+    def published(self, last: int = 120) -> list[str]:
+        """The last `last` events and statuses since this driver began, one line each: the
+        events as sent; a status as its state, simulated time, `arm_speed` window and the
+        last e-stop's time."""
+        with self.server.lock:
+            merged = [*self.server.published[self._published_from :]]
+        lines = []
+        for kind, msg in merged[-last:]:
+            if kind == "events":
+                lines.append("event " + json.dumps(msg)[:300])
+            else:
+                speed = msg.get("arm_speed") or {}
+                lines.append(
+                    f"status {msg.get('state')} t {msg.get('sim_time')} arm {speed.get('peak')} "
+                    f"rad/s {speed.get('t0')}..{speed.get('t1')} estop t "
+                    f"{(msg.get('last_estop') or {}).get('t')}"
+                )
+        return lines
 
     def close(self) -> None:
         self._beat_stop.set()

@@ -54,6 +54,8 @@ class LiveServer:
         self.lock = threading.Lock()
         self.events: list[dict[str, Any]] = []
         self.statuses: list[dict[str, Any]] = []
+        self.published: list[tuple[str, dict[str, Any]]] = []
+        """Events and statuses together, in the order received (for a failure's report)."""
         self.z = zenoh.open(config_for(connect=[self.endpoint]))
         self._subs = [
             self.z.declare_subscriber(key(name, "events"), self._on("events")),
@@ -66,6 +68,7 @@ class LiveServer:
             msg = json.loads(sample.payload.to_string())
             with self.lock:
                 getattr(self, field).append(msg)
+                self.published.append((field, msg))
 
         return take
 

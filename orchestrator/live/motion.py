@@ -5,6 +5,12 @@ physics step it takes the largest joint speed of the arm, and the status message
 largest one since the previous status (`arm_speed`: the peak [rad/s] and the simulated time
 window it covers). A client can then tell, without trusting the session's state, whether the
 arm moved while the session said it was stopped: an e-stop's latch is judged by the arm.
+
+The window's times are the earliest and the latest of its steps, not its first and last: a
+`restore` moves simulated time back, and a window that holds steps from both sides of it
+covers them all. Reported as first..last, a window with steps at 46.38 s, then (restored) at
+45.5-45.61 s and an e-stop at 45.59 s read "46.38..45.61": it seemed to start 0.8 s after the
+stop, and the restored task's motion before the e-stop counted as motion while ESTOPPED.
 """
 
 from __future__ import annotations
@@ -28,9 +34,9 @@ class MotionProbe:
         self.peak = 0.0
         """Largest |joint speed| of any arm joint on any step of the window [rad/s]."""
         self.t0: float | None = None
-        """Simulated time of the window's first step [s] (None: no step yet)."""
+        """Simulated time of the window's earliest step [s] (None: no step yet)."""
         self.t1 = 0.0
-        """Simulated time of its last step [s]."""
+        """Simulated time of its latest step [s]."""
 
     # -- an observer of the step loop (engine/runner.py's Observer, with on_step) ----------
     def on_start(self, ctx: Any, executor: Any) -> None:
@@ -49,11 +55,15 @@ class MotionProbe:
             self.peak = speed
         t = ctx.t
         if self.t0 is None:
+            self.t0 = self.t1 = t
+        elif t > self.t1:  # noqa: PLR1730
+            self.t1 = t
+        elif t < self.t0:  # a restore moved time back  # noqa: PLR1730
             self.t0 = t
-        self.t1 = t
 
     def window(self) -> dict[str, Any]:
-        """The window so far (`peak` [rad/s], `t0`, `t1` [s]), then a new one begins."""
+        """The window so far (`peak` [rad/s], its earliest and latest step's simulated times
+        `t0`, `t1` [s]), then a new one begins."""
         out = {"peak": round(self.peak, 6), "t0": None if self.t0 is None else round(self.t0, 6),
                "t1": round(self.t1, 6)}  # fmt: skip
         self.peak, self.t0 = 0.0, None

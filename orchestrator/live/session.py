@@ -397,7 +397,7 @@ class Session:
         self.blocked.task_started()
         self.task = task
         self._observer = self.recorder(task) if self.recorder is not None else None
-        task.start(self.observers())
+        task.start(self.observers(), self.cell)  # the world now (a restore replaces it)
         self.publish("events", {"event": "task_start", "task": task.id,
                                 "machine": task.machine_ref})  # fmt: skip
 

@@ -76,9 +76,15 @@ class Task:
         """The last pause/resume the session delivered was a pause (repeats are not sent)."""
 
     # -- lifecycle ------------------------------------------------------------------------
-    def start(self, observers: list | None = None) -> None:
+    def start(self, observers: list | None = None, cell: Cell | None = None) -> None:
         """Start the machine on the session's world, in a fresh context (`observers` watch it:
-        a recorder)."""
+        a recorder). `cell`: the session's cell as it is now. A `restore` applied between this
+        task's acceptance and its start replaced the cell it was made with; it runs on the
+        world that is (on the replaced one it stepped a second world, with its own time,
+        beside the session's: the arm the session reports and e-stops was not the one moving).
+        """
+        if cell is not None:
+            self.cell, self.loop = cell, cell.loop
         scn, loop = self.loaded.scenario, self.loop
         self.cell.world.release_brakes()  # engaged by the last task's stop: motors take over
         self.ctx = ctx = Context(self.cell, initial_blackboard(self.loaded.machine, scn.blackboard))

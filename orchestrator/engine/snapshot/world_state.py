@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 from pydantic import BaseModel
 
-from ...skills.plain_state import attributes
+from ...skills.plain_state import attributes, holds_view
 from ..context import Context
 from .data import decode, encode, objects, plain_state
 from .errors import SnapshotError
@@ -100,9 +100,13 @@ def _apply(obj: Any, values: Any, where: str) -> None:
         now = own[key]
         if isinstance(now, BaseModel):
             continue  # configuration, built from the scenario
+        if holds_view(now):
+            # a view of memory MuJoCo's state brings back, or a tuple of them (the encoders'
+            # exact reading): replaced by the file's copies, the encoders read the snapshot's
+            # joint state forever after a restore and the arm ran open-loop (3.7 rad/s while
+            # ESTOPPED and braked, tests/test_live_restore_world.py)
+            continue
         if isinstance(now, np.ndarray):
-            if now.base is not None:
-                continue  # a view of memory MuJoCo's state brings back
             if (
                 isinstance(value, np.ndarray)
                 and value.shape == now.shape
