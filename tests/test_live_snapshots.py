@@ -131,3 +131,23 @@ def test_an_estopped_snapshot_does_not_latch_the_session_it_is_restored_in(tmp_p
     _step(session, 1)
     assert session.state != "ESTOPPED"  # an e-stopped snapshot does not latch the session
     assert any(e["event"] == "restore" for e in events)
+
+
+def test_a_restore_names_the_snapshots_task_and_does_not_resume_it(tmp_path):
+    events: list[dict] = []
+    session = _session(tmp_path, events)
+    reply = session.submit(Command(op="run"))
+    assert reply.accepted
+    _step(session, 20)
+    assert session.task is not None and session.state == "MOVING"
+    running = session.task.id
+    assert session.submit(Command(op="snapshot", snapshot="mid")).accepted
+    _step(session, 1)
+    _written(events, 1)
+    reply = session.submit(Command(op="restore", snapshot="mid"))
+    assert reply.accepted, reply.reason
+    _step(session, 3)
+    (restored,) = [e for e in events if e["event"] == "restore"]
+    assert restored["snapshot_task"]["id"] == running  # which task the snapshot was taken in
+    assert restored["task"] is None and session.task is None  # the world back, no task
+    assert session.state == "IDLE"

@@ -180,7 +180,8 @@ def _restore(
     session.restarted_clock()
     task = state.task
     event: dict[str, Any] = {"event": "restore", "snapshot": str(path), "t": header.get("t"),
-                             "tick": header.get("tick"), "task": None}  # fmt: skip
+                             "tick": header.get("tick"), "task": None,
+                             "snapshot_task": header.get("task")}  # fmt: skip
     if task is not None and task.executor is not None and not task.executor.done:
         task.id = session.next_task_id()
         task.owner, task.client = cmd.owner, cmd.client
