@@ -23,6 +23,7 @@ from .paths import (
 from .signals import GRIPPER_WIDTH, JOINT_TORQUE, TCP_ERROR, WRIST_FORCE, WRIST_FORCE_XYZ
 
 __all__ = [
+    "DOT_LEAST_ZOOM",
     "LEGIBLE_ZOOM",
     "WINDOWS",
     "default_blueprint",
@@ -44,6 +45,10 @@ panel and the view's title bar [px] (measured in Rerun 0.41's web viewer: an 800
 a 900 px window)."""
 LEGIBLE_ZOOM = 0.75
 """The least zoom at which the graph's 12 px labels are legible (9 px text)."""
+DOT_LEAST_ZOOM = 0.5
+"""The least zoom a bundled machine's graph laid out by Graphviz's `dot` is shown at in the
+smaller window (6 px text: zoom in with the mouse wheel). `dot` gives each edge label a
+layer of its own, so its layouts are taller than graph_layout.py's."""
 _MARGIN_PX = (16.0, 30.0)
 """Room kept around the graph: sides and bottom, top [px]. Rerun outlines the graph 10 px
 outside its nodes and writes the entity path above the outline; its own fit leaves that out."""
