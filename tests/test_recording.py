@@ -169,6 +169,15 @@ def test_a_guard_violation_is_an_error_with_the_guards_name(aborted):
     assert states[-1] == SAFE_STOP == aborted.result.transitions[-1]["to"]
 
 
+def test_how_the_run_ended_is_a_static_document_shown_at_any_time(recorded, aborted):
+    # static: the viewer shows it wherever the time cursor is, not only at the end
+    for rec, words in ((recorded, ["succeeded"]), (aborted, ["aborted", "workspace"])):
+        assert "/run/result" not in rec.temporal
+        text = rec.static["/run/result"]["TextDocument:text"][0]
+        assert all(w in text for w in words), text
+        assert rec.result.final_state in text and "running" not in text
+
+
 def test_same_seed_records_the_same_data(recorded, pick_place, tmp_path):
     again = record(pick_place, 0, tmp_path / "again.rrd")
     assert again.temporal == recorded.temporal
