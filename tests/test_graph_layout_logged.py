@@ -82,6 +82,12 @@ def _drawn(rows: dict[str, list[dict]]) -> list[tuple[int, list[Box]]]:
         for node, (x, y), text in zip(ids, positions, labels, strict=True):
             w, h = label_size(text)
             boxes.append((node, x - w / 2, y - h / 2, x + w / 2, y + h / 2))
+        # Rerun outlines the graph entity too (10 px outside its nodes) and writes its path
+        # above the outline's top left, as it does for every frame
+        x0 = min(b[1] for b in boxes) - _ENTITY_PAD
+        y0 = min(b[2] for b in boxes) - _ENTITY_PAD
+        w = label_size(f"/{GRAPH}")[0]
+        boxes.append((f"caption /{GRAPH}", x0, y0 - CAPTION_H, x0 + w, y0))
         inset = _ENTITY_PAD + _CORNER_R
         for entity, corners in frames.items():
             if corners:  # Rerun writes the entity path above the frame's outline

@@ -31,6 +31,8 @@ _RANKSEP_IN = 0.15
 those of states, so two ranks of states are at least 22 px apart."""
 _CLUSTER_MARGIN = 8.0
 """Room inside a frame around its states [pt = px]."""
+_OUTLINE_PAD = 10.0
+"""Rerun outlines each graph entity this far outside its nodes, its path written above [px]."""
 _TIMEOUT_S = 30.0
 """A `dot` run taking longer is taken as failed (the bundled graphs take ~10 ms)."""
 
@@ -214,5 +216,39 @@ def dot_layout(
         spot = edge.get("lp") or edge.get("xlp")
         if spot and (src, dst) in edges:
             placed[(src, dst)] = flip(*_floats(spot))
+    _clear_the_outline_caption(top, positions, boxes, groups)
     widths = {o: w for o, (w, _) in caption_boxes.items()}
     return DotLayout(GraphLayout(positions, groups, sizes, widths), placed)
+
+
+def _clear_the_outline_caption(
+    top: Level,
+    positions: dict[str, tuple[float, float]],
+    boxes: dict[str, tuple[float, float]],
+    groups: dict[str, tuple[float, float, float, float]],
+) -> None:
+    """Rerun outlines the whole graph `_OUTLINE_PAD` outside its topmost node and writes the
+    graph's path above that, where the caption of a frame at the top would be too: the
+    topmost top-level state outside every frame (the guard node) moves up until the outline
+    runs above every frame's caption, if nothing is in its way."""
+    if not groups:
+        return
+    limit = min(y0 - CAPTION_H for _, y0, _, _ in groups.values()) + _OUTLINE_PAD
+    free = [n for n in top.nodes if n not in top.nested and n in positions]
+    if not free:
+        return
+    node = min(free, key=lambda n: (positions[n][1] - boxes[n][1] / 2, top.nodes.index(n)))
+    (x, y), (w, h) = positions[node], boxes[node]
+    if y - h / 2 <= limit:
+        return
+    moved = (x - w / 2, limit, x + w / 2, y + h / 2)  # the box and the way up to it
+    others = [
+        (px - bw / 2, py - bh / 2, px + bw / 2, py + bh / 2)
+        for n, (px, py) in positions.items()
+        if n != node
+        for bw, bh in [boxes[n]]
+    ]
+    others += [(x0, y0 - CAPTION_H, x1, y1) for x0, y0, x1, y1 in groups.values()]
+    if not any(a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+               for a in [moved] for b in others):  # fmt: skip
+        positions[node] = (x, limit + h / 2)
