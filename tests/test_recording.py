@@ -770,6 +770,11 @@ PICTURE_PAGES = {
     "machine_surgical": ["recording.md", "machine-language.md", "surgical.md"],
     "live_spawn_pick_place": ["recording.md", "live.md"],
     "live_connect_pick_place": ["recording.md", "live.md"],
+    **{
+        f"rerun_{name}_1280x720": ["recording.md"]
+        for name in ("pick_place", "pick_place_vision", "sorting", "mobile_search", "stack",
+                     "reach_random")
+    },  # fmt: skip
 }
 """Each picture in docs/images -> the pages it illustrates (in docs/)."""
 
