@@ -49,6 +49,9 @@ import numpy as np
 IMAGES = Path(__file__).resolve().parent / "images"
 WINDOW = (1600, 900)
 """Browser viewport and native window size [px]."""
+SMALL_WINDOW = (1280, 720)
+"""The smaller browser viewport every recorded scenario is also shown in (`NAME_1280x720.png`):
+the default layout is made for both (orchestrator/recording/blueprint.py `WINDOWS`)."""
 CHROMIUM = "/usr/bin/chromium"
 CHROMEDRIVER = "/usr/bin/chromedriver"
 CHROMIUM_FLAGS = (
@@ -88,6 +91,9 @@ class ViewerShot:
             print(
                 f"  {rrd.stat().st_size / 1e6:.2f} MB, shown in {time.monotonic() - started:.0f} s"
             )
+            _viewport(browser, SMALL_WINDOW)
+            w, h = SMALL_WINDOW
+            _capture(browser, f"{self.name}_{w}x{h}")
             return out
 
 
@@ -169,7 +175,9 @@ class MachineDrawing:
 
         out = IMAGES / f"{self.name}.png"
         source = to_dot(load_machine(self.machine))
-        subprocess.run(["dot", "-Tpng", "-Gdpi=96", "-o", str(out)], input=source.encode(), check=True)
+        subprocess.run(
+            ["dot", "-Tpng", "-Gdpi=96", "-o", str(out)], input=source.encode(), check=True
+        )
         # what the drawing was made from: tests/test_doc_images.py fails once the machine changes
         digest_file(self.name).write_text(dot_digest(source) + "\n")
         return out
@@ -197,6 +205,9 @@ SCENES: list[Scene] = [
     ViewerShot("rerun_surgical_complication", "surgical_complication", at_s=36.0),
     ViewerShot("rerun_stack", "stack", at_s=2.3),
     ViewerShot("rerun_reach_random", "reach_random", at_s=0.6),
+    ViewerShot("rerun_pick_place_ur5", "pick_place_ur5", at_s=1.2),
+    ViewerShot("rerun_pick_place_so101", "pick_place_so101", at_s=1.2),
+    ViewerShot("rerun_sorting_ur5", "sorting_ur5", at_s=12.0),
     MachineDrawing("machine_pick_place", "pick_place"),
     MachineDrawing("machine_surgical", "surgical"),
     LiveShot("live_connect_pick_place", "pick_place"),
@@ -315,14 +326,19 @@ def _browser() -> Iterator:
             options.add_argument(flag)
         driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
         try:
-            w, h = WINDOW
-            driver.execute_cdp_cmd(
-                "Emulation.setDeviceMetricsOverride",
-                {"width": w, "height": h, "deviceScaleFactor": 1, "mobile": False},
-            )
+            _viewport(driver, WINDOW)
             yield driver
         finally:
             driver.quit()
+
+
+def _viewport(browser, size: tuple[int, int]) -> None:
+    """Make the page `size` (w, h) [px] (the viewer lays itself out again)."""
+    w, h = size
+    browser.execute_cdp_cmd(
+        "Emulation.setDeviceMetricsOverride",
+        {"width": w, "height": h, "deviceScaleFactor": 1, "mobile": False},
+    )
 
 
 def _png(browser, tries: int = 5):
@@ -341,7 +357,7 @@ def _png(browser, tries: int = 5):
     raise AssertionError("unreachable")
 
 
-def _loaded(browser, timeout_s: float = 240.0, quiet_s: float = 6.0):
+def _loaded(browser, timeout_s: float = 900.0, quiet_s: float = 6.0):
     """Wait until the viewer shows the whole recording: its time bar is drawn and the time
     panel (the bar and the latest time) has not changed for `quiet_s` (while data streams in,
     it grows, and the viewer follows it). Returns the time bar, or None."""
@@ -378,7 +394,7 @@ def _time_bar(image) -> tuple[int, int, int] | None:
     return y, x0, x0 + length - 1
 
 
-def _capture(browser, name: str, timeout_s: float = 240.0) -> Path:
+def _capture(browser, name: str, timeout_s: float = 900.0) -> Path:
     """Wait until the viewer shows the whole recording, save the PNG."""
     _loaded(browser, timeout_s=timeout_s)
     out = IMAGES / f"{name}.png"

@@ -169,6 +169,15 @@ def test_a_guard_violation_is_an_error_with_the_guards_name(aborted):
     assert states[-1] == SAFE_STOP == aborted.result.transitions[-1]["to"]
 
 
+def test_how_the_run_ended_is_a_static_document_shown_at_any_time(recorded, aborted):
+    # static: the viewer shows it wherever the time cursor is, not only at the end
+    for rec, words in ((recorded, ["succeeded"]), (aborted, ["aborted", "workspace"])):
+        assert "/run/result" not in rec.temporal
+        text = rec.static["/run/result"]["TextDocument:text"][0]
+        assert all(w in text for w in words), text
+        assert rec.result.final_state in text and "running" not in text
+
+
 def test_same_seed_records_the_same_data(recorded, pick_place, tmp_path):
     again = record(pick_place, 0, tmp_path / "again.rrd")
     assert again.temporal == recorded.temporal
@@ -381,9 +390,9 @@ def test_the_layouts_are_computed_once_per_machine_not_per_tick(monkeypatch, tmp
     from orchestrator.recording import graph_views
 
     calls = []
-    real = graph_views.layered_layout
+    real = graph_views.dot_layout  # runs Graphviz's dot: never per tick, nor per physics step
     monkeypatch.setattr(
-        graph_views, "layered_layout", lambda *a, **k: calls.append(1) or real(*a, **k)
+        graph_views, "dot_layout", lambda *a, **k: calls.append(1) or real(*a, **k)
     )
     loaded = load_scenario("pick_place")  # a new machine object: its scene is built anew
     rec = record(loaded, 0, tmp_path / "a.rrd")
@@ -678,6 +687,7 @@ def test_every_sink_gets_the_blueprint_made_active(recorded, blueprints_sent):
 def test_every_bundled_machine_is_legible_in_both_windows():
     from orchestrator.language.load import load_machine
     from orchestrator.recording.blueprint import (
+        DOT_LEAST_ZOOM,
         LEGIBLE_ZOOM,
         WINDOWS,
         graph_zoom,
@@ -687,13 +697,15 @@ def test_every_bundled_machine_is_legible_in_both_windows():
     # drawn whole, mobile_search was ~1550 px tall (labels ~5 px); sorting_conveyor was
     # 1274 px wide (zoom 0.45 at 1280x720) before long edges' bends stopped taking room, and
     # 962 x 818 px (zoom 0.59) with the grasp machine's recovery states before its final
-    # states went into free room
+    # states went into free room. The built-in layout (used without Graphviz) keeps that;
+    # dot's gives each edge label a layer of its own, and is shown at DOT_LEAST_ZOOM or more
     for name in bundled_names("machines"):
-        bounds = build_graph(load_machine(name)).bounds
-        share = machine_share(bounds)
-        for window in WINDOWS:
-            zoom = graph_zoom(bounds, share, window)
-            assert zoom >= LEGIBLE_ZOOM, (name, window, zoom)
+        for use_dot, floor in ((False, LEGIBLE_ZOOM), (True, DOT_LEAST_ZOOM)):
+            bounds = build_graph(load_machine(name), use_dot=use_dot).bounds
+            share = machine_share(bounds)
+            for window in WINDOWS:
+                zoom = graph_zoom(bounds, share, window)
+                assert zoom >= floor, (name, use_dot, window, zoom)
     # the rule itself: a graph too tall for the panel is shown below zoom 1, never below the
     # floor for these bounds, and the column never takes more than its share
     assert graph_zoom((0, 0, 400, 3000), 0.3, (1600, 900)) < LEGIBLE_ZOOM
@@ -758,6 +770,11 @@ PICTURE_PAGES = {
     "machine_surgical": ["recording.md", "machine-language.md", "surgical.md"],
     "live_spawn_pick_place": ["recording.md", "live.md"],
     "live_connect_pick_place": ["recording.md", "live.md"],
+    **{
+        f"rerun_{name}_1280x720": ["recording.md"]
+        for name in ("pick_place", "pick_place_vision", "sorting", "mobile_search", "stack",
+                     "reach_random")
+    },  # fmt: skip
 }
 """Each picture in docs/images -> the pages it illustrates (in docs/)."""
 

@@ -9,6 +9,7 @@ import rerun.blueprint as rrb
 from rerun.blueprint.encodings import TextLogColumn, TimelineColumn
 
 from .framing import WorkFrame
+from .guard_margins import UNITS, unit_of
 from .paths import (
     ACTIVE_STATE,
     CAMERAS,
@@ -17,18 +18,23 @@ from .paths import (
     GUARD_VALUES,
     GUARDS,
     LEVELS,
+    RESULT,
     SIM_TIME,
     WORLD,
+    part,
 )
 from .signals import GRIPPER_WIDTH, JOINT_TORQUE, TCP_ERROR, WRIST_FORCE, WRIST_FORCE_XYZ
 
 __all__ = [
+    "DOT_LEAST_ZOOM",
     "LEGIBLE_ZOOM",
     "WINDOWS",
     "default_blueprint",
     "graph_panel_px",
     "graph_view_bounds",
     "graph_zoom",
+    "margins_legend_rows",
+    "margins_range",
     "machine_share",
 ]
 
@@ -44,14 +50,45 @@ panel and the view's title bar [px] (measured in Rerun 0.41's web viewer: an 800
 a 900 px window)."""
 LEGIBLE_ZOOM = 0.75
 """The least zoom at which the graph's 12 px labels are legible (9 px text)."""
+DOT_LEAST_ZOOM = 0.5
+"""The least zoom a bundled machine's graph laid out by Graphviz's `dot` is shown at in the
+smaller window (6 px text: zoom in with the mouse wheel). `dot` gives each edge label a
+layer of its own, so its layouts are taller than graph_layout.py's."""
 _MARGIN_PX = (16.0, 30.0)
 """Room kept around the graph: sides and bottom, top [px]. Rerun outlines the graph 10 px
 outside its nodes and writes the entity path above the outline; its own fit leaves that out."""
 _LANES_WINDOW_S = (6.0, 2.0)
 """The state lanes show this much simulated time before and after the cursor [s]: 8 s across
 the lanes, so a state of half a second is wide enough for its name in a long run."""
-_MARGINS_RANGE = (0.0, 2.2)
-"""The guard margins' y axis: 1.0 (fires) below the middle, the legend (top left) above it."""
+_LEGEND_ROW_PX, _LEGEND_PAD_PX = 18.0, 14.0
+"""Height of a plot legend's row, and its frame's padding and margin [px] (Rerun 0.41)."""
+_MARGINS_PLOT_PX = 190.0
+"""Height of the guard margins' plot area in the smaller window [px]: its panel's share of the
+right column, less the tab bar and the time axis."""
+_MARGINS_TOP = 1.15
+"""The guard margins' y axis shows at least up to here: the trip line (1.0) and a bit above."""
+
+
+_LEGEND_MOST_SHARE = 0.5
+"""The most of the margins' plot height its legend may take; with more guards than fit,
+the legend is hidden (a line's name shows on hover; the raw-value tabs name them)."""
+
+
+def margins_legend_rows(n_guards: int) -> int:
+    """The rows of the margins' legend: the trip line's and one per guard; 0 if it does not
+    fit in `_LEGEND_MOST_SHARE` of the plot in the smaller window (then it is hidden)."""
+    rows = n_guards + 1
+    fits = rows * _LEGEND_ROW_PX + _LEGEND_PAD_PX <= _LEGEND_MOST_SHARE * _MARGINS_PLOT_PX
+    return rows if fits else 0
+
+
+def margins_range(n_guards: int) -> tuple[float, float]:
+    """The guard margins' y axis: 0 to just above the trip line (1.0) and, above that, the
+    room the legend (top left) takes in the smaller window: the legend lies above the data,
+    never on the trip line."""
+    rows = margins_legend_rows(n_guards)
+    share = (rows * _LEGEND_ROW_PX + _LEGEND_PAD_PX) / _MARGINS_PLOT_PX if rows else 0.0
+    return 0.0, _MARGINS_TOP / (1.0 - share)
 
 
 def graph_view_bounds(bounds: tuple[float, float, float, float]) -> rrb.VisualBounds2D:
@@ -98,14 +135,18 @@ def default_blueprint(
     frame: WorkFrame | None = None,
     graph_bounds: tuple[float, float, float, float] | None = None,
     cameras: Sequence[str] = (),
+    guards: Sequence[str] = (),
 ) -> rrb.Blueprint:
     """The layout a saved or live recording opens with.
 
     Left: the 3D scene framed on the work, the cameras (each its RGB image with the
     detections over it; depth and segmentation are layers to turn on), the state lanes.
-    Middle: the machine graph, full height, its active states lit. Right: the guards' margins
-    (raw values in a tab behind), the wrist force (TCP error, gripper and torques in tabs
-    behind) and the event log. The time panel is a single row following `sim_time`.
+    Middle: the machine graph, full height, its active states lit. Right: how the run ended
+    (while it runs: that it runs), the guards' margins (raw values behind, one tab per unit),
+    the wrist force (TCP error, gripper and torques in tabs behind) and the event log. The
+    time panel is a single row following `sim_time`. No legend lies on data: the margins'
+    axis leaves room above the trip line for theirs (hidden when too many guards for the
+    room), the other plots name their lines in their titles.
 
     Args:
         frame: If given, the 3D view's eye frames this work (framing.py); the user zooms out
@@ -114,6 +155,8 @@ def default_blueprint(
             [px]: the view shows exactly that, its column wide enough to show it at the zoom
             its height allows.
         cameras: Scenario cameras: each gets a 2D view under the 3D scene.
+        guards: The names of the guards the run can activate (guard_margins.declared_guards):
+            a raw-values tab per unit among them.
     """
     eye = None
     if frame is not None:
@@ -141,27 +184,30 @@ def default_blueprint(
             )
         ),
     )
-    guards = rrb.Tabs(
+    no_legend = rrb.PlotLegend(visible=False)
+    guards_tabs = rrb.Tabs(
         rrb.TimeSeriesView(
             name="Guards: margin (1.0 = fires)",
             origin=GUARDS,
-            axis_y=rrb.ScalarAxis(range=_MARGINS_RANGE, zoom_lock=False),
-            plot_legend=rrb.PlotLegend(corner="LeftTop"),
+            axis_y=rrb.ScalarAxis(range=margins_range(len(guards)), zoom_lock=False),
+            plot_legend=rrb.PlotLegend(
+                corner="LeftTop", visible=margins_legend_rows(len(guards)) > 0
+            ),
         ),
-        rrb.TimeSeriesView(
-            name="Guards: raw values",
-            origin=GUARD_VALUES,
-            plot_legend=rrb.PlotLegend(corner="LeftTop"),
-        ),
+        *_raw_value_views(guards),
         active_tab=0,
     )
     signals = rrb.Tabs(
         rrb.TimeSeriesView(
-            name="Wrist force [N]",
+            name="Wrist |F| [N] (orange: peak per tick)",
             origin=WRIST_FORCE,
-            plot_legend=rrb.PlotLegend(corner="LeftTop"),
+            plot_legend=no_legend,
         ),
-        rrb.TimeSeriesView(name="Force x, y, z [N]", origin=WRIST_FORCE_XYZ),
+        rrb.TimeSeriesView(
+            name="Force [N]: x red, y green, z blue",
+            origin=WRIST_FORCE_XYZ,
+            plot_legend=no_legend,
+        ),
         rrb.TimeSeriesView(name="TCP error, gripper [m]", contents=[TCP_ERROR, GRIPPER_WIDTH]),
         rrb.TimeSeriesView(name="Joint torques [N m]", origin=JOINT_TORQUE),
         active_tab=0,
@@ -178,14 +224,15 @@ def default_blueprint(
             ],
         ),
     )
-    right = rrb.Vertical(guards, signals, events, row_shares=[6, 4, 3])
+    result = rrb.TextDocumentView(name="Result", origin=RESULT)
+    right = rrb.Vertical(result, guards_tabs, signals, events, row_shares=_RIGHT_ROWS)
     machine = machine_share(graph_bounds)
     graph = rrb.GraphView(
         name="Machine",
         origin=GRAPH,
         visual_bounds=graph_view_bounds(graph_bounds) if graph_bounds is not None else None,
     )
-    left = rrb.Vertical(scene, states, row_shares=[5, 2])
+    left = rrb.Vertical(scene, states, row_shares=[3, 2])
     if cameras:
         views = [
             rrb.Spatial2DView(
@@ -195,7 +242,7 @@ def default_blueprint(
             )
             for c in cameras
         ]
-        left = rrb.Vertical(scene, rrb.Horizontal(*views), states, row_shares=[4, 4, 3])
+        left = rrb.Vertical(scene, rrb.Horizontal(*views), states, row_shares=[4, 3, 3])
     return rrb.Blueprint(
         rrb.Horizontal(
             left,
@@ -207,3 +254,31 @@ def default_blueprint(
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
     )
+
+
+_RIGHT_ROWS = (1.6, 5.0, 4.0, 4.0)
+"""Row shares of the right column: the result (one line), guards, signals, events."""
+
+
+def _raw_value_views(guards: Sequence[str]) -> list[rrb.TimeSeriesView]:
+    """One plot per unit of the guards' raw values (`guard_values/<guard>`: the value in the
+    guard's colour, its limit in red), the guards it holds in its title. Without declared
+    guards, one plot of them all."""
+    if not guards:
+        return [rrb.TimeSeriesView(name="Guards: raw values", origin=GUARD_VALUES)]
+    units: dict[str, list[str]] = {}
+    for name in guards:
+        units.setdefault(unit_of(name), []).append(name)
+    return [
+        rrb.TimeSeriesView(
+            name=f"{', '.join(names)}{f' [{unit}]' if unit in UNITS.values() else ''} (limit red)",
+            origin=GUARD_VALUES,
+            contents=[
+                entry
+                for n in names
+                for entry in (f"$origin/{part(n)}/**", f"$origin/{part(n)}_2/**")
+            ],  # fmt: skip
+            plot_legend=rrb.PlotLegend(visible=False),
+        )
+        for unit, names in units.items()
+    ]

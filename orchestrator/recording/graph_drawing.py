@@ -12,7 +12,11 @@ entity path. The frames of nested machines are exactly that: one entity per nest
 the machine's frame and its caption names the nesting; a shut machine's entity holds no
 points, and no frame is drawn. Everything a reader follows (states, arrows, outcome labels) is
 one entity, `state_machine/graph`: Rerun draws edges only within an entity. Outcome labels are
-nodes without edges, in a muted blue grey (`EDGE_LABEL`), placed on or beside their arrow.
+nodes in a muted blue grey (`EDGE_LABEL`) where Graphviz's `dot` put them (graph_dot.py), and
+their arrow runs through them (source -> label -> target): a label is always on its own arrow,
+and the arrow bends where `dot` routed it. Rerun draws a graph's nodes in order, then its
+arrows; no two nodes (states, labels, the guard node) overlap, so an active state is never
+under another node or label.
 """
 
 from __future__ import annotations
@@ -138,7 +142,7 @@ class GraphDrawing:
         index = time_columns(np.asarray(ticks), np.asarray(t_s))
         ids = [n for v in views for n in v.nodes]
         positions = [v.layout.positions[n] for v in views for n in v.nodes]
-        edges = [e for v in views for e in v.edges]
+        edges = [e for v in views for e in v.drawn_edges]
         out = [
             Chunk.from_columns(
                 GRAPH,
@@ -147,7 +151,9 @@ class GraphDrawing:
                     *rr.GraphNodes.columns(node_ids=ids, positions=positions).partition(
                         [len(v.nodes) for v in views]
                     ),
-                    *rr.GraphEdges.columns(edges=edges).partition([len(v.edges) for v in views]),
+                    *rr.GraphEdges.columns(edges=edges).partition(
+                        [len(v.drawn_edges) for v in views]
+                    ),
                 ],
             )
         ]

@@ -1,4 +1,5 @@
-"""A layered (Sugiyama) layout of a nested machine for Rerun's graph view.
+"""A layered (Sugiyama) layout of a nested machine for Rerun's graph view, when Graphviz's
+`dot` is not installed (graph_dot.py lays the graph out with `dot` otherwise).
 
 Rerun's graph view draws nodes where it is told (`GraphNodes(positions=...)`); without
 positions it runs a force simulation, which turns a state machine into a tangle. This module

@@ -3,9 +3,9 @@
 A machine tree drawn whole does not fit a panel: mobile_search's is ~1550 px tall, and Rerun's
 graph view shrinks it until its 12 px labels are ~5 px. The graph therefore shows one
 *expansion* at a time: the nested machines that run the active leaf (its composite ancestors)
-are open, every other nested machine is one node (`NAME …`). Each expansion has its own layered
-layout (graph_layout.py), computed once per machine; the recording switches between them as
-the run enters states in other nested machines.
+are open, every other nested machine is one node (`NAME …`). Each expansion has its own layout
+by Graphviz's `dot` (graph_dot.py; without it, graph_layout.py's), computed once per machine;
+the recording switches between them as the run enters states in other nested machines.
 
 Where a state branches (its arrows lead to more than one state), each arrow carries the
 outcomes that take it (merged when several lead to the same state; past two, counted), as a
@@ -19,10 +19,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from .graph_dot import dot_layout
 from .graph_layout import CAPTION_H, GraphLayout, Level, label_size, layered_layout
 
-__all__ = ["COLLAPSED", "ExpansionView", "expansion_view", "label_id", "shifted"]
+__all__ = ["COLLAPSED", "LIT_MARK", "ExpansionView", "expansion_view", "label_id", "shifted"]
 
+LIT_MARK = "▶ "
+"""Put before the label of an active state in the graph (its box is sized for it)."""
 COLLAPSED = " …"
 """After the name of a nested machine shown shut."""
 _LABEL_GAP = 1.0
@@ -60,6 +63,19 @@ class ExpansionView:
     layout: GraphLayout
 
     @property
+    def drawn_edges(self) -> list[tuple[str, str]]:
+        """The arrows as Rerun draws them (straight lines between node ids): an edge with a
+        label runs through it, source -> label -> target, so that the label is on its own
+        arrow, where `dot` routed the edge, and the arrow goes round what `dot` routed it
+        round."""
+        out: list[tuple[str, str]] = []
+        labelled = set(self.edge_labels)
+        for src, dst in self.edges:
+            node = label_id(src, dst)
+            out += [(src, node), (node, dst)] if node in labelled else [(src, dst)]
+        return out
+
+    @property
     def nodes(self) -> list[str]:
         """Every node id: states (and the guard node) first, then edge labels."""
         return [*self.states, *self.edge_labels]
@@ -84,6 +100,7 @@ def expansion_view(
     guards: dict[str, list[str]],
     captions: dict[str, str],
     expanded: tuple[str, ...],
+    use_dot: bool = True,
 ) -> ExpansionView:
     """Lay out the graph with the machines of `expanded` open.
 
@@ -97,6 +114,8 @@ def expansion_view(
         guards: State -> the names of the guards declared on it.
         captions: Composite state -> the caption above its frame.
         expanded: The composite states to show open.
+        use_dot: Lay out with Graphviz's `dot` (graph_dot.py) when it is installed; else,
+            or when it fails, with graph_layout.py.
     """
     open_ = set(expanded)
     level = _pruned(top, open_)
@@ -118,26 +137,40 @@ def expansion_view(
     for state, n in retries.items():
         if state in shown:
             merged.setdefault((state, state), []).append(f"retry {n}")
-    layout = layered_layout(level, labels, {o: c for o, c in captions.items() if o in open_})
+    branching = {
+        a for a, b in merged if a != b and sum(1 for s, d in merged if s == a and d != s) > 1
+    }
+    texts: dict[tuple[str, str], str | None] = {}
+    for (src, dst), outs in merged.items():
+        texts[(src, dst)] = None
+        if outs and (src == dst or src in branching):
+            texts[(src, dst)] = ", ".join(outs[:_MAX_OUTCOMES])
+            if len(outs) > _MAX_OUTCOMES:
+                texts[(src, dst)] = (
+                    f"{', '.join(outs[: _MAX_OUTCOMES - 1])} +{len(outs) - _MAX_OUTCOMES + 1}"
+                )
+    shown_captions = {o: c for o, c in captions.items() if o in open_}
+    lit = {n: LIT_MARK + t for n, t in labels.items()}
+    by_dot = dot_layout(level, labels, lit, texts, shown_captions) if use_dot else None
+    if by_dot is not None:
+        layout, spots = by_dot.layout, by_dot.edge_labels
+    else:
+        layout, spots = layered_layout(level, labels, shown_captions), {}
     edges = list(merged)
     edge_labels: list[str] = []
     positions, sizes = dict(layout.positions), dict(layout.sizes)
     nodes = [_rect(positions[n], sizes[n]) for n in shown]
     taken = [(x0, y0 - CAPTION_H, x0 + layout.captions.get(o, 0.0), y0)
               for o, (x0, y0, _, _) in layout.groups.items()]  # fmt: skip
-    branching = {
-        a for a, b in merged if a != b and sum(1 for s, d in merged if s == a and d != s) > 1
-    }
-    for (src, dst), outs in merged.items():
-        if not outs or (src != dst and src not in branching):
+    for (src, dst), outcome_text in texts.items():
+        if outcome_text is None:
             continue
         node = label_id(src, dst)
-        text = ", ".join(outs[:_MAX_OUTCOMES])
-        if len(outs) > _MAX_OUTCOMES:
-            text = f"{', '.join(outs[: _MAX_OUTCOMES - 1])} +{len(outs) - _MAX_OUTCOMES + 1}"
-        size = label_size(text)
-        spot = _place(positions[src], sizes[src], positions[dst], sizes[dst], size, nodes, taken)
-        labels[node] = text
+        size = label_size(outcome_text)
+        spot = spots.get((src, dst)) or _place(
+            positions[src], sizes[src], positions[dst], sizes[dst], size, nodes, taken
+        )
+        labels[node] = outcome_text
         positions[node] = spot
         sizes[node] = size
         taken.append(_rect(spot, size))

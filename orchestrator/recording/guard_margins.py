@@ -25,12 +25,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import rerun as rr
 from rerun.chunk import Chunk
 
+from ..language.machine import guard_entries
 from .batches import StaticBatch, TemporalBatch, scalar_lists
 from .paths import GUARD_VALUES, GUARDS, part
 from .timeline import time_columns
@@ -38,14 +39,18 @@ from .timeline import time_columns
 if TYPE_CHECKING:
     from ..engine.context import Context
     from ..guards.base import Guard
+    from ..language.loading import MachineNode
 
 __all__ = [
     "KINDS",
     "STEP_PEAK_GUARDS",
     "TRIP_LINE",
+    "UNITS",
     "GuardMargins",
     "Normalizer",
+    "declared_guards",
     "normalizer",
+    "unit_of",
 ]
 
 TRIP_LINE = f"{GUARDS}/trip"
@@ -117,6 +122,44 @@ KINDS: dict[str, Normalizer] = {
 }
 """The bundled guards. A guard not listed: `upper` if its limit is positive, else `distance`
 with a reach of 0.1."""
+
+
+UNITS: dict[str, str] = {
+    "contact_force": "N",
+    "sensor_health": "N",
+    "joint_torque": "share of limit",  # the joint nearest its own limit: |tau| / limit
+    "joint_velocity": "share of limit",
+    "joint_acceleration": "share of limit",
+    "path_deviation": "m",
+    "grasp_lost": "m",  # the gripper's opening against the least it may close to
+    "joint_limits": "rad",
+    "workspace": "m",
+    "no_go_zone": "m",
+    "collision": "contacts",
+}
+"""The unit of each bundled guard's raw value and limit (`guard_values/<guard>`). A guard not
+listed has its own panel, named after it."""
+
+
+def unit_of(key: str) -> str:
+    """The unit of guard `key`'s raw value (`<name>` or `<name>_<n>`); its name if unknown."""
+    name = key if key in UNITS else key.rsplit("_", 1)[0]
+    return UNITS.get(name, key)
+
+
+def declared_guards(
+    root: MachineNode, active: list[Guard], scenario: dict[str, Any] | None = None
+) -> list[str]:
+    """The names of every guard a run of `root` can activate: the scenario's (`guards:`),
+    those active as it starts, and those its machines and states declare."""
+    names = {name: None for _, name, _ in guard_entries(scenario or {})}
+    names.update({g.name: None for g in active})
+    for node in root.nodes():
+        names.update({name: None for _, name, _ in guard_entries(node.guards)})
+        for spec in node.states.values():
+            refs = getattr(spec, "guards", None) or []
+            names.update({name: None for _, name, _ in guard_entries(refs)})
+    return list(names)
 
 
 def normalizer(guard: str, limit: float) -> Normalizer:

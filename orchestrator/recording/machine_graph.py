@@ -3,18 +3,21 @@
 Pure data computed from a `MachineNode` (no Rerun, no simulator), once per machine: the
 recorder turns it into StateConfiguration, GraphNodes and GraphEdges. What the graph shows
 while a leaf runs is an expansion (`graph_views.py`): the nested machines holding the leaf
-open, the others one node; each expansion is laid out once, layered top to bottom in flow
-order, nested machines inside their owner's frame (`graph_layout.py`).
+open, the others one node; each expansion is laid out once, top to bottom in flow order,
+nested machines inside their owner's frame, by Graphviz's `dot` (`graph_dot.py`), or without
+it by the built-in layered layout (`graph_layout.py`).
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ..language.machine import SAFE_STOP, guard_entries
+from .graph_dot import dot_available
 from .graph_layout import GraphLayout, Level
-from .graph_views import ExpansionView, expansion_view, shifted
+from .graph_views import LIT_MARK, ExpansionView, expansion_view, shifted
 from .paths import frame_path
 
 if TYPE_CHECKING:
@@ -56,8 +59,6 @@ KIND_COLORS: dict[str, int] = {
 GUARD = ":guard"
 """Node id of the graph's "guard fires" node, whose edge leads to the abort state."""
 GUARD_LABEL = "guard fires"
-LIT_MARK = "▶ "
-"""Put before the label of an active state in the graph (the layout's gaps leave room)."""
 
 
 @dataclass(frozen=True)
@@ -164,8 +165,14 @@ def _region_of(path: str) -> str:
     return path.rsplit(".", 1)[0] if "." in path else ""
 
 
-def build_graph(root: MachineNode) -> MachineGraph:
-    """Walk the machine tree once and derive everything the recording shows of it."""
+def build_graph(root: MachineNode, use_dot: bool | None = None) -> MachineGraph:
+    """Walk the machine tree once and derive everything the recording shows of it.
+
+    Args:
+        root: The machine tree.
+        use_dot: Lay the expansions out with Graphviz's `dot` (graph_dot.py); None: if it is
+            installed, else with the built-in layout (graph_layout.py) and a warning.
+    """
     walked = list(root.walk())
     paths = [p for p, _, _ in walked]
     abort = root.on_abort if root.on_abort is not None else SAFE_STOP
@@ -238,8 +245,18 @@ def build_graph(root: MachineNode) -> MachineGraph:
     keys = {
         tuple(sorted(o for o in composites if on_path(o, path) and o != path)) for path in states
     }
+    if use_dot is None and not dot_available():
+        use_dot = False
+        warnings.warn(
+            "Graphviz's `dot` is not on the PATH: the machine graph is laid out by the built-in"
+            " layout (install graphviz for dot's)",
+            RuntimeWarning,
+            stacklevel=2,
+        )
     views = {
-        key: expansion_view(top, names, composites, outcomes, retries, guards, captions, key)
+        key: expansion_view(
+            top, names, composites, outcomes, retries, guards, captions, key, use_dot is not False
+        )
         for key in sorted(keys)
     }
     # every expansion top-aligned at y = 0 and centred on the widest: switching between them

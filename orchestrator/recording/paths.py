@@ -14,6 +14,7 @@ __all__ = [
     "GUARDS",
     "GUARD_VALUES",
     "LEVELS",
+    "RESULT",
     "SIGNALS",
     "SIM_TIME",
     "STATE_MACHINE",
@@ -56,6 +57,8 @@ GUARDS = "guards"
 GUARD_VALUES = "guard_values"
 """`<GUARD_VALUES>/<guard>`: each guard's raw monitored value next to its limit."""
 EVENTS = "events"
+RESULT = "run/result"
+"""A static TextDocument: how the run ended and why (while it runs: that it runs)."""
 """`<EVENTS>/<kind>`: TextLog per event kind (transition, outcome, retry, violation, ...)."""
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_\-.]")

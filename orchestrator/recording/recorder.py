@@ -15,7 +15,8 @@ from .camera_shots import CameraShots
 from .events import EventLog
 from .exceptions import RecordingError
 from .framing import work_frame
-from .guard_margins import GuardMargins
+from .guard_margins import GuardMargins, declared_guards
+from .paths import RESULT
 from .reshaped import ReshapedGeoms
 from .signals import RobotSignals
 from .state_log import StateLog
@@ -124,6 +125,9 @@ class RerunRecorder:
         self._targets = Targets()
         # the per-tick table: one row per control tick, shared by poses and signals
         self._rows = Rows({**self._poses.fields, **self._signals.fields})
+        self._guard_names = declared_guards(
+            executor.root, executor.active_guards, getattr(ctx.scenario, "guards", None)
+        )
         self._guards = GuardMargins()
         self._guards.plan(executor.active_guards, ctx.tick, float(ctx.data.time))
         self._events = EventLog()
@@ -181,6 +185,9 @@ class RerunRecorder:
             text += f", stopped by {reason.get('kind')}: {reason.get('message')}"
         self._events.add_text(ctx.tick, ctx.t, "result", text, _RESULT_LEVEL[result.outcome])
         self._flush()
+        if self.rec is not None:  # static: shown wherever the time cursor is
+            self.rec.log(RESULT, rr.TextDocument(f"**{text}**", media_type="text/markdown"),
+                         static=True)  # fmt: skip
         if self._on_event in ctx.listeners:
             ctx.listeners.remove(self._on_event)
         self.close()
@@ -283,11 +290,13 @@ class RerunRecorder:
                     self._frame,
                     self._graph_bounds,
                     [c.name for c in self._ctx.scenario.cameras],
+                    self._guard_names,
                 ),
                 make_active=True,
                 make_default=True,
             )
             self.rec.send_chunks(self._static)
+            self.rec.log(RESULT, rr.TextDocument("running (how it ends shows here)"), static=True)
         if self._last_tick >= 0:  # the trip line at 1.0 reaches the last row sent
             self._guards.trip_line(self._last_tick, self._last_t)
         chunks = self._guards.chunks()

@@ -1,0 +1,254 @@
+"""The machine graph laid out by Graphviz's `dot`: node, cluster and edge-label positions.
+
+`dot` is run once per expansion of a machine (graph_views.py), when the recording prepares
+its static scene, never while the physics steps. Every node is a fixed-size box the size of
+its label as Rerun draws it lit (`LIT_MARK` before the name: a state lights up without
+growing into a neighbour); every edge label and every frame's caption is a fixed-size HTML
+table, so `dot` keeps exactly the room Rerun's text takes free of nodes and of each other.
+An open nested machine is a cluster holding the state that runs it (its title) and its
+states; each parallel branch is a cluster inside it. `dot -Tjson` gives the positions in
+points with y up: one point is one pixel of Rerun's graph view at zoom 1, y flipped.
+
+Without `dot` on the PATH (or when it fails) `dot_layout` returns None and the caller falls
+back to the layout of graph_layout.py.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+from dataclasses import dataclass
+
+from .graph_layout import CAPTION_H, GraphLayout, Level, label_size
+
+__all__ = ["DotLayout", "dot_available", "dot_layout"]
+
+_NODESEP_IN = 0.15
+"""Least gap between neighbours in a rank [in] (11 px)."""
+_RANKSEP_IN = 0.15
+"""Least gap between ranks [in] (11 px): edge labels take ranks of their own, between
+those of states, so two ranks of states are at least 22 px apart."""
+_CLUSTER_MARGIN = 8.0
+"""Room inside a frame around its states [pt = px]."""
+_OUTLINE_PAD = 10.0
+"""Rerun outlines each graph entity this far outside its nodes, its path written above [px]."""
+_TIMEOUT_S = 30.0
+"""A `dot` run taking longer is taken as failed (the bundled graphs take ~10 ms)."""
+
+
+@dataclass(frozen=True)
+class DotLayout:
+    """A `dot` layout in Rerun's graph-view units (x right, y down, 1 px per point).
+
+    Attributes:
+        layout: Node centres and label sizes, the frames of the open nested machines (below
+            their captions) and the captions' widths.
+        edge_labels: Edge (source, target) -> the centre of its label.
+    """
+
+    layout: GraphLayout
+    edge_labels: dict[tuple[str, str], tuple[float, float]]
+
+
+def dot_available() -> bool:
+    """True if Graphviz's `dot` is on the PATH."""
+    return shutil.which("dot") is not None
+
+
+def _quote(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _box(w: float, h: float) -> str:
+    """An HTML label that is an empty box of exactly w x h points."""
+    return (
+        f'<<TABLE BORDER="0" CELLBORDER="0" CELLSPACING="0" CELLPADDING="0" FIXEDSIZE="TRUE" '
+        f'WIDTH="{max(1, round(w))}" HEIGHT="{max(1, round(h))}"><TR><TD></TD></TR></TABLE>>'
+    )
+
+
+def dot_source(
+    top: Level,
+    sizes: dict[str, tuple[float, float]],
+    edges: dict[tuple[str, str], tuple[float, float] | None],
+    captions: dict[str, tuple[float, float]],
+) -> tuple[str, dict[str, str]]:
+    """The DOT text of a machine tree and the dot id of each node.
+
+    Args:
+        top: The top level with the nested levels shown open.
+        sizes: Node id -> the box it takes (w, h) [px].
+        edges: The arrows drawn, (source, target) -> the size of its label (None: no label).
+        captions: Open nested machine's owner -> its caption's size (w, h) [px].
+    """
+    ids: dict[str, str] = {}
+    lines = [
+        "digraph machine {",
+        f"  graph [rankdir=TB, nodesep={_NODESEP_IN}, ranksep={_RANKSEP_IN}, newrank=true, "
+        f"margin=0, pad=0, labeljust=l, labelloc=t, fontsize=12];",
+        '  node [shape=box, fixedsize=true, label="", margin=0, penwidth=0];',
+        "  edge [arrowhead=none, penwidth=1];",
+    ]
+    clusters = [0]
+
+    def node_line(node: str, indent: str) -> None:
+        ids[node] = f"n{len(ids)}"
+        w, h = sizes[node]
+        lines.append(f"{indent}{ids[node]} [width={w / 72:.4f}, height={h / 72:.4f}, "
+                     f"comment={_quote(node)}];")  # fmt: skip
+
+    def cluster(name: str, label: tuple[float, float] | None, indent: str) -> None:
+        clusters[0] += 1
+        lines.append(f"{indent}subgraph cluster_{clusters[0]} {{")
+        lines.append(f"{indent}  comment={_quote(name)}; margin={_CLUSTER_MARGIN};")
+        text = _box(*label) if label else '""'
+        lines.append(f"{indent}  label={text};")
+
+    def level(lv: Level, indent: str) -> None:
+        for node in lv.nodes:
+            if node not in lv.nested:
+                node_line(node, indent)
+                continue
+            cluster(node, captions.get(node), indent)
+            node_line(node, indent + "  ")
+            branches = lv.nested[node]
+            for i, branch in enumerate(branches):
+                if len(branches) > 1:
+                    cluster(f"{node}#{i}", None, indent + "  ")
+                    level(branch, indent + "    ")
+                    lines.append(f"{indent}  }}")
+                else:
+                    level(branch, indent + "  ")
+            lines.append(f"{indent}}}")
+
+    level(top, "  ")
+    for (src, dst), label in edges.items():
+        attrs = [f"comment={_quote(src + ' -> ' + dst)}"]
+        if label is not None:
+            attrs.append(f"label={_box(*label)}")
+        lines.append(f"  {ids[src]} -> {ids[dst]} [{', '.join(attrs)}];")
+    # a top-level state nothing leads to (the guard node) starts beside the initial state,
+    # in the room the first layers leave, not in a column of its own
+    targets = {dst for _, dst in edges}
+    for node in top.nodes:
+        if node != top.initial and node not in targets and top.initial in ids:
+            lines.append(f"  {ids[top.initial]} -> {ids[node]} [style=invis, minlen=0];")
+    lines.append("}")
+    return "\n".join(lines) + "\n", ids
+
+
+def run_dot(source: str) -> dict | None:
+    """`dot -Tjson` of `source`, parsed; None if `dot` is missing or fails."""
+    exe = shutil.which("dot")
+    if exe is None:
+        return None
+    try:
+        done = subprocess.run(
+            [exe, "-Tjson"], input=source, capture_output=True, text=True,
+            timeout=_TIMEOUT_S, check=False,
+        )  # fmt: skip
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    if done.returncode != 0:
+        return None
+    try:
+        return json.loads(done.stdout)
+    except json.JSONDecodeError:
+        return None
+
+
+def _floats(text: str) -> list[float]:
+    return [float(v) for v in text.split(",")]
+
+
+def dot_layout(
+    top: Level,
+    labels: dict[str, str],
+    lit_labels: dict[str, str],
+    edges: dict[tuple[str, str], str | None],
+    captions: dict[str, str],
+) -> DotLayout | None:
+    """Lay out a machine tree with `dot`.
+
+    Args:
+        top: The top level with the nested levels shown open.
+        labels: Node id -> its label text (as drawn unlit).
+        lit_labels: Node id -> its text lit (the box is the larger of the two).
+        edges: The arrows drawn, (source, target) -> its label's text (None: none).
+        captions: Open nested machine's owner -> the caption Rerun writes above its frame.
+
+    Returns:
+        The layout, or None if `dot` is missing or fails.
+    """
+    sizes = {n: label_size(t) for n, t in labels.items()}
+    boxes = {
+        n: (max(w, label_size(lit_labels.get(n, labels[n]))[0]), h) for n, (w, h) in sizes.items()
+    }
+    label_boxes = {e: label_size(t) if t is not None else None for e, t in edges.items()}
+    caption_boxes = {o: (label_size(t)[0], CAPTION_H) for o, t in captions.items()}
+    source, ids = dot_source(top, boxes, label_boxes, caption_boxes)
+    out = run_dot(source)
+    if out is None:
+        return None
+    height = _floats(out["bb"])[3]
+
+    def flip(x: float, y: float) -> tuple[float, float]:
+        return x, height - y
+
+    by_id = {n: i for i, n in enumerate(ids.values())}
+    names = list(ids)
+    positions: dict[str, tuple[float, float]] = {}
+    groups: dict[str, tuple[float, float, float, float]] = {}
+    for obj in out.get("objects", []):
+        comment = obj.get("comment")
+        if obj.get("name", "").startswith("cluster_"):
+            if comment in captions:
+                x0, y0, x1, y1 = _floats(obj["bb"])
+                # the caption's band at the frame's top is where Rerun writes it, above
+                # the frame's outline
+                groups[comment] = (x0, height - y1 + CAPTION_H, x1, height - y0)
+        elif obj.get("name") in by_id:
+            positions[names[by_id[obj["name"]]]] = flip(*_floats(obj["pos"]))
+    placed: dict[tuple[str, str], tuple[float, float]] = {}
+    for edge in out.get("edges", []):
+        src, _, dst = edge.get("comment", "").partition(" -> ")
+        spot = edge.get("lp") or edge.get("xlp")
+        if spot and (src, dst) in edges:
+            placed[(src, dst)] = flip(*_floats(spot))
+    _clear_the_outline_caption(top, positions, boxes, groups)
+    widths = {o: w for o, (w, _) in caption_boxes.items()}
+    return DotLayout(GraphLayout(positions, groups, sizes, widths), placed)
+
+
+def _clear_the_outline_caption(
+    top: Level,
+    positions: dict[str, tuple[float, float]],
+    boxes: dict[str, tuple[float, float]],
+    groups: dict[str, tuple[float, float, float, float]],
+) -> None:
+    """Rerun outlines the whole graph `_OUTLINE_PAD` outside its topmost node and writes the
+    graph's path above that, where the caption of a frame at the top would be too: the
+    topmost top-level state outside every frame (the guard node) moves up until the outline
+    runs above every frame's caption, if nothing is in its way."""
+    if not groups:
+        return
+    limit = min(y0 - CAPTION_H for _, y0, _, _ in groups.values()) + _OUTLINE_PAD
+    free = [n for n in top.nodes if n not in top.nested and n in positions]
+    if not free:
+        return
+    node = min(free, key=lambda n: (positions[n][1] - boxes[n][1] / 2, top.nodes.index(n)))
+    (x, y), (w, h) = positions[node], boxes[node]
+    if y - h / 2 <= limit:
+        return
+    moved = (x - w / 2, limit, x + w / 2, y + h / 2)  # the box and the way up to it
+    others = [
+        (px - bw / 2, py - bh / 2, px + bw / 2, py + bh / 2)
+        for n, (px, py) in positions.items()
+        if n != node
+        for bw, bh in [boxes[n]]
+    ]
+    others += [(x0, y0 - CAPTION_H, x1, y1) for x0, y0, x1, y1 in groups.values()]
+    if not any(a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+               for a in [moved] for b in others):  # fmt: skip
+        positions[node] = (x, limit + h / 2)
