@@ -137,3 +137,13 @@ def test_objects_drawn_into_one_another_are_refused():
         load_scenario("stack", ["scene.objects.top.xy=[0.5, 0.15]"])
     text = str(err.value)
     assert "starts inside" in text and "scene.objects" in text
+
+
+def test_bins_that_overlap_are_refused_saying_why():
+    # bin_A widened to 0.31 m overlapped bin_B: a B parcel let go over B landed in A's
+    # footprint and was judged missorted
+    with pytest.raises(ConfigError) as err:
+        load_scenario("sorting", ["scene.bins.bin_A.size_xy=[0.31, 0.17]"])
+    text = str(err.value)
+    assert "bin bin_A and bin bin_B overlap" in text and "lands in the other" in text
+    load_scenario("sorting")  # the bundled bins stand wall to wall: no overlap
