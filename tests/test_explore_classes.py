@@ -147,3 +147,19 @@ def test_bins_that_overlap_are_refused_saying_why():
     text = str(err.value)
     assert "bin bin_A and bin bin_B overlap" in text and "lands in the other" in text
     load_scenario("sorting")  # the bundled bins stand wall to wall: no overlap
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "words"),
+    [
+        ("scene.parcels.mass_kg", "[0.05, 0.8]", "swung the wrist"),
+        ("scene.parcels.height_m", "[0.04, 0.09]", "judged dropped while in the hand"),
+    ],
+)
+def test_parcels_beyond_what_the_sorting_cell_is_qualified_for_are_refused(key, value, words):
+    # within the old bounds (3 kg, 0.5 m) heavier parcels swung the wrist past its datasheet
+    # acceleration, taller ones were judged dropped while held and jolted the arm
+    with pytest.raises(ConfigError) as err:
+        load_scenario("sorting", [f"{key}={value}"])
+    text = str(err.value)
+    assert key in text and "qualified" in text and words in text
