@@ -188,8 +188,7 @@ class Register(Skill):
             )
             return "out_of_tolerance"
         self.tool = tool
-        self._plan(ctx)
-        return None
+        return self._plan(ctx)
 
     def stop(self, ctx: Context) -> None:
         """Keep the compliant hold where the touches left the tool."""
@@ -238,8 +237,10 @@ class Register(Skill):
         return None
 
     # -- touch --------------------------------------------------------------------------
-    def _plan(self, ctx: Context) -> None:
-        """The touches, in the prior estimate, and the first probe under way."""
+    def _plan(self, ctx: Context) -> str | None:
+        """The touches, in the prior estimate, and the first probe under way; `out_of_tolerance`
+        if a touch lies beyond the arm's reach (explore: on a phantom 1.6 m long the arm was
+        pulled towards its far end, joint 2 at 8x its datasheet acceleration)."""
         p = self.params
         assert self.pose is not None and ctx.world.phantom is not None
         self.points = p.touches or _default_touches(ctx.world.phantom.size)
@@ -250,7 +251,20 @@ class Register(Skill):
         """Tool orientation for every touch: its axis along the prior's inward top normal."""
         self.t_touch = ctx.clock
         self.plans = [self._touch_plan(tp, t0, r0) for tp in self.points]
+        shoulder = ctx.robot.shoulder(ctx.q, np.asarray(ctx.scenario.robot.base_pos, float))
+        for i, plan in enumerate(self.plans):
+            far = max(float(np.linalg.norm(np.asarray(pt) - shoulder)) for pt in plan.route)
+            if far > ctx.robot.reach_m:
+                tp = self.points[i]
+                self._error(
+                    ctx,
+                    f"touch {i + 1} ({tp.on} at {np.round(tp.at, 4).tolist()}) is "
+                    f"{far:.3f} m from the shoulder, beyond the arm's reach "
+                    f"({ctx.robot.reach_m:g} m)",
+                )
+                return "out_of_tolerance"
         self._next_probe(ctx)
+        return None
 
     def _touch_plan(self, tp: TouchPoint, t0: np.ndarray, r0: np.ndarray) -> TouchPlan:
         """Ball centre `standoff_m` off the feature along the touch's outward direction (the

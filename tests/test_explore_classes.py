@@ -163,3 +163,14 @@ def test_parcels_beyond_what_the_sorting_cell_is_qualified_for_are_refused(key, 
         load_scenario("sorting", [f"{key}={value}"])
     text = str(err.value)
     assert key in text and "qualified" in text and words in text
+
+
+def test_registration_refuses_touches_beyond_the_arm_s_reach():
+    # a phantom 1.6 m long on a table 1 cm high: the touches near its far end pulled the arm
+    # towards it, joint 2 at 8x its datasheet acceleration in SETUP.REGISTER
+    sets = ["scene.table.height=0.01", "scene.phantom.size.0=1.626883"]
+    result = run_episode(load_scenario("surgical", sets), 1642084519)
+    assert result.outcome == "failed"
+    reason = result.reason
+    assert reason["state"] == "SETUP.REGISTER" and "beyond the arm's reach" in reason["message"]
+    assert result.invariants["ok"], result.invariants["violations"]
