@@ -341,7 +341,11 @@ def _palm_strikes(
     ctx: Context, obj: Any, tcp_z: float, hand: HandBox, clearance: float
 ) -> str | None:
     """Why the palm would come down on the object's top with the TCP at height `tcp_z` [m]
-    (its declared size, standing as it stands now: where `search` sees it), or None."""
+    (its declared size, standing as it stands now: where `search` sees it), or None. A hand
+    whose own body reaches down to the TCP (a jaw fixed to it, as on the SO-101) has no palm
+    above the object to judge: None."""
+    if hand.depth_m >= 0.0:
+        return None  # the hand's own body reaches the TCP: a jaw of it (the SO-101), no palm
     pose = ctx.object_pose(obj.name)
     up = float(np.abs(rotation_of(pose.quat)[2]) @ obj.half_size)  # half its extent along z
     top = float(pose.pos[2]) + up
