@@ -174,3 +174,11 @@ def test_registration_refuses_touches_beyond_the_arm_s_reach():
     reason = result.reason
     assert reason["state"] == "SETUP.REGISTER" and "beyond the arm's reach" in reason["message"]
     assert result.invariants["ok"], result.invariants["violations"]
+
+
+@pytest.mark.parametrize("scenario", ["pick_place", "pick_place_ur5", "pick_place_so101"])
+def test_every_arm_s_hand_takes_the_bundled_cube(scenario):
+    # the palm check refused every cube on the SO-101, whose hand body is a jaw down to the TCP
+    loaded = load_scenario(scenario, ["physics.time_limit_s=0.3"])
+    result = run_episode(loaded, 0)
+    assert ("PICK.GRASP.PLAN", "ready") in [(t["from"], t["trigger"]) for t in result.transitions]
