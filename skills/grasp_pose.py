@@ -13,6 +13,11 @@ Headings are tried in order of `turns_deg`, then of the wrist's turn from where 
 Two parcels touching along their long sides leave no room for a finger between them: the
 grasp is `blocked` before the hand goes down (with touching parcels, a finger used to come
 down on the neighbour at 87-214 N and the run aborted).
+
+Given the `object` by name, its declared size is checked too: wider than the open hand on every
+heading, or so tall that the palm would come down on its top before the fingers reach the
+grasp, it is `blocked` with the figures (explore found both: a 0.67 m box struck by the hand
+and a 0.18 m cube by the wrist, the joints then past their datasheet acceleration).
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat
 
 from orchestrator.world.footprint import Box, separation
-from orchestrator.world.pose import Pose
+from orchestrator.world.pose import Pose, rotation_of
 
 from .base import SCENE_TARGET, Skill, SkillParams
 from .ik import IKSolver
@@ -98,6 +103,11 @@ class GraspPoseParams(SkillParams):
         description="Blackboard key the grasp pose (the target's position, the chosen yaw) "
         "is written to.",
     )
+    object: str | None = Field(
+        default=None,
+        description="The scene object to grasp, by name (`*` or none: not known): its "
+        "declared size must fit the open hand and stand below the palm at the grasp.",
+    )
 
 
 class GraspPose(Skill):
@@ -130,10 +140,26 @@ class GraspPose(Skill):
         hand = hand_box(ctx)
         hand_walls = _walls(ctx, tcp[2] - hand.depth_m)  # what stands as high as the palm
         size = p.size_m if p.size_m is not None else _seen_size(p.neighbours, centre)
+        known = ctx.world.objects.get(p.object) if p.object else None
+        heading = goal.yaw  # the hand's heading that closes across the short side (turn 0)
+        if known is not None:
+            hx, hy = (float(v) for v in known.half_size[:2])
+            if size is None:
+                size = [2.0 * max(hx, hy), 2.0 * min(hx, hy)]
+                if hy > hx:  # its long side along its own y: closing along y would span it
+                    heading += math.pi / 2.0
+            too_tall = _palm_strikes(ctx, known, tcp[2], hand, p.clearance_m)
+            if too_tall is not None:
+                self.why = too_tall
+                ctx.log("skill", f"grasp_pose: {self.why}", level="WARN")
+                return "blocked"
+        symmetry = p.yaw_symmetry_deg
+        if size is not None and abs(size[0] - size[1]) > 1e-3:
+            symmetry = max(symmetry, 180.0)  # a quarter turn would close across the other side
         blocked: list[str] = []
         misses: list[float] = []
         for turn in p.turns_deg:
-            base = goal.yaw + math.radians(turn)
+            base = heading + math.radians(turn)
             across = _across(size, turn)
             if across is not None and p.opening_m - across / 2.0 < p.clearance_m:
                 blocked.append(
@@ -141,7 +167,7 @@ class GraspPose(Skill):
                     f"not span the object ({across * 1000:.0f} mm)"
                 )
                 continue
-            for yaw in symmetric_yaws(base, here, math.radians(p.yaw_symmetry_deg)):
+            for yaw in symmetric_yaws(base, here, math.radians(symmetry)):
                 hit = _first_hit(fingers.at(tcp[0], tcp[1], yaw), others, p.clearance_m)
                 if hit is not None:
                     blocked.append(f"turned {turn:g} deg a finger comes within {hit}")
@@ -309,6 +335,29 @@ def hand_box(ctx: Context) -> HandBox:
     if not math.isfinite(depth):  # no collision geom on the hand: nothing to clear
         return HandBox(0.0, 0.0, -math.inf)
     return HandBox(half_x, half_y, depth)
+
+
+def _palm_strikes(
+    ctx: Context, obj: Any, tcp_z: float, hand: HandBox, clearance: float
+) -> str | None:
+    """Why the palm would come down on the object's top with the TCP at height `tcp_z` [m]
+    (its declared size, standing as it stands now: where `search` sees it), or None. A hand
+    whose own body reaches down to the TCP (a jaw fixed to it, as on the SO-101) has no palm
+    above the object to judge: None."""
+    if hand.depth_m >= 0.0:
+        return None  # the hand's own body reaches the TCP: a jaw of it (the SO-101), no palm
+    pose = ctx.object_pose(obj.name)
+    up = float(np.abs(rotation_of(pose.quat)[2]) @ obj.half_size)  # half its extent along z
+    top = float(pose.pos[2]) + up
+    palm = tcp_z - hand.depth_m
+    if top + clearance <= palm:
+        return None
+    return (
+        f"{obj.name} stands {2.0 * up * 1000:.0f} mm tall: with the TCP at {tcp_z:.3f} m to "
+        f"grasp it, its top ({top:.3f} m) would be {(top - palm) * 1000:.1f} mm above the "
+        f"palm's underside ({palm:.3f} m, {-hand.depth_m * 1000:.0f} mm above the TCP; "
+        f"{clearance * 1000:.0f} mm below it needed)"
+    )
 
 
 def _walls(ctx: Context, fingertip_z: float) -> list[tuple[str, Box]]:

@@ -116,6 +116,15 @@ class RegisterParams(SkillParams):
         default=5e-5,
         description="Largest 1-sigma lateral error of the touched pose on the top surface [m].",
     )
+    max_tilt_deg: PositiveFloat = Field(
+        default=10.0,
+        le=90.0,
+        description="Steepest tilt of the top (the fiducials' estimate) touched [deg]; steeper "
+        "is `out_of_tolerance` before the tool moves. The default 3-2-1 touches are qualified "
+        "to 10: tilted 8.5 deg the surgical phantom registered and was traced, at 18.4 the "
+        "touched pose came out uncertain by 0.3 mm (bar 0.05 mm), at 28.4 the first touch met "
+        "nothing.",
+    )
 
 
 class Register(Skill):
@@ -140,6 +149,7 @@ class Register(Skill):
 
     def start(self, ctx: Context) -> None:
         self.t0 = ctx.clock
+        self.why = ""
         self.probes: list[TouchProbe] = []
         self.probe: TouchProbe | None = None
         self.pose: tuple[np.ndarray, np.ndarray] | None = None
@@ -155,7 +165,7 @@ class Register(Skill):
             return None
         phantom = ctx.world.phantom
         if phantom is None or phantom.name != p.object:
-            ctx.log("skill", f"register: no phantom {p.object!r} in the scene", level="ERROR")
+            self._error(ctx, f"no phantom {p.object!r} in the scene")
             return "not_found"
         if self.pose is None:
             outcome = self._fiducials(ctx)
@@ -166,14 +176,30 @@ class Register(Skill):
             return self._write(ctx, *self.pose, scale=1.0)
         tool: Tool | None = getattr(ctx.robot, "tool", None)
         if tool is None:
-            ctx.log("skill", "register: touching needs a tool on the flange", level="ERROR")
+            self._error(ctx, "touching needs a tool on the flange")
             return "not_found"
+        assert self.pose is not None
+        tilt = math.degrees(math.acos(min(1.0, abs(float(self.pose[1][2, 2])))))
+        if tilt > p.max_tilt_deg:
+            self._error(
+                ctx,
+                f"{p.object!r} is tilted {tilt:.1f} deg (the fiducials): touching is qualified "
+                f"to {p.max_tilt_deg:g} deg (max_tilt_deg)",
+            )
+            return "out_of_tolerance"
         self.tool = tool
-        self._plan(ctx)
-        return None
+        return self._plan(ctx)
 
     def stop(self, ctx: Context) -> None:
         """Keep the compliant hold where the touches left the tool."""
+
+    def explain(self, ctx: Context) -> str | None:
+        return self.why or None
+
+    def _error(self, ctx: Context, text: str) -> None:
+        """Say why registration failed (the log and the transition's detail)."""
+        self.why = text
+        ctx.log("skill", f"register: {text}", level="ERROR")
 
     # -- fiducials ----------------------------------------------------------------------
     def _fiducials(self, ctx: Context) -> str | None:
@@ -187,18 +213,17 @@ class Register(Skill):
         noise = ctx.rng.normal(0.0, sigma, (p.samples, *truth.shape))
         seen = [ctx.perceived(Pose(pos=pt.tolist())) for pt in truth + noise.mean(axis=0)]
         if any(s is None for s in seen):
-            ctx.log("skill", f"register: a fiducial of {p.object!r} was not found", level="ERROR")
+            self._error(ctx, f"a fiducial of {p.object!r} was not found")
             return "not_found"
         measured = np.array([s.pos for s in seen if s is not None])
         rot, pos = _kabsch(model_pts, measured)
         fre = float(np.sqrt(np.mean(np.sum((model_pts @ rot.T + pos - measured) ** 2, 1))))
         ctx.metrics["registration_fre_mm"] = round(fre * 1000, 4)
         if fre > p.tolerance_m:
-            ctx.log(
-                "skill",
-                f"register: {p.object!r} fiducial error {fre * 1000:.2f} mm (limit "
+            self._error(
+                ctx,
+                f"{p.object!r} fiducial error {fre * 1000:.2f} mm (limit "
                 f"{p.tolerance_m * 1000:.2f})",
-                level="ERROR",
             )
             return "out_of_tolerance"
         self.pose = (pos, rot)
@@ -212,8 +237,10 @@ class Register(Skill):
         return None
 
     # -- touch --------------------------------------------------------------------------
-    def _plan(self, ctx: Context) -> None:
-        """The touches, in the prior estimate, and the first probe under way."""
+    def _plan(self, ctx: Context) -> str | None:
+        """The touches, in the prior estimate, and the first probe under way; `out_of_tolerance`
+        if a touch lies beyond the arm's reach (explore: on a phantom 1.6 m long the arm was
+        pulled towards its far end, joint 2 at 8x its datasheet acceleration)."""
         p = self.params
         assert self.pose is not None and ctx.world.phantom is not None
         self.points = p.touches or _default_touches(ctx.world.phantom.size)
@@ -224,7 +251,20 @@ class Register(Skill):
         """Tool orientation for every touch: its axis along the prior's inward top normal."""
         self.t_touch = ctx.clock
         self.plans = [self._touch_plan(tp, t0, r0) for tp in self.points]
+        shoulder = ctx.robot.shoulder(ctx.q, np.asarray(ctx.scenario.robot.base_pos, float))
+        for i, plan in enumerate(self.plans):
+            far = max(float(np.linalg.norm(np.asarray(pt) - shoulder)) for pt in plan.route)
+            if far > ctx.robot.reach_m:
+                tp = self.points[i]
+                self._error(
+                    ctx,
+                    f"touch {i + 1} ({tp.on} at {np.round(tp.at, 4).tolist()}) is "
+                    f"{far:.3f} m from the shoulder, beyond the arm's reach "
+                    f"({ctx.robot.reach_m:g} m)",
+                )
+                return "out_of_tolerance"
         self._next_probe(ctx)
+        return None
 
     def _touch_plan(self, tp: TouchPoint, t0: np.ndarray, r0: np.ndarray) -> TouchPlan:
         """Ball centre `standoff_m` off the feature along the touch's outward direction (the
@@ -253,10 +293,10 @@ class Register(Skill):
             return None
         if outcome != "done":
             tp = self.points[len(self.probes) - 1]
-            ctx.log(
-                "skill",
-                f"register: touch {len(self.probes)} ({tp.on} at {tp.at}) ended {outcome}",
-                level="ERROR",
+            self._error(
+                ctx,
+                f"touch {len(self.probes)} ({tp.on} at {np.round(tp.at, 4).tolist()}) ended "
+                f"{outcome}: {self.probe.note}",
             )
             return "not_found" if outcome == "no_contact" else "out_of_tolerance"
         if len(self.probes) < len(self.plans):
@@ -291,7 +331,7 @@ class Register(Skill):
         try:
             fit = fit_touches(touches, size, radius, _law(spec).force, rot, t)
         except ValueError as exc:  # the touches do not pin the pose down: not registered
-            ctx.log("skill", f"register: {exc}", level="ERROR")
+            self._error(ctx, f"{exc}")
             return "out_of_tolerance"
         sigma = _top_sigma(fit, size)
         sigma_deg = math.degrees(float(np.sqrt(np.max(np.diag(fit.covariance)[3:6]))))
@@ -311,11 +351,10 @@ class Register(Skill):
             f"{sigma_deg:.4f} deg), tissue {fit.scale:.3f} x the registered law",
         )
         if sigma > p.max_sigma_m:
-            ctx.log(
-                "skill",
-                f"register: touched pose uncertain by {sigma * 1000:.3f} mm (limit "
+            self._error(
+                ctx,
+                f"touched pose uncertain by {sigma * 1000:.3f} mm (limit "
                 f"{p.max_sigma_m * 1000:.3f})",
-                level="ERROR",
             )
             return "out_of_tolerance"
         return self._write(ctx, fit.position, fit.rotation, scale=fit.scale)
@@ -344,11 +383,10 @@ class Register(Skill):
         ctx.metrics["registration_offset_mm"] = round(offset * 1000, 4)
         if offset <= p.max_offset_m:
             return True
-        ctx.log(
-            "skill",
-            f"register: {p.object!r} {offset * 1000:.1f} mm from the plan (limit "
+        self._error(
+            ctx,
+            f"{p.object!r} {offset * 1000:.1f} mm from the plan (limit "
             f"{p.max_offset_m * 1000:.1f})",
-            level="ERROR",
         )
         return False
 

@@ -2,7 +2,10 @@
 registration by touch (`register`), run by it one touch after the other.
 
 From wherever the controller holds the tool, the setpoint travels a route of straight segments
-(jerk-limited profiles) to a point `standoff` off the face; the wrist sensor is re-zeroed
+(jerk-limited profiles) to a point `standoff` off the face, turning the tool from the
+orientation it was held at to the touch's along the first segment (a tilted face turns it by
+the tilt: set in one tick, a 30-degree turn drove the wrist at ~3.6x its datasheet
+acceleration); the wrist sensor is re-zeroed
 there, at rest; the setpoint then moves along the face's inward normal until the normal force
 shows the contact; it is then put where the spring of arm and tissue will push with the first
 level's force (from where the tip is: at speed the impedance trails its setpoint by over a
@@ -50,6 +53,8 @@ class TouchSettings:
         average_s: Averaging time at each level [s].
         speed: Speed of the route [m/s].
         accel: Acceleration of the route and of the presses [m/s^2].
+        turn_speed: Angular speed of the tool's turn along the route's first segment [rad/s].
+        turn_accel: Its angular acceleration [rad/s^2].
         normal_stiffness: Impedance along the face normal [N/m].
         lateral_stiffness: Impedance across it (and of the route) [N/m].
         rotational_stiffness: [Nm/rad].
@@ -67,6 +72,8 @@ class TouchSettings:
     average_s: float = 0.2
     speed: float = 0.1
     accel: float = 0.5
+    turn_speed: float = 0.5
+    turn_accel: float = 1.0
     normal_stiffness: float = 800.0
     lateral_stiffness: float = 3000.0
     rotational_stiffness: float = 60.0
@@ -130,8 +137,12 @@ class TouchProbe:
             frame=frame,
         )
         self.q_null = ctx.q.copy()
-        start, _ = impedance.setpoint(ctx, self.free)
+        start, rot0 = impedance.setpoint(ctx, self.free)
         self.result = TouchResult()
+        self.rot0 = rot0
+        self.turn = _rotation_vector(rot0.T @ rot)
+        """The turn from the held orientation to the touch's (body frame, rotation vector
+        [rad]), made along the route's first segment. Shape (3,)."""
         self._segments(ctx, [start, *plan.route], "route")
         self.standoff = np.asarray(plan.route[-1], dtype=float)
         self.alpha = 1.0 - math.exp(-2.0 * math.pi * 30.0 * ctx.dt_control)
@@ -141,6 +152,8 @@ class TouchProbe:
         self.samples: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self.tare: list[np.ndarray] = []
         self.outcome = "done"
+        self.note = ""
+        """Why the touch ended other than `done`, in words."""
 
     # -- the loop -----------------------------------------------------------------------
     def step(self, ctx: Context) -> str | None:
@@ -155,7 +168,8 @@ class TouchProbe:
         if phase == "rezero":
             return self._rezero(ctx, force)
         if self.f_filt > self.cfg.max_force_n:
-            ctx.log("skill", f"register: {self.f_filt:.2f} N touching, above the limit")
+            self.note = f"{self.f_filt:.2f} N touching, above the limit {self.cfg.max_force_n:g} N"
+            ctx.log("skill", f"register: {self.note}")
             self._back_off(ctx, "overforce")
             return None
         if phase == "approach":
@@ -171,16 +185,28 @@ class TouchProbe:
         self.segment = 0
         self._next_segment(ctx)
 
+    def _turning(self) -> bool:
+        """Whether this segment turns the tool (the route's first, when the touch's
+        orientation is not the one the tool was held at)."""
+        return (
+            self.phase == "route" and self.segment == 0 and float(np.linalg.norm(self.turn)) > 1e-9
+        )
+
     def _next_segment(self, ctx: Context) -> None:
         a, b = self.points[self.segment], self.points[self.segment + 1]
-        self.profile = Profile(float(np.linalg.norm(b - a)), self.cfg.speed, self.cfg.accel)
+        c = self.cfg
+        self.profile = Profile(float(np.linalg.norm(b - a)), c.speed, c.accel)
+        if self._turning():  # the slower of the move and the turn sets the pace of both
+            turn = Profile(float(np.linalg.norm(self.turn)), c.turn_speed, c.turn_accel)
+            self.profile = turn if turn.duration > self.profile.duration else self.profile
         self.t0 = ctx.clock
 
     def _travel(self, ctx: Context) -> str | None:
         a, b = self.points[self.segment], self.points[self.segment + 1]
         s, _ = self.profile.progress(ctx.clock - self.t0)
         gains = self.free if self.phase != "back" else self.pressing
-        impedance.command(ctx, a + s * (b - a), self.rot, gains, self.q_null)
+        rot = self.rot0 @ _rotation(s * self.turn) if self._turning() else self.rot
+        impedance.command(ctx, a + s * (b - a), rot, gains, self.q_null)
         if ctx.clock - self.t0 < self.profile.duration:
             return None
         if self.segment + 2 < len(self.points):
@@ -242,7 +268,8 @@ class TouchProbe:
             self._press_to(ctx, c.levels_n[0], self.f_filt)
             return None
         if self.travel >= c.max_travel_m:
-            ctx.log("skill", f"register: no contact within {c.max_travel_m * 1000:.1f} mm")
+            self.note = f"no contact within {c.max_travel_m * 1000:.1f} mm of the standoff point"
+            ctx.log("skill", f"register: {self.note}")
             self._back_off(ctx, "no_contact")
             return None
         self.travel += c.approach_speed * ctx.dt_control * ctx.clock_rate
@@ -304,3 +331,24 @@ class TouchProbe:
     def _command(self, ctx: Context) -> None:
         pos = self.standoff - self.travel * self.n
         impedance.command(ctx, pos, self.rot, self.pressing, self.q_null)
+
+
+def _rotation(v: np.ndarray) -> np.ndarray:
+    """The rotation matrix of the rotation vector `v` [rad] (Rodrigues). Shape (3, 3)."""
+    angle = float(np.linalg.norm(v))
+    if angle < 1e-12:
+        return np.eye(3)
+    k = v / angle
+    skew = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * skew + (1.0 - math.cos(angle)) * skew @ skew
+
+
+def _rotation_vector(rot: np.ndarray) -> np.ndarray:
+    """The rotation vector [rad] of the rotation matrix `rot` (shape (3, 3)), its angle in
+    [0, pi). Shape (3,)."""
+    c = max(-1.0, min(1.0, (float(np.trace(rot)) - 1.0) / 2.0))
+    angle = math.acos(c)
+    w = np.array([rot[2, 1] - rot[1, 2], rot[0, 2] - rot[2, 0], rot[1, 0] - rot[0, 1]])
+    if angle < 1e-9:
+        return 0.5 * w  # sin(angle) ~ angle
+    return angle / (2.0 * math.sin(angle)) * w

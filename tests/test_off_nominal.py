@@ -5,6 +5,7 @@ against the base — and what must still abort (a real collision)."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -210,6 +211,10 @@ def test_a_block_pushed_against_the_base_is_no_collision_but_furniture_is(
         machine=str(tmp_path / "m.yaml"),
         allow_paths=[tmp_path],
     )
+    # the push jolts the standing base past its datasheet acceleration (2.3 m/s^2 on 1 m/s^2):
+    # `joint_acceleration` would abort the run first; what is judged here is `collision`
+    guards = {k: v for k, v in loaded.scenario.guards.items() if k != "joint_acceleration"}
+    loaded = replace(loaded, scenario=loaded.scenario.model_copy(update={"guards": guards}))
     touched = ChassisTouch()
     result = run_episode(loaded, 0, [touched])
     assert result.outcome == outcome, (result.reason, result.transitions)

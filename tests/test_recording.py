@@ -8,7 +8,7 @@ import socket
 import subprocess
 import sys
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -720,7 +720,12 @@ hand feels ~50 N for two physics steps and is back under ~3 N by the next tick, 
 
 
 def test_a_force_spike_between_two_ticks_is_in_the_recording(tmp_path):
-    rec = record(load_scenario("pick_place", faults=[PUSH]), 0, tmp_path / "spike.rrd")
+    loaded = load_scenario("pick_place", faults=[PUSH])
+    # the 4 ms push jolts joint 2 just past its datasheet acceleration (7.86 rad/s^2 on 7.5):
+    # `joint_acceleration` would abort; what is recorded here is the force spike
+    guards = {k: v for k, v in loaded.scenario.guards.items() if k != "joint_acceleration"}
+    loaded = replace(loaded, scenario=loaded.scenario.model_copy(update={"guards": guards}))
+    rec = record(loaded, 0, tmp_path / "spike.rrd")
     assert rec.result.outcome == "succeeded"  # under the 60 N guard: nothing fires
     t_push = rec.result.metrics["faults"][0]["t"]
     rows = rec.temporal["/signals/wrist_force_n"]

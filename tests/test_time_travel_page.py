@@ -65,21 +65,21 @@ def test_the_time_travel_page_runs_as_written(tmp_path, monkeypatch, cli):
     assert "failed in FAILED" in text and "succeeded in DONE" in text  # the two variations
 
 
-FORCE_TOLERANCE = 0.02
-"""The page's force figure against the run's, relative: room for the last bits a contact-rich
+FIGURE_TOLERANCE = 0.02
+"""The page's figure against the run's, relative: room for the last bits a contact-rich
 run changes on another CPU or library version, not for a stale figure (the page's old
-60.3 N against the run's 62.25 N is 3 % off)."""
+60.3 N against the run's 62.25 N was 3 % off)."""
 
 
 def _figures_match_the_run(output: str) -> None:
-    """The page's figures are the runs': the force the guard aborted at (within
-    `FORCE_TOLERANCE`), and a run's printed times say which is the command's and which the
+    """The page's figures are the runs': the acceleration the guard aborted at (within
+    `FIGURE_TOLERANCE`), and a run's printed times say which is the command's and which the
     episode's."""
     page = PAGE.read_text()
-    said = re.search(r"aborts the run in\s+`TRANSPORT` at ([\d.]+) N", page)
-    ran = re.search(r"aborted by contact_force: wrist force ([\d.]+) N", output)
+    said = re.search(r"aborts the run\s+in `TRANSPORT` with joint 2 at ([\d.]+) rad/s", page)
+    ran = re.search(r"aborted by joint_acceleration: joint 2 at -?([\d.]+) rad/s", output)
     assert said and ran, output
-    assert float(said.group(1)) == pytest.approx(float(ran.group(1)), rel=FORCE_TOLERANCE)
+    assert float(said.group(1)) == pytest.approx(float(ran.group(1)), rel=FIGURE_TOLERANCE)
     times = re.findall(r"\(([\d.]+) s for the command with its start-up: the episode ([\d.]+) s "
                        r"wall, \d+x real time\)", output)  # fmt: skip
     assert times, output

@@ -256,12 +256,16 @@ class Episode:
         if last is None:
             return {"kind": "final_state", "state": final_state,
                     "message": f"the machine ended {outcome} in {final_state}"}  # fmt: skip
-        detail = f": {last['detail']}" if last.get("detail") else ""
+        origin, why = _cause(ex.transitions)
+        detail = f": {why['detail']}" if why is not None else ""
+        if why is not None and why is not origin:
+            detail = f" (entered on `{why['trigger']}`{detail})"
+        relayed = "" if origin is last else f"; {last['from']} ended `{last['trigger']}`"
         return {
             "kind": "final_state",
-            "state": last["from"],
-            "message": f"{last['from']} ended `{last['trigger']}`{detail}, so the machine went "
-            f"to {last['to']} ({outcome})",
+            "state": origin["from"],
+            "message": f"{origin['from']} ended `{origin['trigger']}`{detail}{relayed}, so the "
+            f"machine went to {last['to']} ({outcome})",
         }
 
     # -- the result -----------------------------------------------------------------------
@@ -352,3 +356,31 @@ class Episode:
             tasks=None if tasks is None else [e.to_dict() for e in tasks],
             error=ex.fault.to_dict() if ex.fault is not None else None,
         )
+
+
+def _cause(
+    transitions: list[dict[str, Any]],
+) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """Where the run's last chain of transitions started, and the transition that says why.
+
+    A nested machine's final state hands its outcome up in a transition of its own, at the
+    same instant and with no detail (`PICK.GRASP.PLAN` ends `unreachable` with the IK's
+    residual, then `PICK.GRASP.UNREACHABLE` and `PICK.UNREACHABLE` pass `unreachable` on):
+    the origin is the first of those relays. Its detail says why; without one, the transition
+    that entered the origin's state may (a clean-up state such as `PUT_BACK`, entered on
+    `wrong_object` with what the hand holds). Returns (origin, the one with the detail or
+    None)."""
+    i = len(transitions) - 1
+    while i > 0 and not transitions[i].get("detail") and not transitions[i].get("retry"):
+        prev = transitions[i - 1]
+        if prev["to"] != transitions[i]["from"] or prev["t"] != transitions[i]["t"]:
+            break
+        i -= 1
+    origin = transitions[i]
+    if origin.get("detail"):
+        return origin, origin
+    if i > 0 and not origin.get("retry"):
+        prev = transitions[i - 1]
+        if prev["to"] == origin["from"] and prev.get("detail"):
+            return origin, prev
+    return origin, None

@@ -429,6 +429,16 @@ def _compiles(
             f"the robot at its start pose is inside {name} ({depth * 1000:.1f} mm deep"
             f"{' at seed ' + str(seed) if seed else ''}): the scene must leave the arm's start "
             "pose clear (lower `scene.table.height`, or move what it touches)"))]  # fmt: skip
+    overlaps = _object_overlaps(world)
+    if overlaps:
+        # found by `orchestrator explore` on stack: a box drawn 0.67 m long lay on the other
+        # cube, and the hand struck it at 66 N, two joints past their datasheet acceleration
+        (a, b), depth = max(overlaps.items(), key=lambda kv: kv[1])
+        return None, [source.diag(("scene", "objects"), (
+            f"{a} starts inside {b} ({depth * 1000:.1f} mm deep"
+            f"{' at seed ' + str(seed) if seed else ''}): objects drawn into one another "
+            "would be thrown apart by the first physics step or rest on each other; move them "
+            "apart or narrow their `randomize` ranges"))]  # fmt: skip
     return world, []
 
 
@@ -451,6 +461,36 @@ def _start_contacts(world: World) -> dict[str, float]:
         other = g2 if g1 in robot else g1
         name = model.geom(other).name or f"geom {other}"
         out[name] = max(out.get(name, 0.0), -float(c.dist))
+    return out
+
+
+_OVERLAP_M = 0.001
+"""Penetration of a free object into another body at the start that is an overlap (objects
+laid out touching, or standing on a surface, are at 0)."""
+
+
+def _object_overlaps(world: World) -> dict[tuple[str, str], float]:
+    """Free objects that start inside another object or a fixed body (not the robot: see
+    `_start_contacts`): (object, other) -> depth [m] beyond `_OVERLAP_M`."""
+    import mujoco
+
+    model = world.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = world.data.qpos
+    mujoco.mj_forward(model, data)
+    objects = {h.geom_id: name for name, h in world.objects.items()}
+    robot = world.robot_geoms
+    out: dict[tuple[str, str], float] = {}
+    for i in range(data.ncon):
+        c = data.contact[i]
+        g1, g2 = int(c.geom1), int(c.geom2)
+        if g1 in robot or g2 in robot or -float(c.dist) <= _OVERLAP_M:
+            continue
+        if g1 not in objects and g2 not in objects:
+            continue
+        obj, other = (g1, g2) if g1 in objects else (g2, g1)
+        pair = (objects[obj], objects.get(other) or model.geom(other).name or f"geom {other}")
+        out[pair] = max(out.get(pair, 0.0), -float(c.dist))
     return out
 
 

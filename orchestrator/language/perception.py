@@ -4,7 +4,15 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from ..perception.colours import NAMED_COLOURS, hsv_boxes
 
@@ -124,10 +132,16 @@ class Perception(_Strict):
     """Perception: the `search` oracle's noise, and the camera pipeline of `detect`."""
 
     position_noise_m: float = Field(
-        default=0.0, ge=0.0, le=1.0, description="`search`: std. dev. [m]."
+        default=0.0,
+        ge=0.0,
+        le=0.01,
+        description="`search`: std. dev. [m]; at most 1 cm (see `_within_what_a_grasp_takes`).",
     )
     yaw_noise_deg: float = Field(
-        default=0.0, ge=0.0, le=180.0, description="`search`: std. dev. [deg]."
+        default=0.0,
+        ge=0.0,
+        le=5.0,
+        description="`search`: std. dev. [deg]; at most 5 (see `_within_what_a_grasp_takes`).",
     )
     backend: Literal["auto", "opengl", "raycast"] = Field(
         default="auto",
@@ -138,6 +152,24 @@ class Perception(_Strict):
         description="Colour classes: name -> a colour name or HSV boxes (OpenCV units).",
     )
     randomize: PerceptionRandomize = Field(default_factory=PerceptionRandomize)
+
+    @field_validator("position_noise_m", "yaw_noise_deg", mode="before")
+    @classmethod
+    def _within_what_a_grasp_takes(cls, value: Any, info: ValidationInfo) -> Any:
+        """Refuse, saying why, a `search` noise no cell qualified here can work with (found by
+        `orchestrator explore`: at 0.6-1 m the hand was sent out of the workspace; at 160-180
+        deg a finger came down on a 5 cm cube and jolted joint 2 to 1.3x its datasheet
+        acceleration, the fingers clearing it by 5 mm a side at the right heading and by
+        nothing 13 deg off)."""
+        limit = {"position_noise_m": (0.01, "m"), "yaw_noise_deg": (5.0, "deg")}[info.field_name]
+        if isinstance(value, (int, float)) and value > limit[0]:
+            raise ValueError(
+                f"{value:g} {limit[1]} is above {limit[0]:g} {limit[1]}: the bundled grasps "
+                "come down with the fingers 5 mm clear of a 5 cm cube a side (13 deg of yaw); "
+                "a perception noise past this bound lands a finger on the object at approach "
+                "speed"
+            )
+        return value
 
     def class_boxes(self) -> dict[str, tuple]:
         """Class name -> its HSV boxes."""

@@ -278,6 +278,26 @@ class SceneSpec(_Strict):
         return self
 
     @model_validator(mode="after")
+    def _bins_apart(self) -> SceneSpec:
+        """Bins apart from one another and from the pick area (found by `orchestrator
+        explore` on sorting: bin_A widened to 0.31 m overlapped bin_B, and a parcel of B
+        dropped into their shared footprint was judged missorted)."""
+        boxes = [(f"bin {b.name}", b.xy, b.size_xy) for b in self.bins]
+        if self.parcels is not None:
+            p = self.parcels
+            boxes.append(("the pick area (scene.parcels)", p.area_center_xy, p.area_size_xy))
+        for i, (a, axy, asz) in enumerate(boxes):
+            for b, bxy, bsz in boxes[i + 1 :]:
+                over = [(asz[k] + bsz[k]) / 2 - abs(axy[k] - bxy[k]) for k in (0, 1)]
+                if min(over) > 1e-6:  # touching walls (adjacent bins) are no overlap
+                    raise ValueError(
+                        f"{a} and {b} overlap ({over[0] * 1000:.0f} x {over[1] * 1000:.0f} mm "
+                        "of their footprints): a parcel let go over one lands in the other; "
+                        "move them apart or make them smaller"
+                    )
+        return self
+
+    @model_validator(mode="after")
     def _bin_parts(self) -> SceneSpec:
         """Each bin becomes a marker (its floor, named like it) and four wall obstacles; a
         scenario validated again (dumped and reloaded) keeps the parts it already has."""

@@ -24,8 +24,9 @@ class GripperClearParams(CheckParams):
 
 
 class GripperClear(SuccessCheck):
-    """The gripper is open wider than the object and every finger is at least
-    `min_distance_m` from it (MuJoCo's geom distance)."""
+    """The gripper is open wider than the object's narrower side (what a hand closes across)
+    and every finger is at least `min_distance_m` from it (MuJoCo's geom distance). (Its
+    largest edge was used: a 0.67 m box grasped across its 5 cm side failed the check.)"""
 
     kind: ClassVar[str] = "gripper_clear"
     Params: ClassVar[type[CheckParams]] = GripperClearParams
@@ -36,7 +37,7 @@ class GripperClear(SuccessCheck):
 
         p = self.params
         handle = ctx.world.objects[p.object]
-        need = 2.0 * float(max(handle.half_size)) + 2.0 * p.min_distance_m
+        need = 2.0 * float(min(handle.half_size[:2])) + 2.0 * p.min_distance_m
         fromto = np.zeros(6)
         nearest = math.inf
         for g in ctx.world.finger_geoms:
