@@ -83,7 +83,10 @@ class Served:
 
 @pytest.fixture(scope="module")
 def served() -> Iterator[Served]:
-    s = Served("t", "--speed", "0")
+    # paced at real time: a task lasts its simulated seconds in wall time at least, so a test
+    # that sees MOVING and then pauses or e-stops finds the task still running on a loaded
+    # machine (at `--speed 0` a reach could end between the status poll and the command)
+    s = Served("t", "--speed", "1")
     yield s
     s.close()
 
