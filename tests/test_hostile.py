@@ -40,9 +40,11 @@ REPO = Path(__file__).resolve().parent.parent
 POSITION = re.compile(r"^(?P<file>.+?):(?P<line>\d+):(?P<col>\d+): \S")
 SUMMARY = re.compile(r"^\d+ errors?; (nothing was simulated|the run was stopped)\.$")
 HANG_S = 15.0
-"""A bound that only a hang or a super-linear blow-up crosses (the campaign found 116 s and
-150 s+ answers) with room for a loaded CI machine; the 2 s target itself is measured by
-`bench/fuzz_campaign.py` on one run, not asserted here."""
+"""A bound on the CPU seconds of this process (`time.process_time`: the CLI runs in it) that
+only a hang or a super-linear blow-up crosses (the campaign found 116 s and 150 s+ answers);
+CPU, not wall time: beside busy processes the 9000 chained states took 18.5 s of wall time
+for ~1.5 s of CPU. The 2 s target itself is measured by `bench/fuzz_campaign.py` on one run,
+not asserted here."""
 
 VALID = {"9000 chained states", final_start_retry().name}
 """Hostile-looking inputs that are valid: they must pass, in time."""
@@ -64,9 +66,9 @@ def _diagnostics(stderr: str, file: Path) -> list[tuple[int, int, str]]:
 @pytest.mark.parametrize("hostile", every_hostile(), ids=lambda h: h.name)
 def test_hostile_input_is_answered_fast_at_its_position(cli, tmp_path, hostile: Hostile):
     entry = hostile.write(tmp_path)
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     res = cli("validate", str(entry))
-    took = time.perf_counter() - t0
+    took = time.process_time() - t0
     assert res.exception is None, f"{hostile.name}: {res.exception!r}"
     assert "Traceback" not in res.stderr + res.stdout
     assert took < HANG_S, f"{hostile.name}: answered in {took:.1f} s"
@@ -120,9 +122,9 @@ def hostile_mutations(draw) -> tuple[str, bytes]:
 
 def _check_mutation(root: Path, cli, which: str, data: bytes) -> None:
     entry = write_bundled(root, which, data)
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     res = cli("validate", str(entry))
-    assert time.perf_counter() - t0 < HANG_S
+    assert time.process_time() - t0 < HANG_S
     assert res.exception is None, repr(res.exception)
     assert "Traceback" not in res.stderr
     assert res.exit_code in (0, 2), res.stderr
@@ -194,13 +196,13 @@ def test_many_hostile_mutations_exit_0_or_2_with_real_positions(tmp_path_factory
     ],
 )  # fmt: skip
 def test_bad_run_invocations_exit_2_before_simulating(cli, args, fragment):
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     res = cli("run", "pick_place", *args)
     assert res.exception is None, repr(res.exception)
     assert res.exit_code == 2, res.stdout
     assert fragment in res.stderr + res.stdout
     assert "Traceback" not in res.stderr
-    assert time.perf_counter() - t0 < HANG_S  # nothing was simulated
+    assert time.process_time() - t0 < HANG_S  # nothing was simulated
 
 
 class _CappedParser(yaml.SafeLoader):

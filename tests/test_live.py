@@ -38,10 +38,20 @@ class Served:
         self.client = Client(name, [self.endpoint], name="test", find_s=60.0)  # owns its tasks
         self.client.status()  # waits for the session to come up
 
-    def send(self, *args: str) -> CliResult:
+    def send(self, *args: str, process: bool = False) -> CliResult:
+        """`orchestrator send` to this session: in this process (the command's code, as the
+        console runs it; a Python of its own costs ~0.7 s CPU a call), or with `process` in
+        a subprocess, as a user runs it."""
+        argv = ["send", self.name, *args, "--connect", self.endpoint]
+        if not process:
+            from typer.testing import CliRunner
+
+            from orchestrator.cli import app
+
+            res = CliRunner().invoke(app, argv)
+            return CliResult(res.exit_code, res.stdout, res.stderr)
         proc = subprocess.run(
-            [sys.executable, "-m", "orchestrator.cli", "send", self.name, *args,
-             "--connect", self.endpoint],
+            [sys.executable, "-m", "orchestrator.cli", *argv],
             capture_output=True, text=True, timeout=300, check=False,
         )  # fmt: skip
         return CliResult(proc.returncode, proc.stdout, proc.stderr)
@@ -83,13 +93,16 @@ class Served:
 
 @pytest.fixture(scope="module")
 def served() -> Iterator[Served]:
-    s = Served("t", "--speed", "0")
+    # paced at real time: a task lasts its simulated seconds in wall time at least, so a test
+    # that sees MOVING and then pauses or e-stops finds the task still running on a loaded
+    # machine (at `--speed 0` a reach could end between the status poll and the command)
+    s = Served("t", "--speed", "1")
     yield s
     s.close()
 
 
 def test_send_runs_a_pick_and_prints_its_result(served):
-    res = served.send("run", "pick_place", "--wait", "--json")
+    res = served.send("run", "pick_place", "--wait", "--json", process=True)
     assert res.exit_code == 0, res.stderr
     result = json.loads(res.stdout)
     assert result["outcome"] == "succeeded" and result["success"]["cube_on_target"]

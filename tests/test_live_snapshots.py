@@ -38,7 +38,10 @@ def _step(session: Session, ticks: int) -> None:
         session._after_tick()
 
 
-def _written(events: list, n: int, timeout: float = 120.0) -> list[dict]:
+def _written(events: list, n: int, timeout: float = 600.0) -> list[dict]:
+    """The first `n` snapshot / snapshot_failed events, waited for in wall time: a writer runs
+    niced (WRITER_NICE), so beside busy processes it gets a sliver of a core; the bound holds
+    under load, a writer that never reports still fails the test."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         done = [e for e in events if e["event"] in ("snapshot", "snapshot_failed")]
@@ -70,7 +73,11 @@ def test_an_estop_behind_30_snapshots_takes_effect_at_the_next_tick(tmp_path):
     session.snapshots.close()  # the session ends: writers in flight finish, the rest dropped
     done = _written(events, 30)
     written = [e for e in done if e["event"] == "snapshot"]
-    assert 1 <= len(written) <= 2  # two writers at most, one forked per tick
+    # one writer forked per tick at most: the burst saw three ticks (two, then the e-stop's);
+    # a third writer is forked there when one of the first two has already finished
+    assert 1 <= len(written) <= 3
+    ticks = [e["tick"] for e in written]
+    assert len(set(ticks)) == len(ticks), ticks  # each captured at a tick of its own
     reasons = [e["reason"] for e in done if e["event"] == "snapshot_failed"]
     assert all("shut down" in why for why in reasons), sorted(set(reasons))
     files = sorted(p.name for p in (tmp_path / "snaps").iterdir())

@@ -47,4 +47,3 @@ def test_a_drawing_is_not_older_than_its_machine(drawing):
         f"{png.name} was drawn from another version of machine {drawing.machine!r}: "
         f"draw it again with `python docs/make_images.py {drawing.name}`"
     )
-

@@ -4,15 +4,29 @@ from __future__ import annotations
 
 import pytest
 
+from orchestrator.engine.result import RunResult
 from orchestrator.engine.runner import run_episode
 from orchestrator.language.load import load_scenario
 
 SEEDS = list(range(10))
 
 
+@pytest.fixture(scope="module")
+def episode(pick_place):
+    """The episode of a seed, run once for the tests of this module that only read it."""
+    runs: dict[int, RunResult] = {}
+
+    def get(seed: int) -> RunResult:
+        if seed not in runs:
+            runs[seed] = run_episode(pick_place, seed)
+        return runs[seed]
+
+    return get
+
+
 @pytest.mark.parametrize("seed", SEEDS)
-def test_pick_place_succeeds(pick_place, seed):
-    result = run_episode(pick_place, seed)
+def test_pick_place_succeeds(episode, seed):
+    result = episode(seed)
     assert result.outcome == "succeeded", result.transitions
     assert result.final_state == "DONE"
     assert result.success == {"cube_on_target": True, "gripper_clear": True}
@@ -29,16 +43,16 @@ def test_pick_place_succeeds(pick_place, seed):
     assert states[-1] == "DONE"
 
 
-def test_same_seed_gives_the_same_result_bit_for_bit(pick_place):
-    a = run_episode(pick_place, 7).to_json_dict()
+def test_same_seed_gives_the_same_result_bit_for_bit(pick_place, episode):
+    a = episode(7).to_json_dict()  # run before, other episodes in between: none leaks state
     b = run_episode(pick_place, 7).to_json_dict()
     a.pop("wall_time"), b.pop("wall_time")
     assert a == b
 
 
-def test_different_seeds_place_the_cube_differently(pick_place):
-    a = run_episode(pick_place, 1).transitions
-    b = run_episode(pick_place, 2).transitions
+def test_different_seeds_place_the_cube_differently(episode):
+    a = episode(1).transitions
+    b = episode(2).transitions
     assert [t["t"] for t in a] != [t["t"] for t in b]
 
 

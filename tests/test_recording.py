@@ -9,6 +9,7 @@ import subprocess
 import sys
 from collections import defaultdict
 from dataclasses import dataclass, replace
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -64,16 +65,17 @@ def read_rrd(path: Path) -> tuple[dict[str, list[dict]], dict[str, dict]]:
     """Every row of the recording store: temporal rows per entity in log (row id) order, and
     the static components per entity. Absent components and the row id are dropped."""
     temporal: dict[str, list[tuple[bytes, dict]]] = defaultdict(list)
-    static: dict[str, dict] = defaultdict(dict)
+    static_rows: dict[str, list[tuple[bytes, dict]]] = defaultdict(list)
     for chunk in RrdReader(path).stream().to_chunks():
         for raw in chunk.to_record_batch().to_pylist():
             row_id = raw.pop(ROW_ID)
             row = {k: v for k, v in raw.items() if v is not None}
-            if chunk.is_static:
-                static[chunk.entity_path].update(row)
-            else:
-                temporal[chunk.entity_path].append((row_id, row))
+            (static_rows if chunk.is_static else temporal)[chunk.entity_path].append((row_id, row))
     ordered = {e: [r for _, r in sorted(rows, key=lambda x: x[0])] for e, rows in temporal.items()}
+    static: dict[str, dict] = defaultdict(dict)
+    for entity, rows in static_rows.items():  # the last logged wins, as in the viewer: by row id
+        for _, row in sorted(rows, key=lambda x: x[0]):
+            static[entity].update(row)
     return ordered, dict(static)
 
 
@@ -83,6 +85,13 @@ def record(loaded: LoadedScenario, seed: int, path: Path, **kwargs: Any) -> Reco
     assert recorder.rec is None, "on_end closes the stream: the file is complete"
     temporal, static = read_rrd(path)
     return Recording(path, result, temporal, static)
+
+
+@cache
+def bundled_graph(name: str, use_dot: bool | None = None):
+    """The graph of a bundled machine, laid out once for the tests that only read it (all the
+    bundled machines' layouts: ~2.7 s CPU; `use_dot` as `build_graph`'s)."""
+    return build_graph(load_machine(name), use_dot=use_dot)
 
 
 @pytest.fixture(scope="module")
@@ -317,7 +326,7 @@ def test_final_states_lie_below_the_states_leading_to_them():
     # final states go into free room near the states leading to them, never above one
     arrows = 0
     for name in bundled_names("machines"):
-        graph = build_graph(load_machine(name))
+        graph = bundled_graph(name)
         for view in graph.views.values():
             pos = view.layout.positions
             for src, dst in view.edges:
@@ -370,9 +379,7 @@ def test_nested_states_lie_inside_their_parents_frame():
 
 @pytest.mark.parametrize("name", ["pick_place", "surgical", "grasp", "mobile_search", "sorting"])
 def test_state_labels_do_not_overlap_even_when_lit(name):
-    from orchestrator.language.load import load_machine
-
-    graph = build_graph(load_machine(name))
+    graph = bundled_graph(name)
     lit_growth = label_size(LIT_MARK + "X")[0] - label_size("X")[0]
     for view in graph.views.values():
         boxes = []
@@ -391,9 +398,7 @@ def test_the_layouts_are_computed_once_per_machine_not_per_tick(monkeypatch, tmp
 
     calls = []
     real = graph_views.dot_layout  # runs Graphviz's dot: never per tick, nor per physics step
-    monkeypatch.setattr(
-        graph_views, "dot_layout", lambda *a, **k: calls.append(1) or real(*a, **k)
-    )
+    monkeypatch.setattr(graph_views, "dot_layout", lambda *a, **k: calls.append(1) or real(*a, **k))
     loaded = load_scenario("pick_place")  # a new machine object: its scene is built anew
     rec = record(loaded, 0, tmp_path / "a.rrd")
     n_views = len(build_graph(loaded.machine).views)
@@ -433,6 +438,8 @@ def test_the_recording_opens_with_the_default_blueprint(recorded):
 LONG_EPISODES = {"sorting", "sorting_conveyor", "sorting_ur5", "surgical", "surgical_complication"}
 """Scenarios whose episode takes 10-40 s (the surgical ones register by touch first): their
 recordings run with the slow suite."""
+SHORT_S = 3.0
+"""The simulated seconds the other scenarios' recordings run in the default suite [s]."""
 
 
 @pytest.mark.parametrize(
@@ -443,13 +450,18 @@ recordings run with the slow suite."""
     ],
 )
 def test_every_bundled_scenario_records_its_transitions_and_geoms(name, tmp_path, request):
-    loaded = load_scenario(name)
-    if name == "pick_place":  # the module's recording of it (the same seed)
-        rec = request.getfixturevalue("recorded")
+    if name == "pick_place":  # the module's recording of it (the same seed), to its end
+        loaded, rec = load_scenario(name), request.getfixturevalue("recorded")
     else:
+        # the first seconds are enough to see the states and the geoms recorded (the whole
+        # episode: the long ones in the slow suite, pick_place's above); pick_place_so101 ran
+        # 5.2 s simulated (~5 s CPU) in full, mobile_search 11.4 s
+        cut = [] if name in LONG_EPISODES else [f"physics.time_limit_s={SHORT_S}"]
+        loaded = load_scenario(name, cut)
         rec = record(loaded, 0, tmp_path / f"{name}.rrd")
     states = [s[0] for s in rec.column("/state_machine/active", "StateChange:state")]
     transitions = rec.result.transitions
+    assert transitions, name  # the run got past its first state (reach_random has one)
     assert states == [transitions[0]["from"]] + [t["to"] for t in transitions]
     model = World.build(loaded.scenario, 0).model
     drawn = [e for e in rec.static if "/geoms/" in e]
@@ -685,7 +697,6 @@ def test_every_sink_gets_the_blueprint_made_active(recorded, blueprints_sent):
 
 
 def test_every_bundled_machine_is_legible_in_both_windows():
-    from orchestrator.language.load import load_machine
     from orchestrator.recording.blueprint import (
         DOT_LEAST_ZOOM,
         LEGIBLE_ZOOM,
@@ -701,7 +712,7 @@ def test_every_bundled_machine_is_legible_in_both_windows():
     # dot's gives each edge label a layer of its own, and is shown at DOT_LEAST_ZOOM or more
     for name in bundled_names("machines"):
         for use_dot, floor in ((False, LEGIBLE_ZOOM), (True, DOT_LEAST_ZOOM)):
-            bounds = build_graph(load_machine(name), use_dot=use_dot).bounds
+            bounds = bundled_graph(name, use_dot).bounds
             share = machine_share(bounds)
             for window in WINDOWS:
                 zoom = graph_zoom(bounds, share, window)
@@ -777,8 +788,14 @@ PICTURE_PAGES = {
     "live_connect_pick_place": ["recording.md", "live.md"],
     **{
         f"rerun_{name}_1280x720": ["recording.md"]
-        for name in ("pick_place", "pick_place_vision", "sorting", "mobile_search", "stack",
-                     "reach_random")
+        for name in (
+            "pick_place",
+            "pick_place_vision",
+            "sorting",
+            "mobile_search",
+            "stack",
+            "reach_random",
+        )
     },  # fmt: skip
 }
 """Each picture in docs/images -> the pages it illustrates (in docs/)."""
