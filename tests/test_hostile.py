@@ -439,6 +439,18 @@ def test_nan_in_a_blackboard_default_or_override_is_refused_before_simulating(cl
     assert "blackboard.place_at" in res.stderr and "nothing was simulated" in res.stderr
 
 
+def test_a_goal_near_the_largest_float_is_refused_without_a_numeric_warning(cli):
+    # the refusal prints the goal rounded: numpy's rounding scaled 1e308 by 1e4 and warned
+    # "overflow encountered in multiply" on the user's terminal beside the message
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = cli("run", "pick_place", "--set", "place_at=[1.0e+308,0,0.3]")
+    assert res.exit_code == 2 and res.exception is None, res.exception
+    assert "goal rejected: place_at = [1e+308, 0.0, 0.3]" in res.stderr
+
+
 def stuck_run(task) -> dict:
     """A worker's episode function: seed 1 never comes back (as if stuck in one MuJoCo step)."""
     if task.seed == 1:

@@ -111,7 +111,7 @@ def check_goals(
         for base, what, on in _bases(use.target, values, world):
             p = base + offset
             where = _where(head, use, what, what != _show(base), p)
-            goals.setdefault((tuple(np.round(p, 9).tolist()), on), (where, p, on))
+            goals.setdefault((tuple(round(float(v), 9) for v in p), on), (where, p, on))
             checked.setdefault(key, []).append(p)
     # every position against the box and the zones first: the IK only for what passed them
     for where, p, on in goals.values():
@@ -124,7 +124,10 @@ def check_goals(
 
 def _show(value: Any) -> str:
     point = _point(value)
-    return str(np.round(point, 4).tolist()) if point is not None else repr(value)
+    if point is None:
+        return repr(value)
+    # Python's round, not numpy's: that scales by 1e4 first and overflows near 1e308
+    return str([round(float(v), 4) for v in point])
 
 
 def _where(head: str, use: PoseUse, what: str, named: bool, p: np.ndarray) -> str:
