@@ -52,8 +52,8 @@ def test_a_file_named_like_a_bundled_one_wins_and_the_user_is_told(cli, tmp_path
     (tmp_path / "pick_place.yaml").write_text((REPO / "machines" / "reach.yaml").read_text())
     assert load_scenario("pick_place").machine.name == "pick_place"  # the bundled one
     assert entry_note("pick_place") == (
-        "pick_place is the bundled scenario; the file ./pick_place.yaml here is not used (name "
-        "it ./pick_place.yaml to run it)"
+        "pick_place is the bundled scenario; the file ./pick_place.yaml here is not used (pass "
+        "./pick_place.yaml, with its path, to use it)"
     )
 
 

@@ -98,8 +98,8 @@ def entry_note(ref: str) -> str | None:
     local = Path(f"{ref}.yaml")
     if not is_file(Path(ref)) and "/" not in ref and is_file(local):
         return (
-            f"{ref} is the bundled {kind[0]}; the file ./{local} here is not used (name it "
-            f"./{local} to run it)"
+            f"{ref} is the bundled {kind[0]}; the file ./{local} here is not used (pass "
+            f"./{local}, with its path, to use it)"
         )
     return None
 
