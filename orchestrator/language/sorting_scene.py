@@ -16,11 +16,11 @@ _Mass = Annotated[float, Field(ge=0.001, le=0.4, description="[kg]")]
 _Height = Annotated[float, Field(ge=0.01, le=0.06, description="[m]")]
 QUALIFIED = {"height_m": (0.06, "m"), "mass_kg": (0.4, "kg")}
 """What the sorting cell was qualified on (the bundled ranges' upper ends), and why no more
-(sorting seed 0 at the values explore draws, 2026-11-29): parcels of 0.8, 1.0 and 1.5 kg swung the wrist past its
-datasheet acceleration as they were lifted (joint 6 at 1.03-1.11x), 3 kg took joint 2 to 90 %
-of its torque; parcels 7.5 cm tall jolted joint 1 to 1.2x on the way to the bin, 9 cm ones
-were held 27 mm off the TCP, judged dropped while still in the hand, and the arm was jolted
-to 3x letting them go."""
+(sorting seed 0 at the values explore draws, 2026-11-29): parcels of 0.8, 1.0 and 1.5 kg
+swung the wrist past its datasheet acceleration as they were lifted (joint 6 at 1.03-1.11x),
+3 kg took joint 2 to 90 % of its torque; parcels 7.5 cm tall jolted joint 1 to 1.2x on the
+way to the bin, 9 cm ones were held 27 mm off the TCP, judged dropped while still in the
+hand, and the arm was jolted to 3x letting them go."""
 _Coord = Annotated[float, Field(ge=-10.0, le=10.0)]
 _XY = Annotated[list[_Coord], Field(min_length=2, max_length=2)]
 _Size2 = Annotated[
