@@ -26,8 +26,8 @@ annotations of every command each time the CLI starts (even for `--version`); as
 would be compiled and evaluated: 15 % of `--version`'s instructions, 5 % of `validate`'s.
 """
 
-from ..explore.command import explore_command
 from . import batch, inspect, live, run, timetravel
+from .explore import explore_command
 from .root import app, main
 
 __all__ = ["app", "main"]

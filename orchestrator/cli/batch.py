@@ -15,8 +15,11 @@ from .errors import EXIT_INVALID, fail, fail_config
 from .options import (
     MAX_SEED,
     AllowPathOption,
+    BackendOption,
+    RayAddressOption,
     SeedOption,
     SkillPaths,
+    WorkersOption,
     allowed_dirs,
     check_wall,
     note_entry,
@@ -106,15 +109,9 @@ def batch(
     seed_base: Annotated[
         int, typer.Option(min=0, max=MAX_SEED, help="Episode i runs seed SEED_BASE + i (>= 0).")
     ] = 0,
-    workers: Annotated[
-        int | None, typer.Option(min=1, help="Worker processes / Ray CPUs (default: every core).")
-    ] = None,
-    backend: Annotated[
-        Literal["local", "ray"], typer.Option(help="Local worker processes, or Ray tasks.")
-    ] = "local",
-    address: Annotated[
-        str | None, typer.Option(help="Ray address (default: $RAY_ADDRESS, else a local Ray).")
-    ] = None,
+    workers: WorkersOption = None,
+    backend: BackendOption = "local",
+    address: RayAddressOption = None,
     out_dir: Annotated[
         Path | None, typer.Option("--out", help="Batch directory (default: runs/SCENARIO-TIME).")
     ] = None,

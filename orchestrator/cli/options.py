@@ -7,7 +7,7 @@ value exits 2 before anything runs)."""
 import math
 import os
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import typer
 
@@ -36,6 +36,18 @@ SkillPaths = Annotated[
         help="A folder (or .py file) of your own skill modules (and success checks), no "
         "package needed: imported (its code runs), as you name it. Repeatable.",
     ),
+]
+
+# -- where a campaign's episodes run (batch, explore) -----------------------------------------
+
+WorkersOption = Annotated[
+    int | None, typer.Option(min=1, help="Worker processes / Ray CPUs (default: every core).")
+]
+BackendOption = Annotated[
+    Literal["local", "ray"], typer.Option(help="Local worker processes, or Ray tasks.")
+]
+RayAddressOption = Annotated[
+    str | None, typer.Option(help="Ray address (default: $RAY_ADDRESS, else a local Ray).")
 ]
 
 # -- the options of a live session's clients (send, watch, ask; serve's --connect) --------

@@ -1,10 +1,18 @@
-"""`orchestrator explore`: the command (registered on the CLI's typer app, orchestrator/cli.py)."""
+"""`orchestrator explore`: draw variations of a scenario's declared space, run them, shrink
+each failure (the campaign itself is orchestrator/explore/)."""
+
+# No `from __future__ import annotations`: typer reads the parameter annotations (options.py).
 
 import sys
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated
 
 import typer
+
+from ..exceptions import ConfigError, OrchestratorError
+from .console import err, out, rich_console
+from .errors import fail, fail_config
+from .options import MAX_SEED, BackendOption, RayAddressOption, WorkersOption
 
 __all__ = ["explore_command"]
 
@@ -17,16 +25,12 @@ def explore_command(
     seed: Annotated[
         int,
         typer.Option(
-            min=0, max=2**63 - 1, help="The exploration's seed (same seed, same variations)."
+            min=0, max=MAX_SEED, help="The exploration's seed (same seed, same variations)."
         ),  # fmt: skip
     ] = 0,
-    workers: Annotated[
-        int | None, typer.Option(min=1, help="Worker processes / Ray CPUs (default: every core).")
-    ] = None,
-    backend: Annotated[
-        Literal["local", "ray"], typer.Option(help="Local worker processes, or Ray tasks.")
-    ] = "local",
-    address: Annotated[str | None, typer.Option(help="Ray address.")] = None,
+    workers: WorkersOption = None,
+    backend: BackendOption = "local",
+    address: RayAddressOption = None,
     out_dir: Annotated[
         Path | None,
         typer.Option(
@@ -52,20 +56,15 @@ def explore_command(
     validated range, run them, check the invariants and the success checks, shrink each
     failure to a minimal variation (docs/explore.md). Exit 0 nothing failed, 1 counterexamples
     were found (--replay: it still fails), 2 invalid input."""
-    from rich.console import Console
-
     from ..batch.exceptions import BatchError
     from ..batch.progress import NullProgress, RichProgress
     from ..engine.strict_json import dumps
-    from ..exceptions import ConfigError, OrchestratorError
-    from .campaign import ExploreConfig, explore
-    from .replay import replay
+    from ..explore.campaign import ExploreConfig, explore
+    from ..explore.replay import replay
 
-    err, out = Console(stderr=True, highlight=False), Console(highlight=False)
     if out_dir is None:
         if replay_k is not None or resume:
-            err.print("error: --replay and --resume need --out DIR (the exploration)", markup=False)
-            raise typer.Exit(2)
+            fail("--replay and --resume need --out DIR (the exploration)")
         out_dir = Path("runs") / f"explore-{Path(scenario).stem}-seed{seed}"
     try:
         if replay_k is not None:
@@ -80,18 +79,14 @@ def explore_command(
         config = ExploreConfig(scenario, n, out_dir, seed, workers, backend, address, resume,
                                max_wall_s, shrink=not no_shrink)  # fmt: skip
         show = sys.stdout.isatty() and not as_json
-        progress = RichProgress(out, label=f"explore {Path(scenario).stem}") if show else (
-            NullProgress())  # fmt: skip
+        progress = RichProgress(rich_console(out), label=f"explore {Path(scenario).stem}") if (
+            show) else NullProgress()  # fmt: skip
         summary = explore(config, progress,
                           warn=lambda m: err.print(f"warning: {m}", markup=False))  # fmt: skip
     except ConfigError as exc:
-        for diag in exc.diagnostics:
-            err.print(str(diag), markup=False, soft_wrap=True)
-        err.print(f"{len(exc.diagnostics)} errors; nothing was explored.", style="red")
-        raise typer.Exit(2) from None
+        fail_config(exc, "nothing was explored")
     except (BatchError, OrchestratorError) as exc:
-        err.print(f"error: {exc}", markup=False, soft_wrap=True)
-        raise typer.Exit(2) from None
+        fail(str(exc))
     if as_json:
         sys.stdout.write(dumps(summary) + "\n")
     else:
