@@ -574,11 +574,13 @@ class Session:
             **result.to_json_dict(),
             "exit_code": result.exit_code,
         }
-        self.publish("events", {"event": "task_end", "task": task.id, "result": self.last_result})
         diverged = task.episode.diverged if task.episode is not None else None
         if diverged is not None and self.error is None:
             self.error = diverged
+        # The session is free before anyone hears the task ended: a client that sends its next
+        # `run` on `task_end` is checked (on the channel's thread) against a session with no task.
         self.task = None
+        self.publish("events", {"event": "task_end", "task": task.id, "result": self.last_result})
 
     def _status_if_due(self) -> None:
         wall = time.perf_counter()
