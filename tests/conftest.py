@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import pytest
-from typer.testing import CliRunner
 
 if TYPE_CHECKING:
     from orchestrator.language.load import LoadedScenario
@@ -87,12 +86,10 @@ def pick_place() -> LoadedScenario:
 @pytest.fixture
 def cli():
     """Run the CLI in-process; the result has exit_code, stdout, stderr, exception."""
-    from orchestrator.cli import app
-
-    runner = CliRunner()
+    from .cli_runner import invoke as invoke_cli
 
     def invoke(*args: str) -> CliResult:
-        res = runner.invoke(app, list(args), catch_exceptions=True)
+        res = invoke_cli(args, catch_exceptions=True)
         exc = res.exception if not isinstance(res.exception, SystemExit) else None
         return CliResult(res.exit_code, res.stdout, res.stderr, exc)
 

@@ -24,6 +24,7 @@ from orchestrator.batch.store import ResultsStore
 from orchestrator.batch.summary import rerun_command, summarize
 from orchestrator.batch.task import EpisodeTask
 
+from .cli_runner import invoke
 from .conftest import RESULT_KEYS
 
 FAIL_GRASP = "grasp_offset=[0.0, 0.0, 0.06]"  # closes above the cube: a clean miss
@@ -159,14 +160,10 @@ def cli_batch(tmp_path_factory) -> tuple[Any, Path]:
     """`batch` from the command line: seeds 20-22 on 2 workers, recording as by default (the
     failures: none here), its result and its folder (also the 2-worker side of the determinism
     check below: a batch starts its own worker processes)."""
-    from typer.testing import CliRunner
-
-    from orchestrator.cli import app
-
     out = tmp_path_factory.mktemp("cli_batch") / "b"
     args = ["batch", "pick_place", "-n", str(SEEDS), "--seed-base", "20", "--workers", "2",
             "--out", str(out), "--json"]  # fmt: skip
-    return CliRunner().invoke(app, args), out
+    return invoke(args), out
 
 
 def test_batch_writes_a_line_per_episode_and_a_summary(cli_batch):

@@ -6,9 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from typer.testing import CliRunner
 
-from orchestrator.cli import app
 from orchestrator.engine.invariants import InvariantsObserver
 from orchestrator.engine.runner import new_run
 from orchestrator.exceptions import ConfigError
@@ -19,6 +17,8 @@ from orchestrator.explore.shrink import shrink
 from orchestrator.explore.verdict import failures, primary
 from orchestrator.language.load import load_scenario, load_world
 from orchestrator.language.scenario import ObjectSpec
+
+from .cli_runner import invoke
 
 
 @pytest.fixture(scope="module")
@@ -132,7 +132,7 @@ def test_the_observer_names_a_joint_over_its_datasheet_speed_and_when():
 
 
 def test_every_run_reports_its_invariants_and_strict_keeps_exit_zero_when_they_hold():
-    result = CliRunner().invoke(app, ["run", "reach_random", "--json", "--strict"])
+    result = invoke(["run", "reach_random", "--json", "--strict"])
     assert result.exit_code == 0, result.output
     data = json.loads(result.stdout)
     inv = data["invariants"]
@@ -150,10 +150,10 @@ def test_strict_exits_1_naming_the_invariant_a_run_violated(monkeypatch):
         self.inv_v = (1.0 / self.vlim).tolist()
 
     monkeypatch.setattr(InvariantsObserver, "on_start", tenth_of_the_datasheet)
-    plain = CliRunner().invoke(app, ["run", "reach_random", "--json"])
+    plain = invoke(["run", "reach_random", "--json"])
     assert plain.exit_code == 0, plain.output  # without --strict: the run's own exit code
     assert not json.loads(plain.stdout)["invariants"]["ok"]
-    strict = CliRunner().invoke(app, ["run", "reach_random", "--json", "--strict"])
+    strict = invoke(["run", "reach_random", "--json", "--strict"])
     assert strict.exit_code == 1, strict.output
     assert "invariant joint_velocity violated" in strict.stderr
 
@@ -163,7 +163,7 @@ def test_replay_names_the_valid_counterexamples(tmp_path):
         json.dumps({"k": 4, "seed": 1, "set": [], "violated": "check:x", "message": ""}) + "\n"
     )
     (tmp_path / "explore.json").write_text(json.dumps({"scenario_ref": "pick_place"}))
-    result = CliRunner().invoke(app, ["explore", "pick_place", "--out", str(tmp_path),
+    result = invoke(["explore", "pick_place", "--out", str(tmp_path),
                                       "--replay", "3"])  # fmt: skip
     assert result.exit_code == 2
     assert "no counterexample 3" in result.output and "valid: 4" in result.output

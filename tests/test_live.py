@@ -15,6 +15,7 @@ import pytest
 
 from orchestrator.live.client import Client
 
+from .cli_runner import invoke
 from .conftest import CliResult
 
 
@@ -44,11 +45,7 @@ class Served:
         a subprocess, as a user runs it."""
         argv = ["send", self.name, *args, "--connect", self.endpoint]
         if not process:
-            from typer.testing import CliRunner
-
-            from orchestrator.cli import app
-
-            res = CliRunner().invoke(app, argv)
+            res = invoke(argv)
             return CliResult(res.exit_code, res.stdout, res.stderr)
         proc = subprocess.run(
             [sys.executable, "-m", "orchestrator.cli", *argv],

@@ -29,6 +29,8 @@ from orchestrator.engine.snapshot.snapfile import write_snapshot
 from orchestrator.engine.snapshot.stops import Stop, run_to
 from orchestrator.language.load import load_scenario
 
+from .cli_runner import invoke
+
 MACHINES = Path(__file__).parent / "machines"
 PARALLEL_PICK = str(MACHINES / "parallel_pick.yaml")
 
@@ -110,20 +112,15 @@ def test_a_run_resumed_inside_a_parallel_state_a_retry_or_a_nested_machine_ends_
 def grasp_snapshot(tmp_path_factory):
     """pick_place broken before GRASP (written by `run --break`), and the uninterrupted run's
     JSON."""
-    from typer.testing import CliRunner
-
-    from orchestrator.cli import app
-
     folder = tmp_path_factory.mktemp("snap")
     with pytest.MonkeyPatch.context() as mp:  # the key `_own_key` gives every test
         mp.delenv(KEY_ENV, raising=False)
         mp.setenv("XDG_CONFIG_HOME", str(tmp_path_factory.getbasetemp() / "config"))
-        runner = CliRunner()
         path = folder / "before_grasp.snap"
         args = ["run", "pick_place", "--break", "GRASP", "--snapshot", str(path)]
-        res = runner.invoke(app, args)
+        res = invoke(args)
         assert res.exit_code == 6, res.stderr
-        full = runner.invoke(app, ["run", "pick_place", "--json"])
+        full = invoke(["run", "pick_place", "--json"])
     return path, json.loads(full.stdout), res.stderr
 
 
