@@ -435,9 +435,12 @@ def test_the_recording_opens_with_the_default_blueprint(recorded):
     assert len(reader.blueprints()) == 1
 
 
-LONG_EPISODES = {"sorting", "sorting_conveyor", "sorting_ur5", "surgical", "surgical_complication"}
-"""Scenarios whose episode takes 10-40 s (the surgical ones register by touch first): their
-recordings run with the slow suite."""
+LONG_EPISODES = {
+    "sorting", "sorting_conveyor", "sorting_ur5", "surgical", "surgical_complication",
+    "pick_place_so101",
+}  # fmt: skip
+"""Scenarios whose episode takes 10-40 s (the surgical ones register by touch first), or whose
+first 3 s cost ~7 s CPU (the SO-101's jaw): their recordings run with the slow suite."""
 SHORT_S = 3.0
 """The simulated seconds the other scenarios' recordings run in the default suite [s]."""
 

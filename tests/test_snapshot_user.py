@@ -47,6 +47,8 @@ def _env(folder: Path) -> dict:
     return env
 
 
+@pytest.mark.slow  # a stacking run resumed in a process of its own (~6 s); in the default run:
+# tests/test_snapshot_restore.py's user's skill and check resumed from their data
 def test_a_scenario_with_its_own_check_resumes_to_the_uninterrupted_result(cell):
     folder, full, snap = cell
     scenario = str(folder / "stack_cell.yaml")
