@@ -194,7 +194,7 @@ def dot_layout(
         n: (max(w, label_size(lit_labels.get(n, labels[n]))[0]), h) for n, (w, h) in sizes.items()
     }
     label_boxes = {
-        e: (label_size(t)[0] + 2 * _LABEL_ROOM, label_size(t)[1] + 2 * _LABEL_ROOM)
+        e: (label_size(t)[0] + 2 * _LABEL_ROOM, label_size(t)[1])
         if t is not None else None
         for e, t in edges.items()
     }  # fmt: skip
