@@ -90,3 +90,16 @@ def test_a_detection_label_contrasts_with_the_object_it_names(rgb):
 
     a, b = lum(label), lum(np.array(rgb) / 255.0)
     assert (max(a, b) + 0.05) / (min(a, b) + 0.05) >= 4.5  # WCAG AA for text
+
+
+def test_the_names_of_markers_in_a_row_are_written_apart():
+    from orchestrator.recording.targets import label_raises
+
+    xs = {"A": 0.31, "B": 0.48, "C": 0.65}
+    bins = {f"bin_{c}": np.array([x, 0.25, 0.2]) for c, x in xs.items()}
+    raises = label_raises({**bins, "pad": np.array([2.0, 0.0, 0.2])})
+    assert raises["pad"] == 0.0  # alone: at the marker
+    # seen from the eye, each bin's name sits at a height of its own, the nearest lowest
+    heights = sorted(raises[b] for b in bins)
+    assert len(set(heights)) == 3 and heights[0] == 0.0
+    assert raises["bin_C"] < raises["bin_B"] < raises["bin_A"]

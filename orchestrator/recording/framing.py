@@ -22,7 +22,7 @@ import numpy as np
 if TYPE_CHECKING:
     from ..engine.context import Context
 
-__all__ = ["FOV_Y_DEG", "WorkFrame", "work_frame"]
+__all__ = ["FOV_Y_DEG", "VIEW_DIR", "WorkFrame", "work_frame"]
 
 FOV_Y_DEG = 55.0
 """Vertical field of view of Rerun's 3D view [deg] (its default eye)."""
@@ -30,7 +30,7 @@ _FILL = 0.9
 """The share of the panel's height and width the work area may take at most."""
 _MIN_HALF_M = 0.25
 """Least half-size framed [m]: a lone arm still shows with its surroundings."""
-_VIEW_DIR = np.array([1.0, -1.25, 0.85])
+VIEW_DIR = np.array([1.0, -1.25, 0.85])
 """From where the eye looks at the work: in front of the robot (+x), to its right, above."""
 _CENTRING_STEPS = 6
 """Rounds of moving the look target to centre the work area's projection."""
@@ -54,10 +54,10 @@ class WorkFrame:
     center: np.ndarray
 
     def eye_for(self, aspect: float) -> tuple[np.ndarray, np.ndarray]:
-        """The eye position and the point it looks at [m], from `_VIEW_DIR`: every point of
+        """The eye position and the point it looks at [m], from `VIEW_DIR`: every point of
         the work area lies within `_FILL` of a 3D panel `aspect` (width / height) wide, as
         near as that allows, the work area centred in the panel."""
-        back = _VIEW_DIR / np.linalg.norm(_VIEW_DIR)
+        back = VIEW_DIR / np.linalg.norm(VIEW_DIR)
         forward = -back
         right = np.cross(forward, [0.0, 0.0, 1.0])
         right /= np.linalg.norm(right)
