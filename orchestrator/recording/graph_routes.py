@@ -14,7 +14,7 @@ from __future__ import annotations
 import heapq
 import math
 
-from .graph_layout import _segment_hits
+import numpy as np
 
 __all__ = ["Point", "Rect", "bezier_points", "crosses", "exit_point", "route"]
 
@@ -23,6 +23,8 @@ Rect = tuple[float, float, float, float]
 
 _SAMPLES = 12
 """Points sampled along each cubic piece of a spline."""
+_NEAR = 80.0
+"""Boxes farther than this from a route's points are not looked at [px]."""
 _CLEAR = 1.0
 """A bend keeps this far outside every box it does not join [px]."""
 
@@ -43,9 +45,26 @@ def bezier_points(controls: list[Point]) -> list[Point]:
     return out
 
 
-def crosses(a: Point, b: Point, boxes: list[Rect]) -> bool:
-    """Whether the segment a-b passes through any of `boxes`."""
-    return any(_segment_hits(*a, *b, *r) for r in boxes)
+def crosses(a: Point, b: Point, boxes: list[Rect] | np.ndarray) -> bool:
+    """Whether the segment a-b passes through any of `boxes` (Liang-Barsky clipping, all
+    boxes at once)."""
+    r = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    if not len(r):
+        return False
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    t0, t1 = np.zeros(len(r)), np.ones(len(r))
+    inside = np.ones(len(r), dtype=bool)
+    for p, q in ((-dx, a[0] - r[:, 0]), (dx, r[:, 2] - a[0]), (-dy, a[1] - r[:, 1]),
+                 (dy, r[:, 3] - a[1])):  # fmt: skip
+        if p == 0:
+            inside &= q >= 0
+            continue
+        t = q / p
+        if p < 0:
+            t0 = np.maximum(t0, t)
+        else:
+            t1 = np.minimum(t1, t)
+    return bool(np.any(inside & (t0 <= t1)))
 
 
 def route(
@@ -54,32 +73,41 @@ def route(
     """The bends of an arrow from `start` to `end` (node centres) along `spline` (points from
     near `start` to near `end`): none if the straight line crosses none of `boxes` (the boxes
     it does not join); else, from `start`, each time the farthest spline point a straight
-    piece reaches clear of every box (and no closer than `_CLEAR` to one), the boxes of its
-    own ends (`ends`: source, target) included but for its first and last piece."""
+    piece reaches clear of every box (and no closer than `_CLEAR` to one), looking up to one
+    cubic piece past the first it does not reach; the boxes of its own ends (`ends`: source,
+    target) count but for its first and last piece."""
     if not crosses(start, end, boxes):
         return []
 
     def grow(r: Rect) -> Rect:
         return r[0] - _CLEAR, r[1] - _CLEAR, r[2] + _CLEAR, r[3] + _CLEAR
 
-    grown = [grow(r) for r in boxes]
-    src, dst = grow(ends[0]), grow(ends[1])
     points = [start, *spline, end]
+    # only the boxes near the route can be in its way
+    xs, ys = [p[0] for p in points], [p[1] for p in points]
+    lo_x, lo_y, hi_x, hi_y = min(xs) - _NEAR, min(ys) - _NEAR, max(xs) + _NEAR, max(ys) + _NEAR
+    grown = [grow(r) for r in boxes if r[0] < hi_x and r[2] > lo_x and r[1] < hi_y and r[3] > lo_y]
+    src, dst = grow(ends[0]), grow(ends[1])
     last = len(points) - 1
+    sets = {(a, b): np.array(grown + [src] * a + [dst] * b).reshape(-1, 4)
+            for a in (0, 1) for b in (0, 1)}  # fmt: skip
 
     def blocked(i: int, j: int) -> bool:
-        own = ([src] if i > 0 else []) + ([dst] if j < last else [])
-        return crosses(points[i], points[j], grown + own)
+        return crosses(points[i], points[j], sets[(i > 0, j < last)])
 
     bends: list[Point] = []
     i = 0
     while i < last:
-        j = last
-        while j > i + 1 and blocked(i, j):
-            j -= 1
-        if blocked(i, j):  # `dot`'s spline itself runs through a box here
+        if blocked(i, i + 1):  # `dot`'s spline itself runs through a box here
             return _around(start, end, grown, src, dst)
-        if j < len(points) - 1:
+        j = i + 1
+        while j < last and not blocked(i, j + 1):
+            j += 1
+        # past the first point it cannot reach, a piece may reach one further on (round a
+        # box's corner): the farthest within one more cubic piece
+        j = max([k for k in range(j + 2, min(last, j + _SAMPLES) + 1) if not blocked(i, k)],
+                default=j)  # fmt: skip
+        if j < last:
             bends.append(points[j])
         i = j
     return bends
@@ -94,29 +122,30 @@ def _around(start: Point, end: Point, boxes: list[Rect], src: Rect, dst: Rect) -
                for c in ((x0 - g, y0 - g), (x1 + g, y0 - g), (x0 - g, y1 + g), (x1 + g, y1 + g))
                if not any(r[0] < c[0] < r[2] and r[1] < c[1] < r[3] for r in boxes)]  # fmt: skip
     nodes = [start, end, *corners]
+    sets = {(a, b): np.array(boxes + [src] * a + [dst] * b).reshape(-1, 4)
+            for a in (0, 1) for b in (0, 1)}  # fmt: skip
 
     def clear(i: int, j: int) -> bool:
-        own = ([src] if i != 0 and j != 0 else []) + ([dst] if i != 1 and j != 1 else [])
-        return not crosses(nodes[i], nodes[j], boxes + own)
+        return not crosses(nodes[i], nodes[j], sets[(0 not in (i, j), 1 not in (i, j))])
 
-    best = {0: 0.0}
+    # A* over the corners, each piece checked only when the search takes it (lazily): the
+    # straight distance to `end` never overestimates what is left
     back: dict[int, int] = {}
-    todo = [(0.0, 0)]
+    todo: list[tuple[float, float, int, int]] = [(math.dist(start, end), 0.0, 0, -1)]
     done: set[int] = set()
     while todo:
-        d, i = heapq.heappop(todo)
-        if i in done:
+        _, g, i, parent = heapq.heappop(todo)
+        if i in done or (parent >= 0 and not clear(parent, i)):
             continue
         done.add(i)
+        if parent >= 0:
+            back[i] = parent
         if i == 1:
             break
         for j in range(1, len(nodes)):
-            if j in done:
-                continue
-            nd = d + math.dist(nodes[i], nodes[j])
-            if nd < best.get(j, math.inf) and clear(i, j):
-                best[j], back[j] = nd, i
-                heapq.heappush(todo, (nd, j))
+            if j not in done:
+                nd = g + math.dist(nodes[i], nodes[j])
+                heapq.heappush(todo, (nd + math.dist(nodes[j], end), nd, j, i))
     if 1 not in back:
         return []
     path, i = [], back[1]
