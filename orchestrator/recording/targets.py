@@ -26,7 +26,7 @@ IK_TARGET = f"{TARGETS}/ik_target"
 _AXIS_M = 0.08
 """Axis length of target frames [m]."""
 _MARKER_AXIS_M = 0.05
-_LABEL_STEP_M = 0.05
+_LABEL_STEP_M = 0.09
 """Markers closer than `_CROWD_M` to each other have their names raised this much apart, the
 one farthest from the 3D view's eye highest: seen from the eye (framing.py), a row of bins
 piled their names on one another."""
