@@ -28,8 +28,9 @@ FOV_Y_DEG = 55.0
 """Vertical field of view of Rerun's 3D view [deg] (its default eye)."""
 _FILL = 0.9
 """The share of the panel's height and width the work area may take at most."""
-_MIN_HALF_M = 0.25
-"""Least half-size framed [m]: a lone arm still shows with its surroundings."""
+_MIN_HALF_M = 0.5
+"""Least half-height framed [m]: a lone arm still shows with its surroundings, and the eye
+stays ~1 m away at least."""
 VIEW_DIR = np.array([1.0, -1.25, 0.85])
 """From where the eye looks at the work: in front of the robot (+x), to its right, above."""
 _CENTRING_STEPS = 6
@@ -88,6 +89,11 @@ def work_frame(ctx: Context) -> WorkFrame:
     m, d = ctx.model, ctx.data
     moving = [b for b in range(1, m.nbody) if int(m.body_weldid[b]) != 0]
     points = [d.xpos[b].copy() for b in moving]
+    # what moves, with its extent: a link's origin is at one end of it
+    for g in range(m.ngeom):
+        if int(m.body_weldid[m.geom_bodyid[g]]) != 0:
+            r = float(m.geom_rbound[g])
+            points += list(_box_corners(d.geom_xpos[g], np.eye(3), np.full(3, r)))
     markers = [np.asarray(p, dtype=np.float64) for p in ctx.world.markers.values()]
     points += markers
     objects = [d.xpos[b] for b in moving if _is_free(m, b)] + markers
