@@ -792,11 +792,18 @@ PICTURE_PAGES = {
             "pick_place",
             "pick_place_vision",
             "sorting",
+            "sorting_conveyor",
             "mobile_search",
+            "surgical",
+            "surgical_complication",
             "stack",
             "reach_random",
+            "pick_place_ur5",
+            "pick_place_so101",
+            "sorting_ur5",
         )
     },  # fmt: skip
+    **{f"rerun_{n}": ["recording.md"] for n in ("pick_place_ur5", "pick_place_so101", "sorting_ur5")},
 }
 """Each picture in docs/images -> the pages it illustrates (in docs/)."""
 
