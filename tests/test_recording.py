@@ -803,7 +803,8 @@ PICTURE_PAGES = {
             "sorting_ur5",
         )
     },  # fmt: skip
-    **{f"rerun_{n}": ["recording.md"] for n in ("pick_place_ur5", "pick_place_so101", "sorting_ur5")},
+    **{f"rerun_{n}": ["recording.md"] for n in ("pick_place_ur5", "pick_place_so101")},
+    "rerun_sorting_ur5": ["recording.md"],
 }
 """Each picture in docs/images -> the pages it illustrates (in docs/)."""
 
