@@ -21,11 +21,18 @@ from rerun.chunk import RrdReader
 from orchestrator.language.bundled import bundled_names
 from orchestrator.language.load import load_machine
 from orchestrator.recording.batches import StaticBatch
+from orchestrator.recording.blueprint import (
+    WINDOWS,
+    graph_panel_px,
+    graph_zoom,
+    machine_share,
+)
 from orchestrator.recording.graph_drawing import _CORNER_R, _ENTITY_PAD
 from orchestrator.recording.graph_layout import CAPTION_H, label_size
+from orchestrator.recording.graph_routes import crosses
 from orchestrator.recording.graph_views import LIT_MARK, label_id
 from orchestrator.recording.machine_graph import build_graph
-from orchestrator.recording.paths import GRAPH
+from orchestrator.recording.paths import GRAPH, ROUTE_HEADS, ROUTES
 from orchestrator.recording.state_log import StateLog
 
 REQUIRE_DOT = "ORCHESTRATOR_REQUIRE_DOT"
@@ -36,6 +43,8 @@ needs_dot = pytest.mark.skipif(
 )
 
 Box = tuple[str, float, float, float, float]
+_SLACK = 40.0
+"""More than the room the view keeps around the graph's bounds [px]."""
 
 
 def _log_every_leaf(name: str, path: Path) -> list[str]:
@@ -75,7 +84,11 @@ def _drawn(rows: dict[str, list[dict]]) -> list[tuple[int, list[Box]]]:
     positions: list[list[float]] = []
     frames: dict[str, list[list[float]]] = {}
     out = []
-    frame_rows = {e: {r["tick"]: r for r in rs} for e, rs in rows.items() if e != f"/{GRAPH}"}
+    frame_rows = {
+        e: {r["tick"]: r for r in rs}
+        for e, rs in rows.items()
+        if e.startswith(f"/{GRAPH}/") and e not in (f"/{ROUTES}", f"/{ROUTE_HEADS}")
+    }
     for row in rows[f"/{GRAPH}"]:
         if "GraphNodes:node_ids" in row:
             ids, positions = row["GraphNodes:node_ids"], row["GraphNodes:positions"]
@@ -130,6 +143,100 @@ def test_no_node_or_label_overlaps_another_in_any_logged_layout(name, tmp_path):
         for owner in graph.expansion(leaf):
             assert any(b[0].startswith("caption") and b[0].endswith(owner.replace(".", "/"))
                        for b in boxes), (leaf, owner)  # fmt: skip
+
+
+def _box_of(x: float, y: float, text: str) -> tuple[float, float, float, float]:
+    w, h = label_size(text)
+    return x - w / 2, y - h / 2, x + w / 2, y + h / 2
+
+
+def _arrows(rows: dict[str, list[dict]]) -> list[tuple[int, dict, list, list]]:
+    """Per logged layout: the node boxes (id -> box), the straight arrows as segments with
+    the nodes they join, and the bent arrows' pieces (segments of the route entities)."""
+    routes = {e: {r["tick"]: r for r in rows.get(f"/{e}", [])} for e in (ROUTES, ROUTE_HEADS)}
+    out = []
+    for row in rows[f"/{GRAPH}"]:
+        if "GraphNodes:node_ids" not in row:
+            continue
+        pos = dict(zip(row["GraphNodes:node_ids"], row["GraphNodes:positions"], strict=True))
+        texts = dict(zip(row["GraphNodes:node_ids"], row["GraphNodes:labels"], strict=True))
+        boxes = {n: _box_of(*pos[n], texts[n]) for n in pos}
+        straight = [(pos[e["first"]], pos[e["second"]], (e["first"], e["second"]))
+                    for e in row.get("GraphEdges:edges") or []]  # fmt: skip
+        pieces = []
+        for entity in (ROUTES, ROUTE_HEADS):
+            r = routes[entity].get(row["tick"], {})
+            ids, points = r.get("GraphNodes:node_ids") or [], r.get("GraphNodes:positions") or []
+            at = dict(zip(ids, points, strict=True))
+            pieces += [(at[e["first"]], at[e["second"]], entity)
+                       for e in r.get("GraphEdges:edges") or []]  # fmt: skip
+        out.append((row["tick"], boxes, straight, pieces))
+    return out
+
+
+@needs_dot
+@pytest.mark.parametrize("name", bundled_names("machines"))
+def test_no_arrow_runs_through_a_state_or_a_label_in_any_logged_layout(name, tmp_path):
+    # Rerun draws each edge straight: an arrow a straight line would draw through a box
+    # follows dot's route, bent at invisible points (graph_routes.py)
+    _log_every_leaf(name, tmp_path / "graph.rrd")
+    layouts = _arrows(_rows(tmp_path / "graph.rrd"))
+    assert layouts
+    bent = 0
+    for tick, boxes, straight, pieces in layouts:
+        for a, b, ends in straight:
+            if ends[0] == ends[1]:
+                continue  # a retry's loop
+            through = [n for n, r in boxes.items() if n not in ends and crosses(a, b, [r])]
+            assert not through, (name, tick, ends, through)
+        for a, b, entity in pieces:
+            # a piece starts and ends outside every box, its own ends' included
+            through = [n for n, r in boxes.items() if crosses(a, b, [r])]
+            assert not through, (name, tick, entity, a, b, through)
+        bent += sum(1 for *_, entity in pieces if entity == ROUTE_HEADS)
+    if name in ("pick_place", "sorting", "sorting_conveyor", "mobile_search"):
+        assert bent > 0  # these graphs have arrows dot routes round states
+
+
+@needs_dot
+def test_every_arrow_is_drawn_once_straight_or_bent_with_one_head(tmp_path):
+    leaves = _log_every_leaf("sorting_conveyor", tmp_path / "graph.rrd")
+    graph = build_graph(load_machine("sorting_conveyor"))
+    layouts = _arrows(_rows(tmp_path / "graph.rrd"))
+    shown = [graph.view(leaf).expanded for leaf in leaves]
+    firsts = [i for i, key in enumerate(shown) if i == 0 or shown[i - 1] != key]
+    assert [tick for tick, *_ in layouts] == firsts
+    for tick, _, straight, pieces in layouts:
+        view = graph.view(leaves[tick])
+        heads = [p for p in pieces if p[2] == ROUTE_HEADS]
+        assert len(straight) + len(heads) == len(view.drawn_edges)
+        assert {e for *_, e in straight} == set(view.drawn_edges) - set(view.routes)
+
+
+@needs_dot
+@pytest.mark.parametrize("name", ["pick_place", "sorting_conveyor", "mobile_search"])
+def test_the_route_entities_outline_lies_outside_what_the_view_shows(name, tmp_path):
+    # Rerun outlines every graph entity of a view holding several: the bent arrows' entities
+    # hold two invisible points far out, so that outline stays out of the shown area
+    _log_every_leaf(name, tmp_path / "graph.rrd")
+    rows = _rows(tmp_path / "graph.rrd")
+    graph = build_graph(load_machine(name))
+    bounds = graph.bounds
+    share = machine_share(bounds)
+    for entity in (ROUTES, ROUTE_HEADS):
+        for row in rows[f"/{entity}"]:
+            points = row.get("GraphNodes:positions") or []
+            if not points:
+                continue
+            x0, y0 = min(p[0] for p in points), min(p[1] for p in points)
+            x1, y1 = max(p[0] for p in points), max(p[1] for p in points)
+            for window in WINDOWS:
+                zoom = graph_zoom(bounds, share, window)
+                pw, ph = graph_panel_px(share, window)
+                # the view centres the shown bounds (the layout and the room around it)
+                cx, cy = (bounds[0] + bounds[2]) / 2, (bounds[1] + bounds[3]) / 2
+                vw, vh = pw / zoom / 2 + _SLACK, ph / zoom / 2 + _SLACK
+                assert x0 < cx - vw and x1 > cx + vw and y0 < cy - vh and y1 > cy + vh
 
 
 @needs_dot

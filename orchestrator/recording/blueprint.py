@@ -35,12 +35,13 @@ __all__ = [
     "graph_zoom",
     "margins_legend_rows",
     "margins_range",
+    "scene_aspect",
     "machine_share",
 ]
 
 _PLOTS_SHARE = 0.27
 """Width of the plots-and-events column, as a share of the window."""
-_MACHINE_SHARE = (0.24, 0.46)
+_MACHINE_SHARE = (0.24, 0.52)
 """Least and most width of the machine graph's column, as a share of the window."""
 WINDOWS = ((1600, 900), (1280, 720))
 """The browser windows the layout is made for [px]: a laptop's and a small one."""
@@ -50,10 +51,10 @@ panel and the view's title bar [px] (measured in Rerun 0.41's web viewer: an 800
 a 900 px window)."""
 LEGIBLE_ZOOM = 0.75
 """The least zoom at which the graph's 12 px labels are legible (9 px text)."""
-DOT_LEAST_ZOOM = 0.5
+DOT_LEAST_ZOOM = 0.55
 """The least zoom a bundled machine's graph laid out by Graphviz's `dot` is shown at in the
-smaller window (6 px text: zoom in with the mouse wheel). `dot` gives each edge label a
-layer of its own, so its layouts are taller than graph_layout.py's."""
+smaller window (its 12 px labels at 6.6 px or more: zoom in with the mouse wheel). `dot`
+gives each edge label a layer of its own, so its layouts are taller than graph_layout.py's."""
 _MARGIN_PX = (16.0, 30.0)
 """Room kept around the graph: sides and bottom, top [px]. Rerun outlines the graph 10 px
 outside its nodes and writes the entity path above the outline; its own fit leaves that out."""
@@ -158,10 +159,14 @@ def default_blueprint(
         guards: The names of the guards the run can activate (guard_margins.declared_guards):
             a raw-values tab per unit among them.
     """
+    machine = machine_share(graph_bounds)
+    scene_rows = _SCENE_ROWS_CAMERAS if cameras else _SCENE_ROWS
     eye = None
     if frame is not None:
+        aspect = scene_aspect(1.0 - machine - _PLOTS_SHARE, scene_rows[0] / sum(scene_rows))
+        position, target = frame.eye_for(aspect)
         eye = rrb.EyeControls3D(
-            position=frame.eye.tolist(), look_target=frame.center.tolist(), eye_up=[0, 0, 1]
+            position=position.tolist(), look_target=target.tolist(), eye_up=[0, 0, 1]
         )
     hidden = rrb.EntityBehavior(visible=False)
     layers = {
@@ -226,13 +231,12 @@ def default_blueprint(
     )
     result = rrb.TextDocumentView(name="Result", origin=RESULT)
     right = rrb.Vertical(result, guards_tabs, signals, events, row_shares=_RIGHT_ROWS)
-    machine = machine_share(graph_bounds)
     graph = rrb.GraphView(
         name="Machine",
         origin=GRAPH,
         visual_bounds=graph_view_bounds(graph_bounds) if graph_bounds is not None else None,
     )
-    left = rrb.Vertical(scene, states, row_shares=[3, 2])
+    left = rrb.Vertical(scene, states, row_shares=list(scene_rows))
     if cameras:
         views = [
             rrb.Spatial2DView(
@@ -242,7 +246,7 @@ def default_blueprint(
             )
             for c in cameras
         ]
-        left = rrb.Vertical(scene, rrb.Horizontal(*views), states, row_shares=[4, 3, 3])
+        left = rrb.Vertical(scene, rrb.Horizontal(*views), states, row_shares=list(scene_rows))
     return rrb.Blueprint(
         rrb.Horizontal(
             left,
@@ -254,6 +258,22 @@ def default_blueprint(
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
     )
+
+
+_SCENE_ROWS = (3.0, 2.0)
+"""Row shares of the left column: the 3D scene, the state lanes."""
+_SCENE_ROWS_CAMERAS = (4.0, 3.0, 3.0)
+"""Row shares of the left column with cameras: the 3D scene, the cameras, the state lanes."""
+_TITLE_PX = 24.0
+"""Height of a view's title bar [px]."""
+
+
+def scene_aspect(column: float, row: float, window: tuple[int, int] = (1280, 720)) -> float:
+    """Width / height of the 3D view in a column `column` of the window's width and `row` of
+    its height below the viewer's bars (the same in both `WINDOWS`: both are 16:9)."""
+    w = column * window[0]
+    h = row * (window[1] - _CHROME_PX + _TITLE_PX) - _TITLE_PX
+    return w / max(h, 1.0)
 
 
 _RIGHT_ROWS = (1.6, 5.0, 4.0, 4.0)

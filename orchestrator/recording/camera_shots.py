@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from ..perception.detections import Detection
     from ..perception.frame import Frame
 
-__all__ = ["CameraShots", "camera_path"]
+__all__ = ["CameraShots", "camera_path", "contrasting"]
 
 
 def camera_path(name: str) -> str:
@@ -60,6 +60,27 @@ class CameraShots:
                 rec.log(path, archetype)
         rec.reset_time()
         self._pending.clear()
+
+
+_WHITE, _BLACK = 0xFFFFFFFF, 0x000000FF
+
+
+def _luminance(rgb: np.ndarray) -> float:
+    """Relative luminance (WCAG) of an sRGB colour with channels in [0, 1]."""
+    c = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    return float(c @ np.array([0.2126, 0.7152, 0.0722]))
+
+
+def contrasting(rgb: np.ndarray, bbox: tuple[int, int, int, int]) -> int:
+    """The colour of a detection's box and label: white or black, whichever contrasts more
+    (WCAG contrast ratio) with the mean colour of the image inside the box (the object), so
+    the label reads on a red parcel as on a yellow cube (0xRRGGBBAA)."""
+    x, y, w, h = bbox
+    patch = rgb[max(y, 0) : max(y + h, y + 1), max(x, 0) : max(x + w, x + 1)]
+    if patch.size == 0:
+        return _WHITE
+    lum = _luminance(patch.reshape(-1, 3).mean(axis=0) / 255.0)
+    return _WHITE if (1.05) / (lum + 0.05) >= (lum + 0.05) / 0.05 else _BLACK
 
 
 def _png(bgr: np.ndarray) -> bytes:
@@ -105,7 +126,7 @@ def _archetypes(frame: Frame, found: list[Detection]) -> list[tuple[str, Any]]:
                 array=np.array([d.bbox for d in found], float).reshape(-1, 4),
                 array_format=rr.Box2DFormat.XYWH,
                 labels=[f"{d.cls} {d.confidence:.2f}" for d in found],
-                class_ids=[sum(map(ord, d.cls)) % 256 for d in found],
+                colors=np.array([contrasting(frame.rgb, d.bbox) for d in found], np.uint32),
             ),
         )
     )

@@ -21,6 +21,7 @@ import subprocess
 from dataclasses import dataclass
 
 from .graph_layout import CAPTION_H, GraphLayout, Level, label_size
+from .graph_routes import bezier_points
 
 __all__ = ["DotLayout", "dot_available", "dot_layout"]
 
@@ -33,6 +34,10 @@ _CLUSTER_MARGIN = 8.0
 """Room inside a frame around its states [pt = px]."""
 _OUTLINE_PAD = 10.0
 """Rerun outlines each graph entity this far outside its nodes, its path written above [px]."""
+_LABEL_ROOM = 3.0
+"""`dot` keeps each edge label's box this much larger on every side than Rerun draws it
+[px]: `dot` runs an edge right along its label's box, and the other edges leaving the same
+state as close; with the room, the drawn arrows (graph_routes.py) pass clear of it."""
 _TIMEOUT_S = 30.0
 """A `dot` run taking longer is taken as failed (the bundled graphs take ~10 ms)."""
 
@@ -45,10 +50,13 @@ class DotLayout:
         layout: Node centres and label sizes, the frames of the open nested machines (below
             their captions) and the captions' widths.
         edge_labels: Edge (source, target) -> the centre of its label.
+        splines: Edge (source, target) -> points along the spline `dot` routed it on, from
+            its source to its target (graph_routes.py).
     """
 
     layout: GraphLayout
     edge_labels: dict[tuple[str, str], tuple[float, float]]
+    splines: dict[tuple[str, str], list[tuple[float, float]]]
 
 
 def dot_available() -> bool:
@@ -185,7 +193,11 @@ def dot_layout(
     boxes = {
         n: (max(w, label_size(lit_labels.get(n, labels[n]))[0]), h) for n, (w, h) in sizes.items()
     }
-    label_boxes = {e: label_size(t) if t is not None else None for e, t in edges.items()}
+    label_boxes = {
+        e: (label_size(t)[0] + 2 * _LABEL_ROOM, label_size(t)[1])
+        if t is not None else None
+        for e, t in edges.items()
+    }  # fmt: skip
     caption_boxes = {o: (label_size(t)[0], CAPTION_H) for o, t in captions.items()}
     source, ids = dot_source(top, boxes, label_boxes, caption_boxes)
     out = run_dot(source)
@@ -211,14 +223,22 @@ def dot_layout(
         elif obj.get("name") in by_id:
             positions[names[by_id[obj["name"]]]] = flip(*_floats(obj["pos"]))
     placed: dict[tuple[str, str], tuple[float, float]] = {}
+    splines: dict[tuple[str, str], list[tuple[float, float]]] = {}
     for edge in out.get("edges", []):
         src, _, dst = edge.get("comment", "").partition(" -> ")
+        if (src, dst) not in edges:
+            continue
         spot = edge.get("lp") or edge.get("xlp")
-        if spot and (src, dst) in edges:
+        if spot:
             placed[(src, dst)] = flip(*_floats(spot))
+        # `pos`: the spline's points ("e,x,y" / "s,x,y" would be arrow ends: none are drawn)
+        controls = [flip(*_floats(p)) for p in edge.get("pos", "").split() if p[:2] not in
+                    ("e,", "s,")]  # fmt: skip
+        if len(controls) >= 4:
+            splines[(src, dst)] = bezier_points(controls)
     _clear_the_outline_caption(top, positions, boxes, groups)
     widths = {o: w for o, (w, _) in caption_boxes.items()}
-    return DotLayout(GraphLayout(positions, groups, sizes, widths), placed)
+    return DotLayout(GraphLayout(positions, groups, sizes, widths), placed, splines)
 
 
 def _clear_the_outline_caption(

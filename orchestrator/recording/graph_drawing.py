@@ -13,10 +13,17 @@ the machine's frame and its caption names the nesting; a shut machine's entity h
 points, and no frame is drawn. Everything a reader follows (states, arrows, outcome labels) is
 one entity, `state_machine/graph`: Rerun draws edges only within an entity. Outcome labels are
 nodes in a muted blue grey (`EDGE_LABEL`) where Graphviz's `dot` put them (graph_dot.py), and
-their arrow runs through them (source -> label -> target): a label is always on its own arrow,
-and the arrow bends where `dot` routed it. Rerun draws a graph's nodes in order, then its
-arrows; no two nodes (states, labels, the guard node) overlap, so an active state is never
-under another node or label.
+their arrow runs through them (source -> label -> target): a label is always on its own arrow.
+Rerun draws a graph's nodes in order, then its arrows; no two nodes (states, labels, the guard
+node) overlap, so an active state is never under another node or label.
+
+Rerun draws an edge straight. An arrow that a straight line would draw through a state or a
+label follows `dot`'s route instead (graph_routes.py): it is drawn as a polyline of invisible
+points in two entities of their own (`ROUTES`: its pieces but the last, undirected; and
+`ROUTE_HEADS`: its last piece, with the arrowhead), from where it leaves its source's box to
+where it enters its target's. Rerun outlines and captions these entities too: each also holds
+two invisible points far outside the graph (`_OFFSCREEN`), so that their outline lies outside
+what the view shows (the blueprint's visual bounds).
 """
 
 from __future__ import annotations
@@ -30,7 +37,7 @@ from rerun.chunk import Chunk
 from .batches import StaticBatch
 from .graph_views import ExpansionView
 from .machine_graph import GUARD, LIT_MARK, MachineGraph, on_path
-from .paths import GRAPH, frame_path
+from .paths import GRAPH, ROUTE_HEADS, ROUTES, frame_path
 from .timeline import time_columns
 
 __all__ = ["ACCENT", "EDGE_LABEL", "IDLE", "GraphDrawing"]
@@ -45,6 +52,9 @@ _ENTITY_PAD = 10.0
 """Rerun outlines an entity 10 px outside its nodes [px]."""
 _CORNER_R = 0.5
 """Radius of a frame's (transparent) corner points [px]."""
+_OFFSCREEN = 2.0
+"""The route entities' outline lies this many times the graph's larger side outside it (the
+view shows at most about one larger side around the graph in a panel of the blueprint)."""
 
 
 def _rgba(colors: Iterable[int]) -> np.ndarray:
@@ -77,6 +87,12 @@ class GraphDrawing:
             rr.GraphEdges.from_fields(graph_type="directed"),
             rr.GraphNodes.from_fields(show_labels=True),
         )
+        for path, kind in ((ROUTES, "undirected"), (ROUTE_HEADS, "directed")):
+            static.log(
+                path,
+                rr.GraphEdges.from_fields(graph_type=kind),
+                rr.GraphNodes.from_fields(show_labels=False),
+            )
         for owner in self._owners:
             static.log(
                 frame_path(owner),
@@ -142,7 +158,7 @@ class GraphDrawing:
         index = time_columns(np.asarray(ticks), np.asarray(t_s))
         ids = [n for v in views for n in v.nodes]
         positions = [v.layout.positions[n] for v in views for n in v.nodes]
-        edges = [e for v in views for e in v.drawn_edges]
+        edges = [e for v in views for e in v.straight_edges]
         out = [
             Chunk.from_columns(
                 GRAPH,
@@ -152,11 +168,12 @@ class GraphDrawing:
                         [len(v.nodes) for v in views]
                     ),
                     *rr.GraphEdges.columns(edges=edges).partition(
-                        [len(v.drawn_edges) for v in views]
+                        [len(v.straight_edges) for v in views]
                     ),
                 ],
             )
         ]
+        out += self._routes(views, index)
         inset = _ENTITY_PAD + _CORNER_R
         for owner in self._owners:
             corner_ids: list[str] = []
@@ -178,6 +195,50 @@ class GraphDrawing:
                     columns=rr.GraphNodes.columns(
                         node_ids=corner_ids, positions=np.array(corners).reshape(-1, 2)
                     ).partition(lengths),
+                )
+            )
+        return out
+
+    def _routes(self, views: Sequence[ExpansionView], index: list) -> list[Chunk]:
+        """The bent arrows of these expansions: their pieces in `ROUTES` and `ROUTE_HEADS`."""
+        x0, y0, x1, y1 = self.graph.bounds
+        far = _OFFSCREEN * max(x1 - x0, y1 - y0)
+        corners = {"outline_0": (x0 - far, y0 - far), "outline_1": (x1 + far, y1 + far)}
+        out = []
+        for path, heads in ((ROUTES, False), (ROUTE_HEADS, True)):
+            ids: list[str] = []
+            points: list[tuple[float, float]] = []
+            edges: list[tuple[str, str]] = []
+            nodes_n, edges_n = [], []
+            for v in views:
+                mine: dict[str, tuple[float, float]] = {}
+                pieces = []
+                for a, b in v.routes:
+                    line = v.routed_polyline((a, b))
+                    names = [f"{a}->{b}#{k}" for k in range(len(line))]
+                    mine.update(zip(names, line, strict=True))
+                    pairs = list(zip(names, names[1:], strict=False))
+                    pieces += pairs[-1:] if heads else pairs[:-1]
+                if mine:
+                    mine.update(corners)
+                ids += list(mine)
+                points += list(mine.values())
+                edges += pieces
+                nodes_n.append(len(mine))
+                edges_n.append(len(pieces))
+            out.append(
+                Chunk.from_columns(
+                    path,
+                    indexes=index,
+                    columns=[
+                        *rr.GraphNodes.columns(
+                            node_ids=ids,
+                            positions=np.array(points, dtype=np.float64).reshape(-1, 2),
+                            colors=_rgba([0] * len(ids)),
+                            radii=np.full(len(ids), _CORNER_R, dtype=np.float32),
+                        ).partition(nodes_n),
+                        *rr.GraphEdges.columns(edges=edges).partition(edges_n),
+                    ],
                 )
             )
         return out

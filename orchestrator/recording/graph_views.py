@@ -17,10 +17,11 @@ label. Nothing here knows about Rerun.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .graph_dot import dot_layout
 from .graph_layout import CAPTION_H, GraphLayout, Level, label_size, layered_layout
+from .graph_routes import Point, exit_point, route
 
 __all__ = ["COLLAPSED", "LIT_MARK", "ExpansionView", "expansion_view", "label_id", "shifted"]
 
@@ -53,6 +54,8 @@ class ExpansionView:
         edge_labels: Label node ids, in the order of `edges` that have one.
         layout: Positions and sizes of every node (edge labels included), frames of the open
             nested machines.
+        routes: Drawn arrow (`drawn_edges`) -> its bends, for the arrows a straight line would
+            draw through a box: they follow `dot`'s route (graph_routes.py).
     """
 
     expanded: tuple[str, ...]
@@ -61,6 +64,28 @@ class ExpansionView:
     edges: list[tuple[str, str]]
     edge_labels: list[str]
     layout: GraphLayout
+    routes: dict[tuple[str, str], list[Point]] = field(default_factory=dict)
+
+    @property
+    def straight_edges(self) -> list[tuple[str, str]]:
+        """The drawn arrows that are straight lines between their nodes (not `routes`)."""
+        return [e for e in self.drawn_edges if e not in self.routes]
+
+    def routed_polyline(self, edge: tuple[str, str]) -> list[Point]:
+        """A routed arrow as drawn: from where it leaves its source's box, through its bends,
+        to where it enters its target's box."""
+        (a, b), bends = edge, self.routes[edge]
+        pos = self.layout.positions
+        start = exit_point(pos[a], bends[0], _rect(pos[a], self.room(a)))
+        end = exit_point(pos[b], bends[-1], _rect(pos[b], self.room(b)))
+        return [start, *bends, end]
+
+    def room(self, node: str) -> tuple[float, float]:
+        """The box a node takes, lit or not (w, h) [px]."""
+        w, h = self.layout.sizes[node]
+        if node in self.states:
+            w = max(w, label_size(LIT_MARK + self.labels[node])[0])
+        return w, h
 
     @property
     def drawn_edges(self) -> list[tuple[str, str]]:
@@ -153,9 +178,9 @@ def expansion_view(
     lit = {n: LIT_MARK + t for n, t in labels.items()}
     by_dot = dot_layout(level, labels, lit, texts, shown_captions) if use_dot else None
     if by_dot is not None:
-        layout, spots = by_dot.layout, by_dot.edge_labels
+        layout, spots, splines = by_dot.layout, by_dot.edge_labels, by_dot.splines
     else:
-        layout, spots = layered_layout(level, labels, shown_captions), {}
+        layout, spots, splines = layered_layout(level, labels, shown_captions), {}, {}
     edges = list(merged)
     edge_labels: list[str] = []
     positions, sizes = dict(layout.positions), dict(layout.sizes)
@@ -176,7 +201,39 @@ def expansion_view(
         taken.append(_rect(spot, size))
         edge_labels.append(node)
     placed = GraphLayout(positions, layout.groups, sizes, layout.captions)
-    return ExpansionView(tuple(sorted(open_)), shown, labels, edges, edge_labels, placed)
+    view = ExpansionView(tuple(sorted(open_)), shown, labels, edges, edge_labels, placed)
+    view.routes.update(_routes(view, splines))
+    return view
+
+
+def _routes(
+    view: ExpansionView, splines: dict[tuple[str, str], list[Point]]
+) -> dict[tuple[str, str], list[Point]]:
+    """The bends of every drawn arrow of `view` that a straight line would draw through a box
+    (a state's lit or not, a label's), along `dot`'s spline of its edge (an edge through its
+    label: the spline split where it passes the label)."""
+    pos = view.layout.positions
+    rects = {n: _rect(pos[n], view.room(n)) for n in view.nodes}
+    labelled = set(view.edge_labels)
+    out: dict[tuple[str, str], list[Point]] = {}
+    for src, dst in view.edges:
+        spline = splines.get((src, dst))
+        if src == dst or not spline:
+            continue
+        if math.dist(spline[0], pos[dst]) < math.dist(spline[0], pos[src]):
+            spline = spline[::-1]
+        node = label_id(src, dst)
+        if node in labelled:
+            k = min(range(len(spline)), key=lambda i: math.dist(spline[i], pos[node]))
+            pieces = [((src, node), spline[: k + 1]), ((node, dst), spline[k:])]
+        else:
+            pieces = [((src, dst), spline)]
+        for (a, b), points in pieces:
+            boxes = [r for n, r in rects.items() if n not in (a, b)]
+            bends = route(pos[a], pos[b], points, boxes, (rects[a], rects[b]))
+            if bends:
+                out[(a, b)] = bends
+    return out
 
 
 def _pruned(level: Level, open_: set[str]) -> Level:
@@ -259,6 +316,7 @@ def shifted(view: ExpansionView, dx: float, dy: float) -> ExpansionView:
         lay.sizes,
         lay.captions,
     )
+    routes = {e: [(x + dx, y + dy) for x, y in bends] for e, bends in view.routes.items()}
     return ExpansionView(
-        view.expanded, view.states, view.labels, view.edges, view.edge_labels, layout
+        view.expanded, view.states, view.labels, view.edges, view.edge_labels, layout, routes
     )

@@ -15,6 +15,8 @@ __all__ = [
     "GUARD_VALUES",
     "LEVELS",
     "RESULT",
+    "ROUTES",
+    "ROUTE_HEADS",
     "SIGNALS",
     "SIM_TIME",
     "STATE_MACHINE",
@@ -50,6 +52,11 @@ LEVELS = f"{STATE_MACHINE}/levels"
 """`<LEVELS>/depth_<d>`: StateChange of each nesting depth (`depth_0` the top level)."""
 GRAPH = f"{STATE_MACHINE}/graph"
 """GraphNodes/GraphEdges of the machine tree, the active states highlighted over time."""
+ROUTES = f"{GRAPH}/_routes"
+"""The machine graph's arrows bent along Graphviz's routes (graph_routes.py): the pieces
+before the last, as invisible points joined by undirected edges."""
+ROUTE_HEADS = f"{GRAPH}/_route_heads"
+"""The last piece of each bent arrow, directed (its arrowhead at the target state)."""
 SIGNALS = "signals"
 GUARDS = "guards"
 """`<GUARDS>/<guard>`: each guard's utilisation (1.0 = it fires), `<GUARDS>/trip` the line at

@@ -9,6 +9,7 @@ import numpy as np
 import rerun as rr
 from rerun.chunk import Chunk
 
+from .framing import VIEW_DIR
 from .geometry import body_names
 from .paths import TARGETS, body_path, part
 from .timeline import time_columns
@@ -18,13 +19,42 @@ if TYPE_CHECKING:
     from .batches import StaticBatch
     from .poses import BodyPoses
 
-__all__ = ["IK_TARGET", "Targets"]
+__all__ = ["IK_TARGET", "Targets", "label_raises"]
 
 IK_TARGET = f"{TARGETS}/ik_target"
 """The pose the active motion skill drives the TCP to; its axes vanish while there is none."""
 _AXIS_M = 0.08
 """Axis length of target frames [m]."""
 _MARKER_AXIS_M = 0.05
+_LABEL_STEP_M = 0.09
+"""Markers closer than `_CROWD_M` to each other have their names raised this much apart, the
+one farthest from the 3D view's eye highest: seen from the eye (framing.py), a row of bins
+piled their names on one another."""
+_CROWD_M = 0.3
+
+
+def label_raises(markers: dict[str, np.ndarray]) -> dict[str, float]:
+    """How far above each marker its name is written [m]: 0 for a marker alone; in a group
+    of markers each within `_CROWD_M` of another, `_LABEL_STEP_M` more for each one nearer the
+    eye than it."""
+    toward_eye = VIEW_DIR / np.linalg.norm(VIEW_DIR)
+    names = list(markers)
+    group = {n: n for n in names}
+
+    def root(n: str) -> str:
+        while group[n] != n:
+            n = group[n]
+        return n
+
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            if np.linalg.norm(np.asarray(markers[a]) - np.asarray(markers[b])) < _CROWD_M:
+                group[root(b)] = root(a)
+    near = {n: float(np.asarray(markers[n]) @ toward_eye) for n in names}
+    return {
+        n: _LABEL_STEP_M * sum(1 for m in names if root(m) == root(n) and near[m] > near[n])
+        for n in names
+    }
 
 
 def _xyzw(quat_wxyz: np.ndarray | list[float]) -> list[float]:
@@ -43,13 +73,14 @@ class Targets:
         """Markers (`world/targets/<name>`: a labelled frame; their footprint is a model geom,
         logged with the world) and the TCP frame, hung from the logged body it is rigidly
         attached to (`<body>/tcp`)."""
+        raises = label_raises(dict(ctx.world.markers))
         for name, pos in ctx.world.markers.items():
             entity = f"{TARGETS}/{part(name)}"
             static.log(
                 entity,
                 rr.Transform3D(translation=np.asarray(pos, dtype=np.float64)),
                 rr.TransformAxes3D(_MARKER_AXIS_M),
-                rr.Points3D([[0.0, 0.0, 0.0]], labels=[name], radii=[0.002]),
+                rr.Points3D([[0.0, 0.0, raises[name]]], labels=[name], radii=[0.002]),
             )
         m, d = ctx.model, ctx.data
         site = ctx.world.tcp_site
