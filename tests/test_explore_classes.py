@@ -182,3 +182,15 @@ def test_every_arm_s_hand_takes_the_bundled_cube(scenario):
     loaded = load_scenario(scenario, ["physics.time_limit_s=0.3"])
     result = run_episode(loaded, 0)
     assert ("PICK.GRASP.PLAN", "ready") in [(t["from"], t["trigger"]) for t in result.transitions]
+
+
+def test_a_box_that_would_sweep_into_the_arm_s_base_is_refused_before_it_is_lifted():
+    # 10 m long (validated): grasped across its short side, it was carried into link 1
+    # (collision abort, joint 1 at 29 rad/s^2); now the grasp is `blocked` with the figures
+    result = run_episode(load_scenario("stack", ["scene.objects.top.size.0=10"]), 1)
+    assert result.outcome == "failed"
+    reason = result.reason
+    assert reason["state"] == "PICK.GRASP.PLAN", reason
+    assert "10.00 m across its diagonal" in reason["message"], reason
+    assert "base column" in reason["message"], reason
+    assert result.invariants["ok"], result.invariants["violations"]
