@@ -3,9 +3,8 @@
 
 from __future__ import annotations
 
-from tests.test_contact import _scenario
-
 from orchestrator.engine.runner import run_episode
+from tests.test_contact import _scenario
 
 HOLD_S = 1.0
 PATH_M = 0.01
