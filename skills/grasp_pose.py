@@ -149,18 +149,19 @@ class GraspPose(Skill):
         size = p.size_m if p.size_m is not None else _seen_size(p.neighbours, centre)
         known = ctx.world.objects.get(p.object) if p.object else None
         heading = goal.yaw  # the hand's heading that closes across the short side (turn 0)
+        refused = _outside_workspace(ctx, tcp)
         if known is not None:
             hx, hy = (float(v) for v in known.half_size[:2])
             if size is None:
                 size = [2.0 * max(hx, hy), 2.0 * min(hx, hy)]
                 if hy > hx:  # its long side along its own y: closing along y would span it
                     heading += math.pi / 2.0
-            too_big = _palm_strikes(ctx, known, tcp[2], hand, p.clearance_m)
-            too_big = too_big or _sweeps_the_base(ctx, known, tcp)
-            if too_big is not None:
-                self.why = too_big
-                ctx.log("skill", f"grasp_pose: {self.why}", level="WARN")
-                return "blocked"
+            refused = refused or _palm_strikes(ctx, known, tcp[2], hand, p.clearance_m)
+            refused = refused or _sweeps_the_base(ctx, known, tcp)
+        if refused is not None:
+            self.why = refused
+            ctx.log("skill", f"grasp_pose: {self.why}", level="WARN")
+            return "blocked"
         symmetry = p.yaw_symmetry_deg
         if size is not None and abs(size[0] - size[1]) > 1e-3:
             symmetry = max(symmetry, 180.0)  # a quarter turn would close across the other side
@@ -366,6 +367,42 @@ def _palm_strikes(
         f"palm's underside ({palm:.3f} m, {-hand.depth_m * 1000:.0f} mm above the TCP; "
         f"{clearance * 1000:.0f} mm below it needed)"
     )
+
+
+def _outside_workspace(ctx: Context, tcp: np.ndarray) -> str | None:
+    """Why the grasp pose lies outside the scenario's `workspace` guard box, or None: the
+    guard would abort the approach on its way there (explore found a table 1 cm high, the
+    cube's centre 12 cm below the box's floor: the stop then jolted joint 2)."""
+    for name, params in _guards(ctx.scenario.guards):
+        if name != "workspace" or not params:
+            continue
+        low, high = np.asarray(params["min"], float), np.asarray(params["max"], float)
+        out = [
+            f"{axis} {tcp[i]:.3f} m {'below' if tcp[i] < low[i] else 'above'} "
+            f"{low[i] if tcp[i] < low[i] else high[i]:g}"
+            for i, axis in enumerate("xyz")
+            if not low[i] <= tcp[i] <= high[i]
+        ]
+        if out:
+            return (
+                "the grasp pose lies outside the workspace guard's box (TCP "
+                + ", ".join(out)
+                + "): the guard would abort the approach"
+            )
+    return None
+
+
+def _guards(refs: Any) -> list[tuple[str, Any]]:
+    """(name, params) of a scenario's guard list or mapping."""
+    if isinstance(refs, dict):
+        return list(refs.items())
+    out: list[tuple[str, Any]] = []
+    for ref in refs:
+        if isinstance(ref, str):
+            out.append((ref, None))
+        else:
+            out.extend(ref.items())
+    return out
 
 
 def _sweeps_the_base(ctx: Context, obj: Any, tcp: np.ndarray) -> str | None:

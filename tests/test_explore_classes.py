@@ -194,3 +194,15 @@ def test_a_box_that_would_sweep_into_the_arm_s_base_is_refused_before_it_is_lift
     assert "10.00 m across its diagonal" in reason["message"], reason
     assert "base column" in reason["message"], reason
     assert result.invariants["ok"], result.invariants["violations"]
+
+
+def test_a_grasp_below_the_workspace_guard_s_floor_is_refused_before_the_approach():
+    # a table 1 cm high (validated): the cube's centre 12 cm under the workspace box's floor;
+    # the guard aborted the approach and the stop drove joint 2 to its torque limit
+    result = run_episode(load_scenario("pick_place", ["scene.table.height=0.01"]), 1994068148)
+    assert result.outcome == "failed"
+    reason = result.reason
+    assert reason["state"] == "PICK.GRASP.PLAN", reason
+    assert "outside the workspace guard's box" in reason["message"], reason
+    assert "below 0.15" in reason["message"], reason
+    assert result.invariants["ok"], result.invariants["violations"]
