@@ -90,13 +90,6 @@ class MoveParams(SkillParams):
         max_length=3,
         description="Added to the target position, world frame [m].",
     )
-    above_m: float = Field(
-        default=0.0,
-        ge=0.0,
-        le=0.5,
-        description="End this far above the target (world z) [m]: the fast part of a guarded "
-        "approach, whose last stretch a slow move watched by the wrist force then takes.",
-    )
     orientation: Literal["down", "keep"] | list[float] = Field(
         default="down",
         description="`down` (TCP z to -z), `keep` (the start orientation) or a quaternion w,x,y,z.",
@@ -198,7 +191,7 @@ class Move(Skill):
     def start(self, ctx: Context) -> None:
         p = self.params
         goal = resolve_target(ctx, p.target)
-        pos1 = np.asarray(goal.pos) + np.asarray(p.offset) + [0.0, 0.0, p.above_m]
+        pos1 = np.asarray(goal.pos) + np.asarray(p.offset)
         rot0 = ctx.tcp_rot.copy()
         if p.orientation == "keep":
             rots = [_keepable(ctx, rot0)]

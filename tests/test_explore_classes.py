@@ -190,7 +190,7 @@ def test_a_box_that_would_sweep_into_the_arm_s_base_is_refused_before_it_is_lift
     result = run_episode(load_scenario("stack", ["scene.objects.top.size.0=10"]), 1)
     assert result.outcome == "failed"
     reason = result.reason
-    assert reason["state"] == "PICK.GRASP.PLAN", reason
+    assert reason["state"] == "PICK.PLAN", reason
     assert "10.00 m across its diagonal" in reason["message"], reason
     assert "base column" in reason["message"], reason
     assert result.invariants["ok"], result.invariants["violations"]
@@ -206,3 +206,13 @@ def test_a_grasp_below_the_workspace_guard_s_floor_is_refused_before_the_approac
     assert "outside the workspace guard's box" in reason["message"], reason
     assert "below 0.15" in reason["message"], reason
     assert result.invariants["ok"], result.invariants["violations"]
+
+
+def test_a_contact_felt_on_the_way_down_is_named_with_its_force():
+    # watch_force's only outcome is `contact`: it was taken for a success and its reading never
+    # reached the transition's detail, so a run ending after the touch named no cause
+    sets = ["perception.position_noise_m=0.01", "perception.yaw_noise_deg=5"]
+    result = run_episode(load_scenario("pick_place", sets), 7)
+    touches = [t for t in result.transitions if t["trigger"] == "contact"]
+    assert touches, result.transitions
+    assert "N at the wrist" in touches[0].get("detail", ""), touches[0]

@@ -36,9 +36,9 @@ def test_pick_place_succeeds(episode, seed):
     assert states[:5] == [
         "PICK.GRASP.PLAN",
         "PICK.GRASP.APPROACH",
-        "PICK.GRASP.TOUCH",  # the guarded stretch around the cube's top (issue 42)
-        "PICK.GRASP.CLOSE_IN",
         "PICK.GRASP.CLOSE",
+        "PICK.GRASP.LIFT",
+        "PICK.GRASP.VERIFY",
     ]
     assert states[-1] == "DONE"
 
