@@ -57,6 +57,9 @@ class Skill(abc.ABC):
     """Validates the state's `with:` block (a `SkillParams` subclass)."""
     outcomes: ClassVar[tuple[str, ...]]
     """Every outcome `step` can return; the first one is the success outcome."""
+    explained: ClassVar[tuple[str, ...]] = ()
+    """Outcomes besides the failure ones whose transition carries `explain`'s text as its
+    `detail` (a monitor's only outcome: `watch_force`'s `contact`, with the force felt)."""
     writes: ClassVar[dict[str, str] | tuple[str, ...]] = {}
     """Params field holding a blackboard key this skill writes -> the type it writes
     (`{"into": "pose"}`); a tuple of field names means type `any`."""

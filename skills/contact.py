@@ -302,7 +302,19 @@ class Contact(Skill):
             ctx.log("skill", "contact: lost contact (travel limit reached)")
             return "no_contact"
         held = ctx.clock - self.t_force
+        if self.planned is not None and ctx.trace is None:
+            # the tip is in the tissue from here: the ground truth (engine/trace_truth.py)
+            # measures the dwell at the start point too, not only the lateral motion
+            ctx.trace = TraceSpec(
+                np.asarray(p.path, dtype=float),
+                self.frame_pose,
+                self.n,
+                p.target_force_n,
+                self.lateral.copy(),
+            )
         if held < p.hold_s - 1e-9:
+            if ctx.trace is not None:
+                ctx.trace.reference[:] = self.lateral
             if self.planned is not None:
                 self._correct(ctx, 0.0)
             self._command(ctx)
@@ -312,13 +324,6 @@ class Contact(Skill):
         if self.profile is None:
             self.profile = Profile(self.planned.length, p.speed, p.accel)
             self.t_trace = ctx.clock
-            ctx.trace = TraceSpec(
-                np.asarray(p.path, dtype=float),
-                self.frame_pose,
-                self.n,
-                p.target_force_n,
-                self.lateral.copy(),
-            )
         elapsed = ctx.clock - self.t_trace
         fraction, _ = self.profile.progress(elapsed)
         self.lateral = self.planned.point_at(fraction * self.planned.length)

@@ -17,7 +17,9 @@ down on the neighbour at 87-214 N and the run aborted).
 Given the `object` by name, its declared size is checked too: wider than the open hand on every
 heading, or so tall that the palm would come down on its top before the fingers reach the
 grasp, it is `blocked` with the figures (explore found both: a 0.67 m box struck by the hand
-and a 0.18 m cube by the wrist, the joints then past their datasheet acceleration).
+and a 0.18 m cube by the wrist, the joints then past their datasheet acceleration); so is one
+so long that, held at the grasp and turned about the hand as it is carried, it would sweep into
+the arm's own base column (a 10 m box carried into link 1).
 """
 
 from __future__ import annotations
@@ -43,6 +45,11 @@ __all__ = ["GraspPose", "finger_boxes", "hand_box"]
 
 _MATCH_M = 0.02
 """A neighbour this close (xy) to the target is the target itself, seen [m]."""
+_BASE_COLUMN_M = 0.1
+"""Radius of the arm's base column about its axis [m] (the Panda's link 0-1, the UR5's base
+and shoulder: ~0.08-0.09 m)."""
+_BASE_CLEARANCE_M = 0.05
+"""Least gap between a carried object's swept circle and the base column [m]."""
 _IK_DT = 0.02
 _IK_ITERATIONS = 200
 _STALL_ITERATIONS = 15
@@ -142,17 +149,19 @@ class GraspPose(Skill):
         size = p.size_m if p.size_m is not None else _seen_size(p.neighbours, centre)
         known = ctx.world.objects.get(p.object) if p.object else None
         heading = goal.yaw  # the hand's heading that closes across the short side (turn 0)
+        refused = _outside_workspace(ctx, tcp)
         if known is not None:
             hx, hy = (float(v) for v in known.half_size[:2])
             if size is None:
                 size = [2.0 * max(hx, hy), 2.0 * min(hx, hy)]
                 if hy > hx:  # its long side along its own y: closing along y would span it
                     heading += math.pi / 2.0
-            too_tall = _palm_strikes(ctx, known, tcp[2], hand, p.clearance_m)
-            if too_tall is not None:
-                self.why = too_tall
-                ctx.log("skill", f"grasp_pose: {self.why}", level="WARN")
-                return "blocked"
+            refused = refused or _palm_strikes(ctx, known, tcp[2], hand, p.clearance_m)
+            refused = refused or _sweeps_the_base(ctx, known, tcp)
+        if refused is not None:
+            self.why = refused
+            ctx.log("skill", f"grasp_pose: {self.why}", level="WARN")
+            return "blocked"
         symmetry = p.yaw_symmetry_deg
         if size is not None and abs(size[0] - size[1]) > 1e-3:
             symmetry = max(symmetry, 180.0)  # a quarter turn would close across the other side
@@ -357,6 +366,65 @@ def _palm_strikes(
         f"grasp it, its top ({top:.3f} m) would be {(top - palm) * 1000:.1f} mm above the "
         f"palm's underside ({palm:.3f} m, {-hand.depth_m * 1000:.0f} mm above the TCP; "
         f"{clearance * 1000:.0f} mm below it needed)"
+    )
+
+
+def _outside_workspace(ctx: Context, tcp: np.ndarray) -> str | None:
+    """Why the grasp pose lies outside the scenario's `workspace` guard box, or None: the
+    guard would abort the approach on its way there (explore found a table 1 cm high, the
+    cube's centre 12 cm below the box's floor: the stop then jolted joint 2)."""
+    for name, params in _guards(ctx.scenario.guards):
+        if name != "workspace" or not params:
+            continue
+        low, high = np.asarray(params["min"], float), np.asarray(params["max"], float)
+        out = [
+            f"{axis} {tcp[i]:.3f} m {'below' if tcp[i] < low[i] else 'above'} "
+            f"{low[i] if tcp[i] < low[i] else high[i]:g}"
+            for i, axis in enumerate("xyz")
+            if not low[i] <= tcp[i] <= high[i]
+        ]
+        if out:
+            return (
+                "the grasp pose lies outside the workspace guard's box (TCP "
+                + ", ".join(out)
+                + "): the guard would abort the approach"
+            )
+    return None
+
+
+def _guards(refs: Any) -> list[tuple[str, Any]]:
+    """(name, params) of a scenario's guard list or mapping."""
+    if isinstance(refs, dict):
+        return list(refs.items())
+    out: list[tuple[str, Any]] = []
+    for ref in refs:
+        if isinstance(ref, str):
+            out.append((ref, None))
+        else:
+            out.extend(ref.items())
+    return out
+
+
+def _sweeps_the_base(ctx: Context, obj: Any, tcp: np.ndarray) -> str | None:
+    """Why the object, held at `tcp`, would reach into the arm's own base column, or None.
+
+    Carried, it turns about the TCP (to the place's heading, through the hover points): its
+    far corner sweeps a circle of its half-diagonal around the grasp point, which must stay
+    clear of the base column (its radius `_BASE_COLUMN_M`, plus `_BASE_CLEARANCE_M`).
+    Explore found a 10 m long box in stack, grasped across its short side and carried into
+    link 1 (a collision abort).
+    """
+    reach = math.hypot(*(float(v) for v in obj.half_size[:2]))
+    base = ctx.robot.shoulder(ctx.q, np.asarray(ctx.scenario.robot.base_pos))  # on its axis
+    room = float(np.hypot(*(tcp[:2] - base[:2]))) - _BASE_COLUMN_M - _BASE_CLEARANCE_M
+    if reach <= room:
+        return None
+    return (
+        f"{obj.name} is {2.0 * reach:.2f} m across its diagonal: held at the grasp, "
+        f"{float(np.hypot(*(tcp[:2] - base[:2]))):.2f} m from the arm's base axis, it would "
+        f"sweep {reach:.2f} m around the hand, into the base column (at most {max(room, 0.0):.2f} "
+        f"m: {_BASE_COLUMN_M * 1000:.0f} mm column radius and {_BASE_CLEARANCE_M * 1000:.0f} mm "
+        "clearance)"
     )
 
 

@@ -56,6 +56,7 @@ class WatchForce(Skill):
     name: ClassVar[str] = "watch_force"
     Params: ClassVar[type[SkillParams]] = WatchForceParams
     outcomes: ClassVar[tuple[str, ...]] = ("contact",)
+    explained: ClassVar[tuple[str, ...]] = ("contact",)
 
     params: WatchForceParams
 
@@ -85,4 +86,5 @@ class WatchForce(Skill):
         """Nothing to leave behind: the watch commands nothing (the motion beside it holds)."""
 
     def explain(self, ctx: Context) -> str | None:
-        return f"unexpected contact: {self.peak_n:.1f} N at the wrist"
+        limit = self.params.max_force_n
+        return f"unexpected contact: {self.peak_n:.1f} N at the wrist (max_force_n {limit:g})"

@@ -182,3 +182,37 @@ def test_every_arm_s_hand_takes_the_bundled_cube(scenario):
     loaded = load_scenario(scenario, ["physics.time_limit_s=0.3"])
     result = run_episode(loaded, 0)
     assert ("PICK.GRASP.PLAN", "ready") in [(t["from"], t["trigger"]) for t in result.transitions]
+
+
+def test_a_box_that_would_sweep_into_the_arm_s_base_is_refused_before_it_is_lifted():
+    # 10 m long (validated): grasped across its short side, it was carried into link 1
+    # (collision abort, joint 1 at 29 rad/s^2); now the grasp is `blocked` with the figures
+    result = run_episode(load_scenario("stack", ["scene.objects.top.size.0=10"]), 1)
+    assert result.outcome == "failed"
+    reason = result.reason
+    assert reason["state"] == "PICK.PLAN", reason
+    assert "10.00 m across its diagonal" in reason["message"], reason
+    assert "base column" in reason["message"], reason
+    assert result.invariants["ok"], result.invariants["violations"]
+
+
+def test_a_grasp_below_the_workspace_guard_s_floor_is_refused_before_the_approach():
+    # a table 1 cm high (validated): the cube's centre 12 cm under the workspace box's floor;
+    # the guard aborted the approach and the stop drove joint 2 to its torque limit
+    result = run_episode(load_scenario("pick_place", ["scene.table.height=0.01"]), 1994068148)
+    assert result.outcome == "failed"
+    reason = result.reason
+    assert reason["state"] == "PICK.GRASP.PLAN", reason
+    assert "outside the workspace guard's box" in reason["message"], reason
+    assert "below 0.15" in reason["message"], reason
+    assert result.invariants["ok"], result.invariants["violations"]
+
+
+def test_a_contact_felt_on_the_way_down_is_named_with_its_force():
+    # watch_force's only outcome is `contact`: it was taken for a success and its reading never
+    # reached the transition's detail, so a run ending after the touch named no cause
+    sets = ["perception.position_noise_m=0.01", "perception.yaw_noise_deg=5"]
+    result = run_episode(load_scenario("pick_place", sets), 7)
+    touches = [t for t in result.transitions if t["trigger"] == "contact"]
+    assert touches, result.transitions
+    assert "N at the wrist" in touches[0].get("detail", ""), touches[0]

@@ -68,8 +68,11 @@ def _check_success(result, rec: Recorder) -> None:
     # friction, sensor noise and drift, quantized encoders): a deviation of 0.1 mm matters
     assert m["true_cross_track_max_mm"] <= 0.1
     assert m["true_cross_track_rms_mm"] <= 0.05
-    assert m["true_force_rms_error_n"] <= 0.1
-    assert m["force_rms_error_n"] <= 0.1
+    # over the whole time the tip is in the tissue, the dwell at the start included (issue 42):
+    # the touch-down's settling (0.3-0.4 N over the 2 N target, the loop's 0.15 s time
+    # constant) adds ~0.03 N RMS to the 0.06-0.08 N of the lateral motion alone
+    assert m["true_force_rms_error_n"] <= 0.15
+    assert m["force_rms_error_n"] <= 0.1  # the skill's own, over the lateral motion
     assert m["peak_force_n"] <= 3.0
     assert m["path_deviation_max_mm"] <= 0.1  # against the registered line, per tick
     # the tip traced the whole line on the tissue: 6 cm along it, indented all the way
@@ -137,7 +140,7 @@ def test_surgical_flow_over_20_seeds(surgical):
         outcomes.append(result.outcome)
         m = result.metrics
         assert m["true_cross_track_rms_mm"] <= 0.05, (seed, m["true_cross_track_rms_mm"])
-        assert m["true_force_rms_error_n"] <= 0.1, (seed, m["true_force_rms_error_n"])
+        assert m["true_force_rms_error_n"] <= 0.15, (seed, m["true_force_rms_error_n"])
         within += m["true_cross_track_max_mm"] <= 0.1
     assert outcomes.count("succeeded") >= 19, outcomes
     assert within >= 19

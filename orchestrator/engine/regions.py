@@ -191,7 +191,8 @@ class SkillActivity:
             return None
         if outcome is None:
             return None
-        if outcome != type(self.skill).outcomes[0]:
+        kind = type(self.skill)
+        if outcome != kind.outcomes[0] or outcome in getattr(kind, "explained", ()):
             self.ex.explain(self, outcome)
         else:
             self.ex.ctx.log("outcome", f"{self.path}: {outcome}")

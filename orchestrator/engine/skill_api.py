@@ -91,6 +91,7 @@ SECTIONS: tuple[Section, ...] = (
             Member("name", "class attribute"),
             Member("Params", "class attribute"),
             Member("outcomes", "class attribute"),
+            Member("explained", "class attribute"),
             Member("writes", "class attribute"),
             Member("needs_scene", "class attribute"),
             Member("params", ANY),

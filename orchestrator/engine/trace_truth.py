@@ -3,8 +3,9 @@
 A contact skill traces a path given in a frame it was handed — a registered pose, an
 estimate with its registration error. What a surgeon cares about is where the tip went on the
 real tissue: this probe maps the same waypoints through the true pose of the phantom (the
-world, for a path given in the world) and, at every physics step of the trace (from the start
-of the lateral motion to its end), measures
+world, for a path given in the world) and, at every physics step the tip is in the tissue (from
+the moment the force reached its target at the path's start, the dwell there included, to the
+end of the lateral motion: `true_contact_s` long), measures
 
 * cross-track error: the tip's lateral distance from the true path [mm];
 * along-track error: how far the tip is behind (+) or ahead of (-) the skill's setpoint,
@@ -98,4 +99,5 @@ class TraceTruth:
             "true_force_rms_error_n": round(math.sqrt(self._force_err_sq / k), 4),
             "true_peak_force_n": round(self._force_peak, 4),
             "trace_end_gap_mm": round(float(self._end_gap) * 1000, 4),
+            "true_contact_s": round(k * self.ctx.dt_physics, 4),
         }
