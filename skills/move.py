@@ -386,11 +386,12 @@ class Move(Skill):
         # Hold where the command is, bringing it to rest if it still moves (a move that does
         # not stop at its target, the arm's posture still settling): never a jump of the
         # setpoint or of its velocity, which the arm would follow with a kick.
-        ctrl = ctx.controller
-        if not self.reachable:
-            ctrl.hold(ctx.q)
-        else:
-            ctrl.hold_setpoint()
+        # Refused at once (unreachable), the move never commanded anything: the setpoint the
+        # previous state left is kept too. Held at the measured angles instead, the joint
+        # impedance let go of the load it carried (a payload the controller's model lacks):
+        # with a 2.5 kg cube joint 2's torque fell by 10 Nm in one step, the arm sagged and
+        # the end-of-run stop's brakes caught it at speed (joint 6 at 113 rad/s^2).
+        ctx.controller.hold_setpoint()
         ctx.ik_target = None
 
     def explain(self, ctx: Context) -> str | None:
