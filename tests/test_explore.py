@@ -131,6 +131,27 @@ def test_the_observer_names_a_joint_over_its_datasheet_speed_and_when():
     assert len(obs.violations) == before
 
 
+@pytest.mark.parametrize("scenario", ["pick_place", "pick_place_so101"])
+def test_the_fingers_speed_is_judged_in_metres_per_second_for_a_slide_or_a_jaw(scenario):
+    # the SO-101's revolute jaw moves in rad/s: read as m/s, its nominal 1.42 rad/s (0.048 m/s
+    # at the jaw's face) was 1.42 m/s against the 0.05 m/s limit, and every run failed --strict
+    run = new_run(load_scenario(scenario), 0)
+    obs = InvariantsObserver()
+    run.episode.start()
+    obs.on_start(run.ctx, run.executor)
+    robot, model, data = run.ctx.robot, run.ctx.model, run.ctx.data
+    finger = int(model.jnt_dofadr[model.joint(robot.finger_joints[0]).id])
+    per_m = 1.0 / robot.finger_m_per_unit  # joint units per metre of the finger's travel
+    data.qvel[finger] = 0.95 * robot.gripper_speed_mps * per_m
+    obs.on_step(run.ctx)
+    assert not [v for v in obs.violations if v["invariant"] == "finger_speed"]
+    assert obs.worst_f == pytest.approx(0.95, rel=1e-6)
+    data.qvel[finger] = 1.2 * robot.gripper_speed_mps * per_m
+    obs.on_step(run.ctx)
+    (v,) = [v for v in obs.violations if v["invariant"] == "finger_speed"]
+    assert v["value"] == pytest.approx(1.2 * robot.gripper_speed_mps, rel=1e-4)
+
+
 def test_every_run_reports_its_invariants_and_strict_keeps_exit_zero_when_they_hold():
     result = invoke(["run", "reach_random", "--json", "--strict"])
     assert result.exit_code == 0, result.output

@@ -112,6 +112,10 @@ class InvariantsObserver:
             [int(model.jnt_dofadr[model.joint(j).id]) for j in robot.finger_joints], dtype=np.intp
         )
         self.finger_lim = float(getattr(robot, "gripper_speed_mps", FINGER_SPEED_MPS))
+        # [m] of a finger's travel per unit of its joint: 1 for a slide, the jaw's radius (per
+        # side) for a revolute jaw, whose joint speed is in rad/s (the SO-101's read 0.071
+        # rad/s against 0.05 m/s as 1.42x its rated speed)
+        self.finger_gear = float(robot.finger_m_per_unit)
         # The step runs 500 times per simulated second next to a ~35 us mj_step: its readings
         # are bound once as views (or one gather where not contiguous), made Python lists and
         # compared with `map` (measured: ~6 us; the same in numpy, one array op each, ~22 us).
@@ -119,7 +123,7 @@ class InvariantsObserver:
         self.read_fingers = _reader(data.qvel, self.finger_dof)
         self.read_torque = _reader(data.actuator_force, self.act)
         self.inv_v = (1.0 / self.vlim).tolist()
-        self.inv_f = [1.0 / self.finger_lim] * len(self.finger_dof)
+        self.inv_f = [self.finger_gear / self.finger_lim] * len(self.finger_dof)
         self.inv_a = (1.0 / (self.dt * self.alim)).tolist()  # |Δq̇| * this = |Δq̇/Δt| / limit
         self.inv_t = (1.0 / self.tlim).tolist()
         self.prev = self.read_arm()
@@ -172,8 +176,9 @@ class InvariantsObserver:
         for j in np.flatnonzero(speed > self.vlim).tolist():
             self._violate("joint_velocity", j, speed[j], self.vlim[j], "rad/s")
         for j, f in enumerate(fingers):
-            if abs(f) > self.finger_lim * FINGER_TOLERANCE:
-                self._violate("finger_speed", j, abs(f), self.finger_lim, "m/s")
+            speed_mps = abs(f) * self.finger_gear
+            if speed_mps > self.finger_lim * FINGER_TOLERANCE:
+                self._violate("finger_speed", j, speed_mps, self.finger_lim, "m/s")
         accel = np.abs(np.subtract(v, self.prev)) / self.dt
         if self._stopping():
             self.worst_a_stop = max(self.worst_a_stop, float(accel.max()) / self.stop_decel)
