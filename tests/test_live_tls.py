@@ -75,10 +75,15 @@ class Served:
         reply = self.op.command("snapshot", snapshot="before")  # for `restore` to find
         assert reply.accepted and reply.snapshot is not None, reply.reason
         written = Path(reply.snapshot)  # at the next tick: before any e-stop of the tests
+        # written when the session says so (its writer reaped), not when the file appears: a
+        # `restore` waits 2 s for a snapshot still being written, then refuses it (under load
+        # the forked writer's exit came later than that)
         deadline = time.monotonic() + 30
-        while not written.is_file() and time.monotonic() < deadline:
+        while (not written.is_file() or self.session.snapshots.busy_with(written)) and (
+            time.monotonic() < deadline
+        ):
             time.sleep(0.01)
-        assert written.is_file()
+        assert written.is_file() and not self.session.snapshots.busy_with(written)
 
     def operator_credentials(self) -> Credentials:
         return Credentials(tls_ca=self.pki.ca, tls_cert=self.pki.operator.cert,
