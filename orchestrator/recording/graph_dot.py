@@ -15,6 +15,7 @@ back to the layout of graph_layout.py.
 
 from __future__ import annotations
 
+import functools
 import json
 import shutil
 import subprocess
@@ -147,7 +148,22 @@ def dot_source(
 
 
 def run_dot(source: str) -> dict | None:
-    """`dot -Tjson` of `source`, parsed; None if `dot` is missing or fails."""
+    """`dot -Tjson` of `source`, parsed (a fresh object each call); None if `dot` is missing
+    or fails."""
+    out = _dot_json(source)
+    if out is None:
+        return None
+    try:
+        return json.loads(out)
+    except json.JSONDecodeError:
+        return None
+
+
+@functools.lru_cache(maxsize=256)
+def _dot_json(source: str) -> str | None:
+    """`dot -Tjson`'s output for `source`, kept per process: a layout depends on its source
+    alone, and a batch's recordings (or a session's episodes) draw the same machines with
+    the same lit states again (each `dot` run is a process start, ~30 ms)."""
     exe = shutil.which("dot")
     if exe is None:
         return None
@@ -158,12 +174,7 @@ def run_dot(source: str) -> dict | None:
         )  # fmt: skip
     except (OSError, subprocess.TimeoutExpired):
         return None
-    if done.returncode != 0:
-        return None
-    try:
-        return json.loads(done.stdout)
-    except json.JSONDecodeError:
-        return None
+    return done.stdout if done.returncode == 0 else None
 
 
 def _floats(text: str) -> list[float]:
