@@ -108,6 +108,8 @@ def test_recycling_keeps_the_body_count_fixed(shift):
     assert sum(o.name.startswith("pool_parcel_") for o in built.scene.objects) == 3
 
 
+@pytest.mark.slow  # two conveyor runs (~3 s CPU); in the default run: pick_place's bit-for-bit
+# test, the snapshot identity tests, and sorting's parcels drawn per seed
 def test_a_shift_is_deterministic():
     loaded = load_scenario("sorting_conveyor", ["parcels=2"])
     a, b = (run_episode(loaded, 3).to_json_dict() for _ in range(2))

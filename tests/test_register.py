@@ -155,6 +155,8 @@ class Registered:
         self.law = tissue_law(ctx.scenario, ctx.world.seed)
 
 
+@pytest.mark.slow  # a registration in the physics (~4 s CPU); in the default run: surgical's
+# seed 0 registers its phantom by touch (tests/test_surgical.py), and the fit's own tests above
 def test_touching_finds_a_turned_and_tilted_phantom(tmp_path: Path):
     (tmp_path / "register_only.yaml").write_text(MACHINE)
     (tmp_path / "scenario.yaml").write_text(SCENARIO)
