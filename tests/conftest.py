@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -50,30 +51,20 @@ class CliResult:
         return json.loads(self.stdout)
 
 
-LONG_MODULES = (
-    "test_recording.py",
-    "test_surgical.py",
-    "test_live.py",
-    "test_conveyor.py",
-    "test_hostile.py",
-    "test_physical_honesty.py",
-    "test_snapshot_user.py",
-    "test_sorting.py",
-    "test_snapshot.py",
-    "test_tutorial.py",
-)
-"""The modules with the most CPU in the default run, longest first (measured per test with
-`os.times()` on 2026-11-29: 47, 39, 27 (its session process included), 17, 17, 14, 13, 13,
-12, 11 s of ~440 s). `--dist loadscope` hands whole modules to the two workers in collection
-order: alphabetically, test_surgical and test_recording came last, and the worker that drew
-one ran on alone for its ~40 s while the other had finished."""
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
+    """`-n auto`: for the default run, one worker more than the cores this process may use;
+    for `-m slow`, one per core.
 
-
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The long modules first (in LONG_MODULES' order), the rest in their order: the short
-    ones at the end fill the two workers evenly. A module's tests stay together, in order."""
-    rank = {name: i for i, name in enumerate(LONG_MODULES)}
-    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+    Measured per test (wall against the CPU of the process and its children), the default run
+    spends a good part of its wall time waiting rather than computing: on CLI and server
+    subprocesses starting, batch workers, live sessions paced at real time, timeouts that must
+    expire. With one worker per core those seconds leave a core idle; a third worker on two
+    cores fills them. The slow suite is long CPU-bound campaigns and live runs whose pacing is
+    measured: a worker per core. (xdist's own `auto` counts physical cores.)"""
+    affinity = getattr(os, "sched_getaffinity", None)  # Linux; elsewhere every core counts
+    cores = len(affinity(0)) if affinity is not None else (os.cpu_count() or 1)
+    only_slow = config.option.markexpr.replace(" ", "") == "slow"
+    return cores if only_slow else cores + 1
 
 
 @pytest.fixture(scope="session")
