@@ -35,6 +35,7 @@ __all__ = [
     "graph_zoom",
     "margins_legend_rows",
     "margins_range",
+    "panel_zoom",
     "scene_aspect",
     "machine_share",
 ]
@@ -117,6 +118,12 @@ def graph_zoom(bounds: tuple[float, float, float, float], share: float, window: 
     w, h = _shown_size(bounds)
     pw, ph = graph_panel_px(share, window)
     return min(1.0, pw / w, ph / h)
+
+
+def panel_zoom(bounds: tuple[float, float, float, float]) -> float:
+    """The zoom a graph within `bounds` [px] is shown at in the smallest of `WINDOWS` with the
+    machine graph's column at its widest: what a layout is chosen by (graph_dot.py)."""
+    return graph_zoom(bounds, _MACHINE_SHARE[1], min(WINDOWS))
 
 
 def machine_share(bounds: tuple[float, float, float, float] | None) -> float:

@@ -9,6 +9,12 @@ An open nested machine is a cluster holding the state that runs it (its title) a
 states; each parallel branch is a cluster inside it. `dot -Tjson` gives the positions in
 points with y up: one point is one pixel of Rerun's graph view at zoom 1, y flipped.
 
+The title of an open nested machine shares its rank with the machine's initial state (a rank
+less per open machine: ~55 px of height). Each expansion is laid out twice, as is and with
+each level's main path (`_spine`) kept straight (`group`), and the one shown at the larger
+zoom in the graph panel (blueprint.py `panel_zoom`) is kept: a straight main path makes a
+level narrower where its labels would push each next state aside, and wider elsewhere.
+
 Without `dot` on the PATH (or when it fails) `dot_layout` returns None and the caller falls
 back to the layout of graph_layout.py.
 """
@@ -20,6 +26,7 @@ import shutil
 import subprocess
 from dataclasses import dataclass
 
+from .blueprint import panel_zoom
 from .graph_layout import CAPTION_H, GraphLayout, Level, label_size
 from .graph_routes import bezier_points
 
@@ -81,6 +88,7 @@ def dot_source(
     sizes: dict[str, tuple[float, float]],
     edges: dict[tuple[str, str], tuple[float, float] | None],
     captions: dict[str, tuple[float, float]],
+    straight: bool = False,
 ) -> tuple[str, dict[str, str]]:
     """The DOT text of a machine tree and the dot id of each node.
 
@@ -89,8 +97,10 @@ def dot_source(
         sizes: Node id -> the box it takes (w, h) [px].
         edges: The arrows drawn, (source, target) -> the size of its label (None: no label).
         captions: Open nested machine's owner -> its caption's size (w, h) [px].
+        straight: Keep each level's main path (`_spine`) in one column.
     """
     ids: dict[str, str] = {}
+    columns = _spines(top) if straight else {}
     lines = [
         "digraph machine {",
         f"  graph [rankdir=TB, nodesep={_NODESEP_IN}, ranksep={_RANKSEP_IN}, newrank=true, "
@@ -103,8 +113,9 @@ def dot_source(
     def node_line(node: str, indent: str) -> None:
         ids[node] = f"n{len(ids)}"
         w, h = sizes[node]
+        group = f", group=g{columns[node]}" if node in columns else ""
         lines.append(f"{indent}{ids[node]} [width={w / 72:.4f}, height={h / 72:.4f}, "
-                     f"comment={_quote(node)}];")  # fmt: skip
+                     f"comment={_quote(node)}{group}];")  # fmt: skip
 
     def cluster(name: str, label: tuple[float, float] | None, indent: str) -> None:
         clusters[0] += 1
@@ -128,6 +139,9 @@ def dot_source(
                     lines.append(f"{indent}  }}")
                 else:
                     level(branch, indent + "  ")
+                    # the title beside the initial state, not a rank above it
+                    if branch.initial in ids:
+                        lines.append(f"{indent}  {{rank=same; {ids[node]}; {ids[branch.initial]};}}")
             lines.append(f"{indent}}}")
 
     level(top, "  ")
@@ -144,6 +158,50 @@ def dot_source(
             lines.append(f"  {ids[top.initial]} -> {ids[node]} [style=invis, minlen=0];")
     lines.append("}")
     return "\n".join(lines) + "\n", ids
+
+
+def _spine(lv: Level) -> list[str]:
+    """A level's main path: the longest path from its initial state along its transitions
+    (the transitions closing a loop left out) in states that lead on."""
+    succ: dict[str, list[str]] = {n: [] for n in lv.nodes}
+    for a, b in lv.edges:
+        if a in succ and b in succ and a != b and b not in succ[a]:
+            succ[a].append(b)
+    if lv.initial not in succ:
+        return []
+    dag: dict[str, list[str]] = {n: [] for n in lv.nodes}
+    seen: dict[str, bool] = {}  # node -> still on the depth-first path
+
+    def visit(n: str) -> None:
+        seen[n] = True
+        for m in succ[n]:
+            if seen.get(m):
+                continue  # closes a loop
+            dag[n].append(m)
+            if m not in seen:
+                visit(m)
+        seen[n] = False
+
+    visit(lv.initial)
+    best: dict[str, list[str]] = {}
+
+    def going(path: list[str]) -> int:
+        return sum(1 for n in path if succ[n])
+
+    def longest(n: str) -> list[str]:
+        if n not in best:
+            # counted in states that go on (a path ending in a final state is no longer for
+            # it); of equal ones, the first declared
+            best[n] = [n, *max((longest(m) for m in dag[n]), key=going, default=[])]
+        return best[n]
+
+    return longest(lv.initial)
+
+
+def _spines(top: Level) -> dict[str, int]:
+    """Node -> the number of its level's main path, for the top level's (the nested levels'
+    straightened as well made the bundled graphs wider, never narrower)."""
+    return dict.fromkeys(_spine(top), 0)
 
 
 def run_dot(source: str) -> dict | None:
@@ -199,10 +257,17 @@ def dot_layout(
         for e, t in edges.items()
     }  # fmt: skip
     caption_boxes = {o: (label_size(t)[0], CAPTION_H) for o, t in captions.items()}
-    source, ids = dot_source(top, boxes, label_boxes, caption_boxes)
-    out = run_dot(source)
-    if out is None:
-        return None
+    best: tuple[float, dict, dict[str, str]] | None = None
+    for straight in (False, True):
+        source, ids = dot_source(top, boxes, label_boxes, caption_boxes, straight)
+        out = run_dot(source)
+        if out is None:
+            return None
+        _, _, w, h = _floats(out["bb"])
+        zoom = panel_zoom((0.0, 0.0, w, h))
+        if best is None or zoom > best[0]:
+            best = (zoom, out, ids)
+    _, out, ids = best
     height = _floats(out["bb"])[3]
 
     def flip(x: float, y: float) -> tuple[float, float]:
