@@ -712,7 +712,8 @@ def test_every_bundled_machine_is_legible_in_both_windows():
     # 1274 px wide (zoom 0.45 at 1280x720) before long edges' bends stopped taking room, and
     # 962 x 818 px (zoom 0.59) with the grasp machine's recovery states before its final
     # states went into free room. The built-in layout (used without Graphviz) keeps that;
-    # dot's gives each edge label a layer of its own, and is shown at DOT_LEAST_ZOOM or more
+    # dot's keeps room for each edge label, and is shown at DOT_LEAST_ZOOM or more (0.55
+    # before an open machine's title shared its initial state's rank and labels became nodes)
     for name in bundled_names("machines"):
         for use_dot, floor in ((False, LEGIBLE_ZOOM), (True, DOT_LEAST_ZOOM)):
             bounds = bundled_graph(name, use_dot).bounds
