@@ -318,8 +318,15 @@ def test_graph_reads_top_to_bottom_in_flow_order():
         for view in graph.views.values():
             pos = view.layout.positions
             for src, dst in view.edges:
-                if src not in (dst, GUARD) and graph.states[dst].kind != "abort":
-                    assert pos[dst][1] > pos[src][1], (name, src, dst)
+                if src in (dst, GUARD) or graph.states[dst].kind == "abort":
+                    continue
+                if dst.startswith(src + ".") and pos[dst][1] == pos[src][1]:
+                    # an open machine's title beside its initial state (graph_dot.py): the
+                    # entry runs sideways, from box to box
+                    w = view.room(src)[0] + view.room(dst)[0]
+                    assert abs(pos[dst][0] - pos[src][0]) >= w / 2, (name, src, dst)
+                    continue
+                assert pos[dst][1] > pos[src][1], (name, src, dst)
 
 
 def test_final_states_lie_below_the_states_leading_to_them():
