@@ -35,6 +35,7 @@ __all__ = [
     "graph_zoom",
     "margins_legend_rows",
     "margins_range",
+    "panel_zoom",
     "scene_aspect",
     "machine_share",
 ]
@@ -51,10 +52,12 @@ panel and the view's title bar [px] (measured in Rerun 0.41's web viewer: an 800
 a 900 px window)."""
 LEGIBLE_ZOOM = 0.75
 """The least zoom at which the graph's 12 px labels are legible (9 px text)."""
-DOT_LEAST_ZOOM = 0.55
+DOT_LEAST_ZOOM = 0.62
 """The least zoom a bundled machine's graph laid out by Graphviz's `dot` is shown at in the
-smaller window (its 12 px labels at 6.6 px or more: zoom in with the mouse wheel). `dot`
-gives each edge label a layer of its own, so its layouts are taller than graph_layout.py's."""
+smaller window (its 12 px labels at 7.4 px or more: zoom in with the mouse wheel). Its edge
+labels take room of their own, so its layouts are larger than graph_layout.py's: at 1280x720
+pick_place is shown at 0.76, sorting and surgical above 0.8, mobile_search, stack and
+pick_place_vision at ~0.7, sorting_conveyor at 0.63 (its STARVED expansion 1029 px wide)."""
 _MARGIN_PX = (16.0, 30.0)
 """Room kept around the graph: sides and bottom, top [px]. Rerun outlines the graph 10 px
 outside its nodes and writes the entity path above the outline; its own fit leaves that out."""
@@ -117,6 +120,12 @@ def graph_zoom(bounds: tuple[float, float, float, float], share: float, window: 
     w, h = _shown_size(bounds)
     pw, ph = graph_panel_px(share, window)
     return min(1.0, pw / w, ph / h)
+
+
+def panel_zoom(bounds: tuple[float, float, float, float]) -> float:
+    """The zoom a graph within `bounds` [px] is shown at in the smallest of `WINDOWS` with the
+    machine graph's column at its widest: what a layout is chosen by (graph_dot.py)."""
+    return graph_zoom(bounds, _MACHINE_SHARE[1], min(WINDOWS))
 
 
 def machine_share(bounds: tuple[float, float, float, float] | None) -> float:

@@ -9,6 +9,15 @@ An open nested machine is a cluster holding the state that runs it (its title) a
 states; each parallel branch is a cluster inside it. `dot -Tjson` gives the positions in
 points with y up: one point is one pixel of Rerun's graph view at zoom 1, y flipped.
 
+The title of an open nested machine shares its rank with the machine's initial state (a rank
+less per open machine: ~55 px of height). Each expansion is laid out four ways and the one
+shown at the largest zoom in the 1280x720 graph panel (blueprint.py `panel_zoom`) is kept:
+* edge labels as `dot`'s labels (each edge then spans two ranks, a label's or an empty one),
+  or as nodes on their edges in the innermost frame holding both ends (an edge without a
+  label spans one rank: shorter, and the labels sit elsewhere);
+* as is, or with the top level's main path (`_spine`) in one column (`group`): narrower
+  where labels would push each next state aside, wider elsewhere.
+
 Without `dot` on the PATH (or when it fails) `dot_layout` returns None and the caller falls
 back to the layout of graph_layout.py.
 """
@@ -21,6 +30,7 @@ import shutil
 import subprocess
 from dataclasses import dataclass
 
+from .blueprint import panel_zoom
 from .graph_layout import CAPTION_H, GraphLayout, Level, label_size
 from .graph_routes import bezier_points
 
@@ -29,8 +39,11 @@ __all__ = ["DotLayout", "dot_available", "dot_layout"]
 _NODESEP_IN = 0.15
 """Least gap between neighbours in a rank [in] (11 px)."""
 _RANKSEP_IN = 0.15
-"""Least gap between ranks [in] (11 px): edge labels take ranks of their own, between
-those of states, so two ranks of states are at least 22 px apart."""
+"""Least gap between ranks [in] with `dot`'s edge labels: `dot` halves it (6 px) and gives
+each edge two ranks, the middle one its label's (or empty)."""
+_LABEL_NODE_RANKSEP_IN = 0.1
+"""Least gap between ranks [in] (7 px) with edge labels as nodes: the arrow between two
+states with no label between them (a straight chain, a machine's exit) is this long."""
 _CLUSTER_MARGIN = 8.0
 """Room inside a frame around its states [pt = px]."""
 _OUTLINE_PAD = 10.0
@@ -39,6 +52,8 @@ _LABEL_ROOM = 3.0
 """`dot` keeps each edge label's box this much larger on every side than Rerun draws it
 [px]: `dot` runs an edge right along its label's box, and the other edges leaving the same
 state as close; with the room, the drawn arrows (graph_routes.py) pass clear of it."""
+_IN, _OUT = " #in", " #out"
+"""The two halves of a labelled edge (source -> label node -> target), by their comments."""
 _TIMEOUT_S = 30.0
 """A `dot` run taking longer is taken as failed (the bundled graphs take ~10 ms)."""
 
@@ -82,6 +97,8 @@ def dot_source(
     sizes: dict[str, tuple[float, float]],
     edges: dict[tuple[str, str], tuple[float, float] | None],
     captions: dict[str, tuple[float, float]],
+    straight: bool = False,
+    label_nodes: bool = True,
 ) -> tuple[str, dict[str, str]]:
     """The DOT text of a machine tree and the dot id of each node.
 
@@ -90,53 +107,98 @@ def dot_source(
         sizes: Node id -> the box it takes (w, h) [px].
         edges: The arrows drawn, (source, target) -> the size of its label (None: no label).
         captions: Open nested machine's owner -> its caption's size (w, h) [px].
+        straight: Keep the top level's main path (`_spine`) in one column.
+        label_nodes: Each edge label a node on its edge (else a label of `dot`'s).
     """
     ids: dict[str, str] = {}
+    columns = _spines(top) if straight else {}
+    chains = _cluster_chains(top)
+    # each label node sits in the innermost frame holding both ends of its edge
+    label_ids = {e: f"e{i}" for i, e in enumerate(e for e, t in edges.items() if t is not None)}
+    if not label_nodes:
+        label_ids = {}
+    held: dict[int, list[tuple[str, str]]] = {}
+    for src, dst in label_ids:
+        a, b = chains[src], chains[dst]
+        common = 0
+        for x, y in zip(a, b, strict=False):
+            if x != y:
+                break
+            common = x
+        held.setdefault(common, []).append((src, dst))
+    ranksep = _LABEL_NODE_RANKSEP_IN if label_nodes else _RANKSEP_IN
     lines = [
         "digraph machine {",
-        f"  graph [rankdir=TB, nodesep={_NODESEP_IN}, ranksep={_RANKSEP_IN}, newrank=true, "
+        f"  graph [rankdir=TB, nodesep={_NODESEP_IN}, ranksep={ranksep}, newrank=true, "
         f"margin=0, pad=0, labeljust=l, labelloc=t, fontsize=12];",
         '  node [shape=box, fixedsize=true, label="", margin=0, penwidth=0];',
         "  edge [arrowhead=none, penwidth=1];",
     ]
     clusters = [0]
 
+    def box_line(name: str, size: tuple[float, float], comment: str, group: int | None,
+                 indent: str) -> None:  # fmt: skip
+        w, h = size
+        in_group = f", group=g{group}" if group is not None else ""
+        lines.append(f"{indent}{name} [width={w / 72:.4f}, height={h / 72:.4f}, "
+                     f"comment={_quote(comment)}{in_group}];")  # fmt: skip
+
     def node_line(node: str, indent: str) -> None:
         ids[node] = f"n{len(ids)}"
-        w, h = sizes[node]
-        lines.append(f"{indent}{ids[node]} [width={w / 72:.4f}, height={h / 72:.4f}, "
-                     f"comment={_quote(node)}];")  # fmt: skip
+        box_line(ids[node], sizes[node], node, columns.get(node), indent)
 
-    def cluster(name: str, label: tuple[float, float] | None, indent: str) -> None:
+    def labels_in(frame: int, indent: str) -> None:
+        for src, dst in held.get(frame, []):
+            same = columns.get(src) is not None and columns.get(src) == columns.get(dst)
+            box_line(label_ids[(src, dst)], edges[(src, dst)], f"{src} -> {dst}",
+                     columns[src] if same else None, indent)  # fmt: skip
+
+    def cluster(name: str, label: tuple[float, float] | None, indent: str) -> int:
         clusters[0] += 1
         lines.append(f"{indent}subgraph cluster_{clusters[0]} {{")
         lines.append(f"{indent}  comment={_quote(name)}; margin={_CLUSTER_MARGIN};")
         text = _box(*label) if label else '""'
         lines.append(f"{indent}  label={text};")
+        return clusters[0]
 
     def level(lv: Level, indent: str) -> None:
         for node in lv.nodes:
             if node not in lv.nested:
                 node_line(node, indent)
                 continue
-            cluster(node, captions.get(node), indent)
+            frame = cluster(node, captions.get(node), indent)
             node_line(node, indent + "  ")
             branches = lv.nested[node]
             for i, branch in enumerate(branches):
                 if len(branches) > 1:
-                    cluster(f"{node}#{i}", None, indent + "  ")
+                    inner = cluster(f"{node}#{i}", None, indent + "  ")
                     level(branch, indent + "    ")
+                    labels_in(inner, indent + "    ")
                     lines.append(f"{indent}  }}")
                 else:
                     level(branch, indent + "  ")
+                    # the title beside the initial state, not a rank above it
+                    if branch.initial in ids:
+                        lines.append(
+                            f"{indent}  {{rank=same; {ids[node]}; {ids[branch.initial]};}}"
+                        )
+            labels_in(frame, indent + "  ")
             lines.append(f"{indent}}}")
 
     level(top, "  ")
+    labels_in(0, "  ")
     for (src, dst), label in edges.items():
-        attrs = [f"comment={_quote(src + ' -> ' + dst)}"]
-        if label is not None:
-            attrs.append(f"label={_box(*label)}")
-        lines.append(f"  {ids[src]} -> {ids[dst]} [{', '.join(attrs)}];")
+        name = src + " -> " + dst
+        if label is None or not label_nodes:
+            attrs = f", label={_box(*label)}" if label is not None else ""
+            lines.append(f"  {ids[src]} -> {ids[dst]} [comment={_quote(name)}{attrs}];")
+            continue
+        # the label is a node on its edge, where Rerun draws it (source -> label -> target)
+        node = label_ids[(src, dst)]
+        lines.append(f"  {ids[src]} -> {node} [comment={_quote(name + _IN)}];")
+        lines.append(f"  {node} -> {ids[dst]} [comment={_quote(name + _OUT)}];")
+        if src == dst:  # a retry's loop: its label beside the state
+            lines.append(f"  {{rank=same; {ids[src]}; {node};}}")
     # a top-level state nothing leads to (the guard node) starts beside the initial state,
     # in the room the first layers leave, not in a column of its own
     targets = {dst for _, dst in edges}
@@ -145,6 +207,76 @@ def dot_source(
             lines.append(f"  {ids[top.initial]} -> {ids[node]} [style=invis, minlen=0];")
     lines.append("}")
     return "\n".join(lines) + "\n", ids
+
+
+def _cluster_chains(top: Level) -> dict[str, list[int]]:
+    """Node -> the numbers of the frames holding it, outermost first, numbered as
+    `dot_source` opens them (a nested machine's owner is in its own frame)."""
+    out: dict[str, list[int]] = {}
+    count = [0]
+
+    def walk(lv: Level, chain: list[int]) -> None:
+        for node in lv.nodes:
+            if node not in lv.nested:
+                out[node] = chain
+                continue
+            count[0] += 1
+            frame = [*chain, count[0]]
+            out[node] = frame
+            branches = lv.nested[node]
+            for branch in branches:
+                if len(branches) > 1:
+                    count[0] += 1
+                    walk(branch, [*frame, count[0]])
+                else:
+                    walk(branch, frame)
+
+    walk(top, [])
+    return out
+
+
+def _spine(lv: Level) -> list[str]:
+    """A level's main path: the longest path from its initial state along its transitions
+    (the transitions closing a loop left out) in states that lead on."""
+    succ: dict[str, list[str]] = {n: [] for n in lv.nodes}
+    for a, b in lv.edges:
+        if a in succ and b in succ and a != b and b not in succ[a]:
+            succ[a].append(b)
+    if lv.initial not in succ:
+        return []
+    dag: dict[str, list[str]] = {n: [] for n in lv.nodes}
+    seen: dict[str, bool] = {}  # node -> still on the depth-first path
+
+    def visit(n: str) -> None:
+        seen[n] = True
+        for m in succ[n]:
+            if seen.get(m):
+                continue  # closes a loop
+            dag[n].append(m)
+            if m not in seen:
+                visit(m)
+        seen[n] = False
+
+    visit(lv.initial)
+    best: dict[str, list[str]] = {}
+
+    def going(path: list[str]) -> int:
+        return sum(1 for n in path if succ[n])
+
+    def longest(n: str) -> list[str]:
+        if n not in best:
+            # counted in states that go on (a path ending in a final state is no longer for
+            # it); of equal ones, the first declared
+            best[n] = [n, *max((longest(m) for m in dag[n]), key=going, default=[])]
+        return best[n]
+
+    return longest(lv.initial)
+
+
+def _spines(top: Level) -> dict[str, int]:
+    """Node -> the number of its level's main path, for the top level's (the nested levels'
+    straightened as well made the bundled graphs wider, never narrower)."""
+    return dict.fromkeys(_spine(top), 0)
 
 
 def run_dot(source: str) -> dict | None:
@@ -210,10 +342,17 @@ def dot_layout(
         for e, t in edges.items()
     }  # fmt: skip
     caption_boxes = {o: (label_size(t)[0], CAPTION_H) for o, t in captions.items()}
-    source, ids = dot_source(top, boxes, label_boxes, caption_boxes)
-    out = run_dot(source)
-    if out is None:
-        return None
+    best: tuple[float, dict, dict[str, str]] | None = None
+    for label_nodes, straight in ((a, b) for a in (False, True) for b in (False, True)):
+        source, ids = dot_source(top, boxes, label_boxes, caption_boxes, straight, label_nodes)
+        out = run_dot(source)
+        if out is None:
+            return None
+        _, _, w, h = _floats(out["bb"])
+        zoom = panel_zoom((0.0, 0.0, w, h))
+        if best is None or zoom > best[0]:
+            best = (zoom, out, ids)
+    _, out, ids = best
     height = _floats(out["bb"])[3]
 
     def flip(x: float, y: float) -> tuple[float, float]:
@@ -235,18 +374,30 @@ def dot_layout(
             positions[names[by_id[obj["name"]]]] = flip(*_floats(obj["pos"]))
     placed: dict[tuple[str, str], tuple[float, float]] = {}
     splines: dict[tuple[str, str], list[tuple[float, float]]] = {}
+    for obj in out.get("objects", []):
+        src, _, dst = obj.get("comment", "").partition(" -> ")
+        if obj.get("name", "").startswith("e") and (src, dst) in edges:
+            placed[(src, dst)] = flip(*_floats(obj["pos"]))
+    halves: dict[tuple[str, str], dict[str, list[tuple[float, float]]]] = {}
     for edge in out.get("edges", []):
-        src, _, dst = edge.get("comment", "").partition(" -> ")
+        comment = edge.get("comment", "")
+        spot = edge.get("lp")
+        if spot:
+            placed[tuple(comment.partition(" -> ")[::2])] = flip(*_floats(spot))
+        half = next((h for h in (_IN, _OUT) if comment.endswith(h)), "")
+        src, _, dst = comment.removesuffix(half).partition(" -> ")
         if (src, dst) not in edges:
             continue
-        spot = edge.get("lp") or edge.get("xlp")
-        if spot:
-            placed[(src, dst)] = flip(*_floats(spot))
         # `pos`: the spline's points ("e,x,y" / "s,x,y" would be arrow ends: none are drawn)
         controls = [flip(*_floats(p)) for p in edge.get("pos", "").split() if p[:2] not in
                     ("e,", "s,")]  # fmt: skip
         if len(controls) >= 4:
-            splines[(src, dst)] = bezier_points(controls)
+            halves.setdefault((src, dst), {})[half] = bezier_points(controls)
+    for key, parts in halves.items():
+        if "" in parts:
+            splines[key] = parts[""]
+        elif _IN in parts and _OUT in parts:
+            splines[key] = parts[_IN] + parts[_OUT]
     _clear_the_outline_caption(top, positions, boxes, groups)
     widths = {o: w for o, (w, _) in caption_boxes.items()}
     return DotLayout(GraphLayout(positions, groups, sizes, widths), placed, splines)
