@@ -63,8 +63,6 @@ class BlendedPath:
         seg = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
         s = np.concatenate([[0.0], np.cumsum(seg)])
         via_len = float(s[via_end])
-        self.via_len = via_len
-        """Arc length where the last via point's corner ends [m] (0 without via points)."""
         self.length = float(s[-1])
         self._s, self._xyz = s, xyz
         self._columns = tuple(np.ascontiguousarray(xyz[:, i]) for i in range(3))
@@ -114,14 +112,18 @@ class BlendedPath:
         self._retime()
 
     def slow_between(self, z_low: float, z_high: float, v_max: float, a_after: float) -> float:
-        """Retime with the speed capped at `v_max` [m/s] over the part of the path after the
-        last via point whose height lies in [`z_low`, `z_high`] [m] (a guarded approach's
+        """Retime with the speed capped at `v_max` [m/s] over the part of the path's last
+        descent whose height lies in [`z_low`, `z_high`] [m] (a guarded approach's
         last stretch, where a finger may first meet the object): braked into it within the
         acceleration limits, constant in it, sped up again after it at no more than `a_after`
         [m/s^2] (a hand speeding up reads its own inertia at the wrist). Returns the length
         of path so capped [m]."""
         z = self._xyz[:, 2]
-        band = (self._s >= self.via_len) & (z >= z_low) & (z <= z_high)
+        rising = np.flatnonzero(np.diff(z) > 1e-9)
+        descent = np.arange(len(z)) > (rising[-1] if len(rising) else -1)
+        # the path's last descent only (its heights pass the band once there): a hover
+        # point's corner, rounded 4 cm after it, ends 1 cm above a grasp 5 cm below the hover
+        band = descent & (z >= z_low) & (z <= z_high)
         if not np.any(band):
             return 0.0
         self._v_lim = np.where(band, np.minimum(self._v_lim, v_max), self._v_lim)
