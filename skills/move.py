@@ -139,7 +139,7 @@ class MoveParams(SkillParams):
         le=0.5,
         description="A guarded last stretch: where it starts, this far above the target "
         "(world z) [m] (0: none). Between `guarded_from_m` and `guarded_to_m` above the target, "
-        "after the last via point, the motion goes at `guarded_speed_mps`: a finger that meets "
+        "on the path's last descent, the motion goes at `guarded_speed_mps`: a finger that meets "
         "the object there lands slowly, and a `watch_force` with the same band feels it.",
     )
     guarded_to_m: float = Field(
