@@ -111,13 +111,12 @@ class BlendedPath:
         self._a_lim = np.minimum(self._a_lim, np.interp(self._s, s, a_cap))
         self._retime()
 
-    def slow_between(self, z_low: float, z_high: float, v_max: float, a_after: float) -> float:
+    def slow_between(self, z_low: float, z_high: float, v_max: float) -> float:
         """Retime with the speed capped at `v_max` [m/s] over the part of the path's last
         descent whose height lies in [`z_low`, `z_high`] [m] (a guarded approach's
         last stretch, where a finger may first meet the object): braked into it within the
-        acceleration limits, constant in it, sped up again after it at no more than `a_after`
-        [m/s^2] (a hand speeding up reads its own inertia at the wrist). Returns the length
-        of path so capped [m]."""
+        acceleration limits, constant in it, sped up again below it. Returns the length of
+        path so capped [m]."""
         z = self._xyz[:, 2]
         rising = np.flatnonzero(np.diff(z) > 1e-9)
         descent = np.arange(len(z)) > (rising[-1] if len(rising) else -1)
@@ -127,8 +126,6 @@ class BlendedPath:
         if not np.any(band):
             return 0.0
         self._v_lim = np.where(band, np.minimum(self._v_lim, v_max), self._v_lim)
-        after = self._s > float(np.max(self._s[band]))
-        self._a_lim = np.where(after, np.minimum(self._a_lim, a_after), self._a_lim)
         self._retime()
         return float(np.ptp(self._s[band]))
 

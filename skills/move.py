@@ -55,10 +55,6 @@ _ON_GRID_S = 1e-6
 """A tick whose clock is within this of a whole number of control periods since the start is
 on the dry run's grid (`dry_run.path_time`) [s]: the simulated clock, a sum of physics steps,
 drifts from it by ~1e-14 s; a pause's ramp slows it by 4e-4 s in its first tick."""
-_GUARDED_EXIT_ACCEL = 1.0
-"""Largest acceleration along the path after a guarded stretch [m/s^2]: the hand speeding up
-again at the move's 6 m/s^2 read 3-3.5 N of its own inertia at the wrist (a UR5's), above the
-watch's 2 N, at the band's bottom."""
 _RETIME = 1.3
 """Factor by which a move whose command would lag is slowed, per try."""
 _MAX_RETIMES = 6
@@ -322,7 +318,7 @@ class Move(Skill):
                 z = float(self.pos1[2])
                 lead = p.guarded_lead_m
                 low, high = z + p.guarded_to_m - lead, z + p.guarded_from_m + lead
-                path.slow_between(low, high, p.guarded_speed_mps, _GUARDED_EXIT_ACCEL)
+                path.slow_between(low, high, p.guarded_speed_mps)
             return path
         return CartesianLine(
             ctx.tcp_pos.copy(),

@@ -71,7 +71,7 @@ def test_the_guarded_stretch_is_slow_only_where_a_finger_may_meet_the_top():
         8.0,
         0.04,
     )
-    slow = path.slow_between(0.025 + 0.026, 0.025 + 0.046, 0.05, 1.0)
+    slow = path.slow_between(0.025 + 0.026, 0.025 + 0.046, 0.05)
     assert 0.018 <= slow <= 0.022
     times = np.linspace(0.0, path.duration, 4000)
     z = np.array([path.sample(t)[0][2] for t in times])
