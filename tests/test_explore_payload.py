@@ -58,3 +58,14 @@ def test_a_cube_just_under_what_the_payload_leaves_is_not_refused_for_its_mass(s
         assert "rated payload" not in result.reason["message"], result.reason
     states = [t["from"] for t in result.transitions]
     assert any(s.endswith("GRASP.APPROACH") for s in states), states
+
+
+def test_mobile_search_names_the_payload_instead_of_retrying_a_block_it_cannot_lift():
+    # a blocked grasp went to STOW and RECOVER, tried again from the same standoff and ended
+    # "RECOVER ended `exhausted`": the cause (4 kg on a 3 kg arm) was in no reason
+    rated = Panda.payload_kg
+    result = run_episode(load_scenario("mobile_search", [_mass("mobile_search", 4.0)]), 0)
+    assert result.outcome == "failed"
+    assert result.reason["state"] == "GRASPING.PLAN", result.reason
+    assert f"rated payload of {rated:g} kg" in result.reason["message"], result.reason
+    assert result.invariants["ok"], result.invariants["violations"]
