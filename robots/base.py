@@ -188,6 +188,11 @@ class Robot(abc.ABC):
     `arm_joints`; empty for an arm fixed in the world."""
     base_body: ClassVar[str | None] = None
     """The chassis of a mobile base (cameras with `body: base` mount on it)."""
+    payload_kg: ClassVar[float | None] = None
+    """The arm's rated payload at its flange [kg], as its maker rates it: everything mounted
+    there counts against it (the hand, a tool) and the object carried gets the rest (the
+    grasp planning, `grasp_pose`, refuses a heavier object before anything is lifted). None:
+    the robot documents none, and nothing is refused for its mass."""
     datasheet: ClassVar[Datasheet | None] = None
     """The maker's joint limits (None: the robot documents none; the robot test then has
     nothing to hold its model to and fails)."""

@@ -111,6 +111,24 @@ class BlendedPath:
         self._a_lim = np.minimum(self._a_lim, np.interp(self._s, s, a_cap))
         self._retime()
 
+    def slow_between(self, z_low: float, z_high: float, v_max: float) -> float:
+        """Retime with the speed capped at `v_max` [m/s] over the part of the path's last
+        descent whose height lies in [`z_low`, `z_high`] [m] (a guarded approach's
+        last stretch, where a finger may first meet the object): braked into it within the
+        acceleration limits, constant in it, sped up again below it. Returns the length of
+        path so capped [m]."""
+        z = self._xyz[:, 2]
+        rising = np.flatnonzero(np.diff(z) > 1e-9)
+        descent = np.arange(len(z)) > (rising[-1] if len(rising) else -1)
+        # the path's last descent only (its heights pass the band once there): a hover
+        # point's corner, rounded 4 cm after it, ends 1 cm above a grasp 5 cm below the hover
+        band = descent & (z >= z_low) & (z <= z_high)
+        if not np.any(band):
+            return 0.0
+        self._v_lim = np.where(band, np.minimum(self._v_lim, v_max), self._v_lim)
+        self._retime()
+        return float(np.ptp(self._s[band]))
+
     def sample_so3(self, t: float) -> tuple[np.ndarray, mink.SO3]:
         """Position [m] and rotation at time `t` [s] after the start."""
         s = self.progress(t)

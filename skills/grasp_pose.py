@@ -19,7 +19,8 @@ heading, or so tall that the palm would come down on its top before the fingers 
 grasp, it is `blocked` with the figures (explore found both: a 0.67 m box struck by the hand
 and a 0.18 m cube by the wrist, the joints then past their datasheet acceleration); so is one
 so long that, held at the grasp and turned about the hand as it is carried, it would sweep into
-the arm's own base column (a 10 m box carried into link 1).
+the arm's own base column (a 10 m box carried into link 1); so is one heavier than the arm's
+rated payload leaves for it once the hand is counted (`Robot.payload_kg`).
 """
 
 from __future__ import annotations
@@ -156,6 +157,7 @@ class GraspPose(Skill):
                 size = [2.0 * max(hx, hy), 2.0 * min(hx, hy)]
                 if hy > hx:  # its long side along its own y: closing along y would span it
                     heading += math.pi / 2.0
+            refused = refused or _over_payload(ctx, known)
             refused = refused or _palm_strikes(ctx, known, tcp[2], hand, p.clearance_m)
             refused = refused or _sweeps_the_base(ctx, known, tcp)
         if refused is not None:
@@ -366,6 +368,26 @@ def _palm_strikes(
         f"grasp it, its top ({top:.3f} m) would be {(top - palm) * 1000:.1f} mm above the "
         f"palm's underside ({palm:.3f} m, {-hand.depth_m * 1000:.0f} mm above the TCP; "
         f"{clearance * 1000:.0f} mm below it needed)"
+    )
+
+
+def _over_payload(ctx: Context, obj: Any) -> str | None:
+    """Why the object is too heavy for the arm to carry, or None: its mass (the scene's, as a
+    cell knows its parts list) plus everything on the flange (the hand, a tool) over the
+    robot's rated payload (`Robot.payload_kg`). Explore found 12.5-41 kg cubes lifted until
+    the `contact_force` guard aborted, the stop then jolting joint 6 past its deceleration."""
+    rated = ctx.robot.payload_kg
+    if rated is None:
+        return None
+    mass = float(ctx.model.body_mass[obj.body_id])
+    hand = float(ctx.model.body_subtreemass[ctx.world.hand_body])
+    room = rated - hand
+    if mass <= room:
+        return None
+    return (
+        f"{obj.name} is {mass:.3g} kg: over the {ctx.robot.name}'s rated payload of "
+        f"{rated:g} kg (with the hand's {hand:.2f} kg on the flange, at most "
+        f"{max(room, 0.0):.2f} kg to carry)"
     )
 
 

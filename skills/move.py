@@ -129,6 +129,38 @@ class MoveParams(SkillParams):
         description="How far before and after a via point the path starts and ends rounding "
         "its corner [m] (0: a sharp corner, passed at rest).",
     )
+    guarded_from_m: float = Field(
+        default=0.0,
+        ge=0.0,
+        le=0.5,
+        description="A guarded last stretch: where it starts, this far above the target "
+        "(world z) [m] (0: none). Between `guarded_from_m` and `guarded_to_m` above the target, "
+        "on the path's last descent, the motion goes at `guarded_speed_mps`: a finger that meets "
+        "the object there lands slowly, and a `watch_force` with the same band feels it.",
+    )
+    guarded_to_m: float = Field(
+        default=0.0,
+        ge=0.0,
+        le=0.5,
+        description="Where the guarded stretch ends, above the target [m]; the rest of the "
+        "way at `max_speed`.",
+    )
+    guarded_lead_m: float = Field(
+        default=0.006,
+        ge=0.0,
+        le=0.1,
+        description="The slow speed holds this far beyond the guarded stretch at each end "
+        "[m]: braked into it, the arm lags its reference (a UR5 still at 0.1 m/s at the "
+        "stretch's top, its hand's deceleration 2.6-2.8 N at the wrist), and speeding up again "
+        "below it reads ~3 N; with the lead a watch over the stretch feels only a touch.",
+    )
+    guarded_speed_mps: PositiveFloat = Field(
+        default=0.05,
+        le=0.5,
+        description="Top speed over the guarded stretch [m/s]: a Panda fingertip landing on a "
+        "cube at 0.05 m/s peaks joint 2 at 0.8-0.9 of its datasheet acceleration (0.07: up to "
+        "1.06, 0.1: 1.2).",
+    )
     gripper_m: float | None = Field(
         default=None,
         ge=0.0,
@@ -270,8 +302,9 @@ class Move(Skill):
     ) -> CartesianLine | BlendedPath:
         """The motion from the TCP to `pos1` with orientation `rot1` (through `vias`)."""
         p = self.params
-        if vias:
-            return BlendedPath(
+        guarded = p.guarded_from_m > p.guarded_to_m
+        if vias or guarded:
+            path = BlendedPath(
                 np.array([ctx.tcp_pos, *vias, self.pos1]),
                 rot0,
                 rot1,
@@ -281,6 +314,12 @@ class Move(Skill):
                 p.max_angular_accel,
                 p.blend_m,
             )
+            if guarded:
+                z = float(self.pos1[2])
+                lead = p.guarded_lead_m
+                low, high = z + p.guarded_to_m - lead, z + p.guarded_from_m + lead
+                path.slow_between(low, high, p.guarded_speed_mps)
+            return path
         return CartesianLine(
             ctx.tcp_pos.copy(),
             rot0,

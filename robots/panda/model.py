@@ -99,6 +99,8 @@ class Panda(Robot):
         source="Franka Emika, Panda datasheet / FCI documentation, 'Limits for Panda' (joint "
         "space: q, dq, tau)",
     )
+    payload_kg: ClassVar[float | None] = 3.0
+    """Franka Emika Panda datasheet: payload 3 kg, the Franka Hand (0.73 kg) included."""
     acceleration_limits: ClassVar[tuple[float, ...]] = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
     """Franka's datasheet joint acceleration limits [rad/s^2]."""
     jerk_limits: ClassVar[tuple[float, ...]] = (7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 1e4, 1e4)

@@ -185,6 +185,13 @@ class SO101(Robot):
         cartesian_stiffness=(100.0, 100.0, 100.0, 3.0, 3.0, 3.0),
     )
     datasheet: ClassVar[Datasheet | None] = DATASHEET
+    payload_kg: ClassVar[float | None] = 0.25
+    """[kg], the jaw (0.10 kg in the model) included. TheRobotStudio publishes no payload for
+    the SO-101; derived from its weakest point, shoulder_lift's STS3215 holding the arm
+    stretched out level (the TCP 0.41 m from the axis): the arm itself takes 0.86 Nm there
+    (this model), 0.15 kg at the TCP adds 0.60 Nm, 1.46 Nm in all, half the servo's 2.94 Nm
+    stall torque (a hobby servo held near stall overheats within seconds; half of it is a
+    common continuous rating). So 0.15 kg to carry, plus the jaw."""
     acceleration_limits: ClassVar[tuple[float, ...]] = (20.0,) * 5
     """[rad/s^2]: Feetech publishes no limit (the STS3215's acceleration register tops out at
     254 x 100 steps/s^2, 39 rad/s^2): an assumption, about half of that. At 39 the IK's

@@ -110,6 +110,9 @@ class UR5(Robot):
         kd=np.array([100.0, 100.0, 70.0, 15.0, 10.0, 6.0]),
     )
     datasheet: ClassVar[Datasheet | None] = DATASHEET
+    payload_kg: ClassVar[float | None] = 5.0
+    """Universal Robots, UR5 technical specifications: payload 5 kg, the tool included (here
+    the parallel gripper, 0.93 kg in the model)."""
     acceleration_limits: ClassVar[tuple[float, ...]] = (10.0, 10.0, 10.0, 15.0, 15.0, 15.0)
     """[rad/s^2]. Universal Robots publishes no joint acceleration limit (the controller's
     safety limits speed, power, force and momentum): an assumption, the Panda's class of
