@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -49,22 +48,6 @@ class CliResult:
     @property
     def json(self) -> dict:
         return json.loads(self.stdout)
-
-
-def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
-    """`-n auto`: for the default run, one worker more than the cores this process may use;
-    for `-m slow`, one per core.
-
-    Measured per test (wall against the CPU of the process and its children), the default run
-    spends a good part of its wall time waiting rather than computing: on CLI and server
-    subprocesses starting, batch workers, live sessions paced at real time, timeouts that must
-    expire. With one worker per core those seconds leave a core idle; a third worker on two
-    cores fills them. The slow suite is long CPU-bound campaigns and live runs whose pacing is
-    measured: a worker per core. (xdist's own `auto` counts physical cores.)"""
-    affinity = getattr(os, "sched_getaffinity", None)  # Linux; elsewhere every core counts
-    cores = len(affinity(0)) if affinity is not None else (os.cpu_count() or 1)
-    only_slow = config.option.markexpr.replace(" ", "") == "slow"
-    return cores if only_slow else cores + 1
 
 
 @pytest.fixture(scope="session")
