@@ -7,7 +7,7 @@ from dataclasses import asdict
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, PositiveFloat
+from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validator
 
 from orchestrator.world.pose import Pose
 
@@ -168,6 +168,19 @@ class MoveParams(SkillParams):
         description="Set each finger to this opening at the start of the motion (as "
         "`release`'s `opening_m`), so the fingers pre-shape while the arm moves [m].",
     )
+
+    @model_validator(mode="after")
+    def _guarded_stretch(self) -> MoveParams:
+        # a stretch given upside down (or empty) would silently leave the approach unguarded;
+        # guarded_from_m 0 is "none" whatever guarded_to_m says
+        top, bottom = self.guarded_from_m, self.guarded_to_m
+        if top > 0.0 and top <= bottom:
+            raise ValueError(
+                f"guarded_from_m {top:g} must be above guarded_to_m {bottom:g}: the guarded "
+                f"stretch runs down from guarded_from_m to guarded_to_m above the target (e.g. "
+                f"guarded_from_m: 0.04, guarded_to_m: 0.03; guarded_from_m 0: none)"
+            )
+        return self
 
 
 class Move(Skill):

@@ -79,3 +79,15 @@ def test_the_guarded_stretch_is_slow_only_where_a_finger_may_meet_the_top():
     in_band = (z > 0.054) & (z < 0.068)  # the band, within the 2 mm grid of the timing law
     assert np.max(speed[in_band]) <= 0.05 * 1.02
     assert np.max(speed) > 0.3  # the rest at the approach's pace
+
+
+def test_a_guarded_stretch_given_upside_down_is_refused_naming_both_keys(cli):
+    # 1 cm above the grasp down to the default 3.2 cm: an empty stretch that would leave the
+    # approach unguarded without a word
+    res = cli("run", "pick_place", "--set", "blackboard.guarded_from_m=0.01")
+    assert res.exit_code == 2 and res.exception is None, res.stderr
+    said = " ".join(res.stderr.split())
+    assert "guarded_from_m 0.01 must be above guarded_to_m 0.032" in said
+    assert "Traceback" not in res.stderr
+    # 0 is "no guarded stretch", whatever its lower end: loads
+    assert load_scenario("pick_place", ["blackboard.guarded_from_m=0"]).machine is not None
