@@ -282,31 +282,35 @@ def _spines(top: Level) -> dict[str, int]:
 def run_dot(source: str) -> dict | None:
     """`dot -Tjson` of `source`, parsed (a fresh object each call); None if `dot` is missing
     or fails."""
-    out = _dot_json(source)
-    if out is None:
-        return None
     try:
-        return json.loads(out)
-    except json.JSONDecodeError:
+        return json.loads(_dot_json(source))
+    except (_DotFailed, json.JSONDecodeError):
         return None
+
+
+class _DotFailed(Exception):
+    """`dot` is missing, timed out or refused the source: not kept by the memo below, so a
+    run that timed out on a loaded host is tried again next time."""
 
 
 @functools.lru_cache(maxsize=256)
-def _dot_json(source: str) -> str | None:
+def _dot_json(source: str) -> str:
     """`dot -Tjson`'s output for `source`, kept per process: a layout depends on its source
     alone, and a batch's recordings (or a session's episodes) draw the same machines with
     the same lit states again (each `dot` run is a process start, ~30 ms)."""
     exe = shutil.which("dot")
     if exe is None:
-        return None
+        raise _DotFailed("dot is not on the PATH")
     try:
         done = subprocess.run(
             [exe, "-Tjson"], input=source, capture_output=True, text=True,
             timeout=_TIMEOUT_S, check=False,
         )  # fmt: skip
-    except (OSError, subprocess.TimeoutExpired):
-        return None
-    return done.stdout if done.returncode == 0 else None
+    except (OSError, subprocess.TimeoutExpired) as e:
+        raise _DotFailed(str(e)) from e
+    if done.returncode != 0:
+        raise _DotFailed(done.stderr)
+    return done.stdout
 
 
 def _floats(text: str) -> list[float]:
