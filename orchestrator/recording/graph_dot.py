@@ -244,33 +244,44 @@ def _spine(lv: Level) -> list[str]:
             succ[a].append(b)
     if lv.initial not in succ:
         return []
+    # a depth-first walk from the initial state, on an explicit stack (a user's machine may
+    # chain thousands of states): the transitions that close a loop are left out, and the
+    # states come out in post-order, each after every state it leads to
     dag: dict[str, list[str]] = {n: [] for n in lv.nodes}
-    seen: dict[str, bool] = {}  # node -> still on the depth-first path
-
-    def visit(n: str) -> None:
-        seen[n] = True
-        for m in succ[n]:
-            if seen.get(m):
+    on_path: dict[str, bool] = {lv.initial: True}  # seen; True while on the walk's path
+    post: list[str] = []
+    stack = [(lv.initial, iter(succ[lv.initial]))]
+    while stack:
+        n, ahead = stack[-1]
+        for m in ahead:
+            if on_path.get(m):
                 continue  # closes a loop
             dag[n].append(m)
-            if m not in seen:
-                visit(m)
-        seen[n] = False
-
-    visit(lv.initial)
-    best: dict[str, list[str]] = {}
-
-    def going(path: list[str]) -> int:
-        return sum(1 for n in path if succ[n])
-
-    def longest(n: str) -> list[str]:
-        if n not in best:
-            # counted in states that go on (a path ending in a final state is no longer for
-            # it); of equal ones, the first declared
-            best[n] = [n, *max((longest(m) for m in dag[n]), key=going, default=[])]
-        return best[n]
-
-    return longest(lv.initial)
+            if m not in on_path:
+                on_path[m] = True
+                stack.append((m, iter(succ[m])))
+                break
+        else:
+            on_path[n] = False
+            post.append(n)
+            stack.pop()
+    # the longest way on, counted in states that go on (a path ending in a final state is no
+    # longer for it); of equal ones, the first declared
+    going: dict[str, int] = {}
+    onward: dict[str, str | None] = {}
+    for n in post:
+        best, most = None, -1
+        for m in dag[n]:
+            if going[m] > most:
+                best, most = m, going[m]
+        onward[n] = best
+        going[n] = (1 if succ[n] else 0) + max(most, 0)
+    path: list[str] = []
+    at: str | None = lv.initial
+    while at is not None:
+        path.append(at)
+        at = onward[at]
+    return path
 
 
 def _spines(top: Level) -> dict[str, int]:
