@@ -21,6 +21,7 @@ from ..exceptions import ConfigError
 from .diagnostics import Diagnostic, clip, format_path
 from .limits import InputLimits, current_limits
 from .yaml_errors import explain_yaml_error
+from .yaml_memo import parsed_once
 
 __all__ = ["SourceMap", "YamlDocument", "load_yaml", "parse_yaml"]
 
@@ -564,7 +565,7 @@ def load_yaml(path: Path, limits: InputLimits | None = None) -> YamlDocument:
                 )
             ]
         ) from None
-    return parse_yaml(text, name, limits)
+    return parsed_once(text, name, limits, parse_yaml)  # a text already read: a copy
 
 
 def _too_large(name: str, size: int, limits: InputLimits) -> Diagnostic:
