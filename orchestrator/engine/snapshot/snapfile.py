@@ -8,7 +8,8 @@ hmac-sha256 <64 hex digits>\\n      over the two lines above and the payload (si
 ```
 
 Nothing in a snapshot is code, and reading one builds nothing but numbers, strings, lists,
-dicts and numeric arrays (`np.lib.format.read_array(..., allow_pickle=False)`): a snapshot
+dicts and numeric arrays (npy.py: numpy's plain header matched exactly, any other read by
+`np.lib.format.read_array(..., allow_pickle=False)`): a snapshot
 from anyone cannot run anything, with or without a key. The signature is for integrity (a
 file changed or cut since it was written is refused) and provenance (this user wrote it).
 
@@ -33,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from .errors import SnapshotError
+from .npy import read_npy
 from .signing import KEY_ENV, NoKeyError, key_path, sign, verify
 from .versions import FORMAT
 
@@ -100,9 +102,7 @@ def unpack(payload: bytes, path: Path) -> dict[str, np.ndarray]:
                 if not info.filename.endswith(".npy"):
                     raise ValueError(f"{info.filename[:60]!r} is not an array")
                 with zf.open(info) as f:  # reads no more than the declared size
-                    arr = np.lib.format.read_array(
-                        f, allow_pickle=False, max_header_size=_MAX_NPY_HEADER
-                    )
+                    arr = read_npy(f, info.file_size, _MAX_NPY_HEADER)
                 out[info.filename[:-4]] = arr
             return out
     except SnapshotError:
