@@ -73,10 +73,32 @@ class Grasp(Skill):
         self.still_ticks = 0
         self.verdict = ""
         ctx.controller.hold_setpoint()
-        ctx.set_gripper(0.0)
+        self.touch = _touch_from(ctx, self.params.object)
+        """Each finger's opening where the closing slows (None: no slow stretch)."""
+        ctx.set_gripper(0.0 if self.touch is None else self.touch)
+
+    def _close(self, ctx: Context) -> None:
+        """The slow stretch: the commanded opening goes down at the robot's touch speed from
+        `touch` until the fingers press on something (then, or past the object, the whole
+        grip: 0)."""
+        assert self.touch is not None
+        speed = ctx.robot.grip_touch_speed_mps
+        assert speed is not None
+        target = ctx.gripper_target
+        if 0.5 * ctx.gripper_width > target + _TOUCH_LAG_M:
+            return  # still on the way there at the gripper's speed
+        name, left, right = held_object(ctx)
+        depth = self.touch - ctx.robot.grip_touch_from_m  # the object's half-width
+        if name is not None or target <= depth - _PAST_M:
+            self.touch = None
+            ctx.set_gripper(0.0)
+            return
+        ctx.set_gripper(max(target - speed * ctx.dt_control, 0.0))
 
     def step(self, ctx: Context) -> str | None:
         p = self.params
+        if self.touch is not None:
+            self._close(ctx)
         elapsed = ctx.clock - self.t0
         finger_dof = ctx.world.robot_dof[ctx.robot.n_arm :]
         finger_speed = float(np.max(np.abs(ctx.data.qvel[finger_dof]))) * (
@@ -118,6 +140,28 @@ class Grasp(Skill):
 
     def explain(self, ctx: Context) -> str | None:
         return self.verdict or None
+
+
+_TOUCH_LAG_M = 0.0005
+"""The fingers count as at the start of the slow stretch this close to it [m]."""
+_PAST_M = 0.002
+"""How far past the object's expected half-width the slow stretch goes on without a touch
+before the whole grip is commanded [m]."""
+
+
+def _touch_from(ctx: Context, name: str) -> float | None:
+    """Each finger's opening where the closing on `name` slows: its half-width across the
+    fingers plus the robot's `grip_touch_from_m` (None: the robot closes at one speed, the
+    object is `*`, or the fingers are already that close)."""
+    robot = ctx.robot
+    if robot.grip_touch_speed_mps is None or name == ANY_OBJECT:
+        return None
+    handle = ctx.world.objects[name]
+    rot = ctx.data.xmat[handle.body_id].reshape(3, 3)  # object frame -> world
+    across = rot.T @ ctx.tcp_rot[:, 1]  # the closing axis in the object's frame
+    half = float(np.abs(across) @ handle.half_size)
+    touch = half + robot.grip_touch_from_m
+    return touch if touch < 0.5 * ctx.gripper_width else None
 
 
 def _between_fingers(ctx: Context, name: str) -> bool:
