@@ -268,3 +268,17 @@ def test_the_so101_jaw_pushes_a_cube_that_sticks_without_jolting_the_arm(key, va
     assert any(t["from"] == "PICK.GRASP.CLOSE" for t in result.transitions), result.reason
     assert result.invariants["ok"], result.invariants["violations"]
     assert 0.0 < result.invariants["worst"]["joint_acceleration"] <= 1.0
+
+
+@pytest.mark.slow
+def test_a_parcel_let_fall_into_its_bin_settles_under_its_own_task():
+    # parcel_03 leaned on bin_B's wall and was still toppling over after its task had ended:
+    # moved 2 cm "under parcel_00's task" (explore on sorting, class d). DROP now waits for
+    # the parcel it let go to come to rest. 15 s: parcel_00's task starts at ~14 s
+    loaded = load_scenario(
+        "sorting", ["perception.randomize.pixel_noise=0.0", "physics.time_limit_s=15"]
+    )
+    result = run_episode(loaded, 817606967)
+    tasks = {t["id"]: t for t in result.tasks}
+    assert tasks["parcel_03"]["outcome"] == "sorted" and tasks["parcel_00"]["attempts"] == 1
+    assert result.invariants["ok"], result.invariants["violations"]
