@@ -282,3 +282,14 @@ def test_a_parcel_let_fall_into_its_bin_settles_under_its_own_task():
     tasks = {t["id"]: t for t in result.tasks}
     assert tasks["parcel_03"]["outcome"] == "sorted" and tasks["parcel_00"]["attempts"] == 1
     assert result.invariants["ok"], result.invariants["violations"]
+
+
+@pytest.mark.parametrize("scenario", ["sorting", "sorting_conveyor"])
+def test_a_bin_wall_taller_than_the_sorting_flows_clear_is_refused_saying_why(scenario):
+    # bin_B's walls at 0.15-0.36 m (within the old 1 m bound): the parcel or the hand struck a
+    # wall on the way in, the arm at 1.9-19x its datasheet acceleration (explore, class c)
+    with pytest.raises(ConfigError) as err:
+        load_scenario(scenario, ["scene.bins.bin_B.wall_height_m=0.15"])
+    text = str(err.value)
+    assert "wall_height_m" in text and "above 0.12 m" in text and "drop_spots" in text
+    load_scenario(scenario, ["scene.bins.bin_B.wall_height_m=0.12"])  # the bundled: accepted
