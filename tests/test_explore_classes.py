@@ -293,3 +293,13 @@ def test_a_bin_wall_taller_than_the_sorting_flows_clear_is_refused_saying_why(sc
     text = str(err.value)
     assert "wall_height_m" in text and "above 0.12 m" in text and "drop_spots" in text
     load_scenario(scenario, ["scene.bins.bin_B.wall_height_m=0.12"])  # the bundled: accepted
+
+
+def test_conveyor_parcels_heavier_than_the_sorting_cell_takes_are_refused_saying_why():
+    # 1.1-1.8 kg parcels (within the old 3 kg bound) let fall into a bin pushed the fingers
+    # open at 1.03x their rated speed (explore, fourth round); the arm and grasp are sorting's
+    with pytest.raises(ConfigError) as err:
+        load_scenario("sorting_conveyor", ["scene.conveyor.mass_kg=[0.05, 1.1]"])
+    text = str(err.value)
+    assert "scene.conveyor.mass_kg" in text and "qualified" in text and "1.03x" in text
+    load_scenario("sorting_conveyor", ["scene.conveyor.mass_kg=[0.05, 0.4]"])
