@@ -73,8 +73,10 @@ class Grasp(Skill):
         self.still_ticks = 0
         self.verdict = ""
         ctx.controller.hold_setpoint()
-        self.touch = _touch_from(ctx, self.params.object)
-        """Each finger's opening where the closing slows (None: no slow stretch)."""
+        touch = _touch_from(ctx, self.params.object)
+        self.touch, self.half = touch if touch is not None else (None, 0.0)
+        """Each finger's opening where the closing slows (None: no slow stretch), and where
+        the fingers hold the object [m]."""
         ctx.set_gripper(0.0 if self.touch is None else self.touch)
 
     def _close(self, ctx: Context) -> None:
@@ -87,9 +89,7 @@ class Grasp(Skill):
         target = ctx.gripper_target
         if 0.5 * ctx.gripper_width > target + _TOUCH_LAG_M:
             return  # still on the way there at the gripper's speed
-        name, left, right = held_object(ctx)
-        depth = self.touch - ctx.robot.grip_touch_from_m  # the object's half-width
-        if name is not None or target <= depth - _PAST_M:
+        if held_object(ctx)[0] is not None or target <= self.half - _PAST_M:
             self.touch = None
             ctx.set_gripper(0.0)
             return
@@ -149,19 +149,25 @@ _PAST_M = 0.002
 before the whole grip is commanded [m]."""
 
 
-def _touch_from(ctx: Context, name: str) -> float | None:
-    """Each finger's opening where the closing on `name` slows: its half-width across the
-    fingers plus the robot's `grip_touch_from_m` (None: the robot closes at one speed, the
-    object is `*`, or the fingers are already that close)."""
+def _touch_from(ctx: Context, name: str) -> tuple[float, float] | None:
+    """Each finger's opening where the closing on `name` slows, and its half-width across
+    the fingers (where they hold it) [m]. It slows at the farther of its faces
+    across the fingers from the TCP (its half-width plus its centre's offset along the
+    closing axis: the search's noise puts it off the TCP) plus the robot's
+    `grip_touch_from_m` (None: the robot closes at one speed, the object is `*`, or the
+    fingers are already that close). The object's pose and size as the grasp's own check
+    reads them (`_between_fingers`)."""
     robot = ctx.robot
     if robot.grip_touch_speed_mps is None or name == ANY_OBJECT:
         return None
     handle = ctx.world.objects[name]
     rot = ctx.data.xmat[handle.body_id].reshape(3, 3)  # object frame -> world
-    across = rot.T @ ctx.tcp_rot[:, 1]  # the closing axis in the object's frame
+    closing = ctx.tcp_rot[:, 1]
+    across = rot.T @ closing  # the closing axis in the object's frame
     half = float(np.abs(across) @ handle.half_size)
-    touch = half + robot.grip_touch_from_m
-    return touch if touch < 0.5 * ctx.gripper_width else None
+    offset = abs(float(closing @ (ctx.data.xpos[handle.body_id] - ctx.tcp_pos)))
+    touch = half + offset + robot.grip_touch_from_m
+    return (touch, half) if touch < 0.5 * ctx.gripper_width else None
 
 
 def _between_fingers(ctx: Context, name: str) -> bool:

@@ -252,20 +252,22 @@ def test_the_lightest_object_accepted_is_released_within_the_finger_speed():
 
 
 @pytest.mark.parametrize(
-    ("key", "value", "seed"),
+    ("sets", "seed", "limit_s"),
     [
-        ("scene.objects.cube.friction", "2.287887", 1841569580),
-        ("scene.table.friction", "10", 1035894474),
+        (["scene.objects.cube.friction=2.287887"], 1841569580, 3),
+        (["scene.table.friction=10"], 1035894474, 3),
+        (["perception.position_noise_m=0.01", "perception.yaw_noise_deg=4.333688"], 1092806211, 4),
     ],
 )
-def test_the_so101_jaw_pushes_a_cube_that_sticks_without_jolting_the_arm(key, value, seed):
+def test_the_so101_jaw_pushes_a_cube_that_sticks_without_jolting_the_arm(sets, seed, limit_s):
     # the jaw meets the cube first and pushes it to the fixed jaw: at full speed a cube that
-    # stuck on the table tipped, the wrist gave way and sprang back as the jaw struck it,
-    # joints 1-4 at 1.01-1.28x their acceleration limit in CLOSE (explore, class a); the jaw
-    # now slows over its last 4 mm. 3 s: through CLOSE (the run ends at its time limit)
-    loaded = load_scenario("pick_place_so101", [f"{key}={value}", "physics.time_limit_s=3"])
+    # stuck on the table (or sat 1 cm off the TCP, the search's noise) tipped, the wrist gave
+    # way and sprang back as the jaw struck it, joints 1-4 at 1.01-1.28x their acceleration
+    # limit in CLOSE (explore, class a); the jaw now slows over its last 4 mm before the
+    # cube's face. The run ends at its time limit, after CLOSE
+    loaded = load_scenario("pick_place_so101", [*sets, f"physics.time_limit_s={limit_s}"])
     result = run_episode(loaded, seed)
-    assert any(t["from"] == "PICK.GRASP.CLOSE" for t in result.transitions), result.reason
+    assert any(t["from"].endswith("GRASP.APPROACH") for t in result.transitions), result.reason
     assert result.invariants["ok"], result.invariants["violations"]
     assert 0.0 < result.invariants["worst"]["joint_acceleration"] <= 1.0
 
