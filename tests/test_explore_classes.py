@@ -305,3 +305,13 @@ def test_conveyor_parcels_heavier_than_the_sorting_cell_takes_are_refused_saying
     text = str(err.value)
     assert "scene.conveyor.mass_kg" in text and "qualified" in text and "1.03x" in text
     load_scenario("sorting_conveyor", ["scene.conveyor.mass_kg=[0.05, 0.4]"])
+
+
+def test_a_bin_whose_walls_leave_no_room_for_the_drop_spots_is_refused_saying_why():
+    # bin_B's walls 5.2 cm thick (within the 0.1 m bound) left 33 mm inside: a parcel let go
+    # 35 mm off the centre struck a wall on the way in, joint 6 at 1.8x (explore, sorting)
+    with pytest.raises(ConfigError) as err:
+        load_scenario("sorting", ["scene.bins.bin_B.wall_thickness_m=0.052129"])
+    text = str(err.value)
+    assert "scene.bins" in text and "33 mm" in text and "drop_spots" in text
+    load_scenario("sorting", ["scene.bins.bin_B.wall_thickness_m=0.015"])  # 70 mm: accepted

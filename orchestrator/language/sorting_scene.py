@@ -26,6 +26,11 @@ WALL_QUALIFIED_M = 0.12
 let go 0.2 m above a bin's floor after carrying the parcel in over its walls (explore on
 sorting, seed 1256578096, bin_B's walls 0.15, 0.18, 0.22 and 0.36 m: the parcel or the hand
 struck a wall on the way in, the arm jolted to 1.9-19x its datasheet acceleration)."""
+INNER_HALF_QUALIFIED_M = 0.07
+"""The least distance from a bin's floor centre to its walls the sorting flows were qualified
+with [m] (the bundled bins': 75 mm): they let go up to 35 mm off the centre and a parcel of
+the bundled 7 cm reaches 35 mm beyond that (explore on sorting, seed 988324937, bin_B's walls
+5.2 cm thick, 33 mm inside: the parcel struck a wall in TO_BIN, joint 6 at 1.8x)."""
 _Coord = Annotated[float, Field(ge=-10.0, le=10.0)]
 _XY = Annotated[list[_Coord], Field(min_length=2, max_length=2)]
 _Size2 = Annotated[
@@ -192,6 +197,17 @@ class Bin(_Strict):
             raise ValueError(
                 f"size_xy {self.size_xy} leaves no room inside walls "
                 f"{self.wall_thickness_m} m thick"
+            )
+        inner = min(self.inner_half())
+        if inner < INNER_HALF_QUALIFIED_M:
+            raise ValueError(
+                f"size_xy {self.size_xy} with walls {self.wall_thickness_m:g} m thick leaves "
+                f"{inner * 1000:.0f} mm from the floor's centre to a wall, under the "
+                f"{INNER_HALF_QUALIFIED_M * 1000:.0f} mm the sorting cell is qualified for: its "
+                "flows let go up to 35 mm off the centre (blackboard `drop_spots`) and a 7 cm "
+                "parcel reaches 35 mm beyond that (walls 5.2 cm thick: a parcel struck one on "
+                "the way in, joint 6 at 1.8x its datasheet acceleration); widen the bin or "
+                "thin its walls"
             )
         return self
 
