@@ -93,7 +93,11 @@ class Grasp(Skill):
             self.touch = None
             ctx.set_gripper(0.0)
             return
-        ctx.set_gripper(max(target - speed * ctx.dt_control, 0.0))
+        # never more than `_PUSH_LEAD_M` ahead of the fingers: one finger pushing the object
+        # over to the other (the search put it off the TCP) pushes with the drive's moving
+        # force, it is not taken for a grasp and squeezed along the table
+        lead = 0.5 * ctx.gripper_width - _PUSH_LEAD_M
+        ctx.set_gripper(max(target - speed * ctx.dt_control, lead, 0.0))
 
     def step(self, ctx: Context) -> str | None:
         p = self.params
@@ -144,6 +148,10 @@ class Grasp(Skill):
 
 _TOUCH_LAG_M = 0.0005
 """The fingers count as at the start of the slow stretch this close to it [m]."""
+_PUSH_LEAD_M = 0.0015
+"""Farthest the slow stretch's command runs ahead of the fingers [m]: within the 2 mm short
+of its target at which the hand's drive takes a held-back finger for one that grasps and
+squeezes with the whole grip force (robots/hand.py)."""
 _PAST_M = 0.002
 """How far past the object's expected half-width the slow stretch goes on without a touch
 before the whole grip is commanded [m]."""
@@ -154,9 +162,9 @@ def _touch_from(ctx: Context, name: str) -> tuple[float, float] | None:
     the fingers (where they hold it) [m]. It slows at the farther of its faces
     across the fingers from the TCP (its half-width plus its centre's offset along the
     closing axis: the search's noise puts it off the TCP) plus the robot's
-    `grip_touch_from_m` (None: the robot closes at one speed, the object is `*`, or the
-    fingers are already that close). The object's pose and size as the grasp's own check
-    reads them (`_between_fingers`)."""
+    `grip_touch_from_m`, or where the fingers are if that is farther (None: the robot
+    closes at one speed, the object is `*`, or the fingers are already at it). The object's
+    pose and size as the grasp's own check reads them (`_between_fingers`)."""
     robot = ctx.robot
     if robot.grip_touch_speed_mps is None or name == ANY_OBJECT:
         return None
@@ -167,7 +175,10 @@ def _touch_from(ctx: Context, name: str) -> tuple[float, float] | None:
     half = float(np.abs(across) @ handle.half_size)
     offset = abs(float(closing @ (ctx.data.xpos[handle.body_id] - ctx.tcp_pos)))
     touch = half + offset + robot.grip_touch_from_m
-    return (touch, half) if touch < 0.5 * ctx.gripper_width else None
+    opening = 0.5 * ctx.gripper_width
+    if half + _PAST_M >= opening:
+        return None  # the fingers are already at the object
+    return min(touch, opening), half
 
 
 def _between_fingers(ctx: Context, name: str) -> bool:
