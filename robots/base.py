@@ -160,6 +160,13 @@ class Robot(abc.ABC):
     0 where the two meet), half the jaw's radius [m/rad]: the angle times the radius is the gap
     at the jaw, and each side's opening is half the gap. `gripper_open_m`, `gripper_speed_mps`
     and every opening a skill commands are in metres either way."""
+    grip_touch_speed_mps: ClassVar[float | None] = None
+    """Closing speed of each finger over the last `grip_touch_from_m` before it meets the
+    object it closes on [m/s] (`grasp` slows there); None: the whole way at the gripper's
+    speed. For a jaw closing against a fixed one, which meets the object first and pushes
+    it to the other (robots/so101)."""
+    grip_touch_from_m: ClassVar[float] = 0.004
+    """Each finger's opening beyond the object's half-width where that slow stretch starts [m]."""
     gripper_armature: ClassVar[float | None] = None
     """Rotor inertia of a revolute jaw's servo seen at its joint [kg m^2] (the plant's
     `armature` there); None: 10 g at the jaw, as a slide finger's, a motor that answers

@@ -73,10 +73,36 @@ class Grasp(Skill):
         self.still_ticks = 0
         self.verdict = ""
         ctx.controller.hold_setpoint()
-        ctx.set_gripper(0.0)
+        touch = _touch_from(ctx, self.params.object)
+        self.touch, self.half = touch if touch is not None else (None, 0.0)
+        """Each finger's opening where the closing slows (None: no slow stretch), and where
+        the fingers hold the object [m]."""
+        ctx.set_gripper(0.0 if self.touch is None else self.touch)
+
+    def _close(self, ctx: Context) -> None:
+        """The slow stretch: the commanded opening goes down at the robot's touch speed from
+        `touch` until the fingers press on something (then, or past the object, the whole
+        grip: 0)."""
+        assert self.touch is not None
+        speed = ctx.robot.grip_touch_speed_mps
+        assert speed is not None
+        target = ctx.gripper_target
+        if 0.5 * ctx.gripper_width > target + _TOUCH_LAG_M:
+            return  # still on the way there at the gripper's speed
+        if held_object(ctx)[0] is not None or target <= self.half - _PAST_M:
+            self.touch = None
+            ctx.set_gripper(0.0)
+            return
+        # never more than `_PUSH_LEAD_M` ahead of the fingers: one finger pushing the object
+        # over to the other (the search put it off the TCP) pushes with the drive's moving
+        # force, it is not taken for a grasp and squeezed along the table
+        lead = 0.5 * ctx.gripper_width - _PUSH_LEAD_M
+        ctx.set_gripper(max(target - speed * ctx.dt_control, lead, 0.0))
 
     def step(self, ctx: Context) -> str | None:
         p = self.params
+        if self.touch is not None:
+            self._close(ctx)
         elapsed = ctx.clock - self.t0
         finger_dof = ctx.world.robot_dof[ctx.robot.n_arm :]
         finger_speed = float(np.max(np.abs(ctx.data.qvel[finger_dof]))) * (
@@ -118,6 +144,41 @@ class Grasp(Skill):
 
     def explain(self, ctx: Context) -> str | None:
         return self.verdict or None
+
+
+_TOUCH_LAG_M = 0.0005
+"""The fingers count as at the start of the slow stretch this close to it [m]."""
+_PUSH_LEAD_M = 0.0015
+"""Farthest the slow stretch's command runs ahead of the fingers [m]: within the 2 mm short
+of its target at which the hand's drive takes a held-back finger for one that grasps and
+squeezes with the whole grip force (robots/hand.py)."""
+_PAST_M = 0.002
+"""How far past the object's expected half-width the slow stretch goes on without a touch
+before the whole grip is commanded [m]."""
+
+
+def _touch_from(ctx: Context, name: str) -> tuple[float, float] | None:
+    """Each finger's opening where the closing on `name` slows, and its half-width across
+    the fingers (where they hold it) [m]. It slows at the farther of its faces
+    across the fingers from the TCP (its half-width plus its centre's offset along the
+    closing axis: the search's noise puts it off the TCP) plus the robot's
+    `grip_touch_from_m`, or where the fingers are if that is farther (None: the robot
+    closes at one speed, the object is `*`, or the fingers are already at it). The object's
+    pose and size as the grasp's own check reads them (`_between_fingers`)."""
+    robot = ctx.robot
+    if robot.grip_touch_speed_mps is None or name == ANY_OBJECT:
+        return None
+    handle = ctx.world.objects[name]
+    rot = ctx.data.xmat[handle.body_id].reshape(3, 3)  # object frame -> world
+    closing = ctx.tcp_rot[:, 1]
+    across = rot.T @ closing  # the closing axis in the object's frame
+    half = float(np.abs(across) @ handle.half_size)
+    offset = abs(float(closing @ (ctx.data.xpos[handle.body_id] - ctx.tcp_pos)))
+    touch = half + offset + robot.grip_touch_from_m
+    opening = 0.5 * ctx.gripper_width
+    if half + _PAST_M >= opening:
+        return None  # the fingers are already at the object
+    return min(touch, opening), half
 
 
 def _between_fingers(ctx: Context, name: str) -> bool:

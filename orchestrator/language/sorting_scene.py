@@ -21,6 +21,16 @@ swung the wrist past its datasheet acceleration as they were lifted (joint 6 at 
 3 kg took joint 2 to 90 % of its torque; parcels 7.5 cm tall jolted joint 1 to 1.2x on the
 way to the bin, 9 cm ones were held 27 mm off the TCP, judged dropped while still in the
 hand, and the arm was jolted to 3x letting them go."""
+WALL_QUALIFIED_M = 0.12
+"""The tallest bin wall the sorting flows were qualified with [m] (the bundled bins'): they
+let go 0.2 m above a bin's floor after carrying the parcel in over its walls (explore on
+sorting, seed 1256578096, bin_B's walls 0.15, 0.18, 0.22 and 0.36 m: the parcel or the hand
+struck a wall on the way in, the arm jolted to 1.9-19x its datasheet acceleration)."""
+INNER_HALF_QUALIFIED_M = 0.07
+"""The least distance from a bin's floor centre to its walls the sorting flows were qualified
+with [m] (the bundled bins': 75 mm): they let go up to 35 mm off the centre and a parcel of
+the bundled 7 cm reaches 35 mm beyond that (explore on sorting, seed 988324937, bin_B's walls
+5.2 cm thick, 33 mm inside: the parcel struck a wall in TO_BIN, joint 6 at 1.8x)."""
 _Coord = Annotated[float, Field(ge=-10.0, le=10.0)]
 _XY = Annotated[list[_Coord], Field(min_length=2, max_length=2)]
 _Size2 = Annotated[
@@ -157,9 +167,29 @@ class Bin(_Strict):
     class_: str = Field(alias="class", description="The parcel class it is meant for.")
     xy: _XY = Field(description="Centre on the table [m].")
     size_xy: _Size2 = Field(default_factory=lambda: [0.17, 0.17], description="Outer size [m].")
-    wall_height_m: float = Field(default=0.07, ge=0.005, le=1.0, description="[m]")
+    wall_height_m: float = Field(
+        default=0.07,
+        ge=0.005,
+        le=WALL_QUALIFIED_M,
+        description="[m]; at most 12 cm (`WALL_QUALIFIED_M`): the sorting flows let go 0.2 m "
+        "above the floor.",
+    )
     wall_thickness_m: float = Field(default=0.01, ge=0.002, le=0.1, description="[m]")
     rgba: _RGBA = Field(default_factory=lambda: [0.45, 0.45, 0.48, 1.0])
+
+    @field_validator("wall_height_m", mode="before")
+    @classmethod
+    def _wall_qualified(cls, value: object) -> object:
+        """Taller than `WALL_QUALIFIED_M`: refused, saying why (before the bound's bare text)."""
+        if isinstance(value, (int, float)) and value > WALL_QUALIFIED_M:
+            raise ValueError(
+                f"{value:g} m is above {WALL_QUALIFIED_M:g} m, the tallest bin wall the sorting "
+                "cell is qualified for: its flows carry a parcel in over the wall and let go "
+                "0.2 m above the bin's floor (blackboard `drop_spots`), so a taller wall is in "
+                "the way of the parcel and the hand (15 cm: a parcel struck the wall, joint 5 at "
+                "2.5x its datasheet acceleration; 22 cm: the hand struck it)"
+            )
+        return value
 
     @model_validator(mode="after")
     def _walls(self) -> Bin:
@@ -167,6 +197,17 @@ class Bin(_Strict):
             raise ValueError(
                 f"size_xy {self.size_xy} leaves no room inside walls "
                 f"{self.wall_thickness_m} m thick"
+            )
+        inner = min(self.inner_half())
+        if inner < INNER_HALF_QUALIFIED_M:
+            raise ValueError(
+                f"size_xy {self.size_xy} with walls {self.wall_thickness_m:g} m thick leaves "
+                f"{inner * 1000:.0f} mm from the floor's centre to a wall, under the "
+                f"{INNER_HALF_QUALIFIED_M * 1000:.0f} mm the sorting cell is qualified for: its "
+                "flows let go up to 35 mm off the centre (blackboard `drop_spots`) and a 7 cm "
+                "parcel reaches 35 mm beyond that (walls 5.2 cm thick: a parcel struck one on "
+                "the way in, joint 6 at 1.8x its datasheet acceleration); widen the bin or "
+                "thin its walls"
             )
         return self
 

@@ -179,6 +179,13 @@ class SO101(Robot):
     """[m/s] per side (0.1 m/s at the tips, the jaw at 1.5 rad/s: a third of the servo's
     no-load speed, its speed register set there)."""
     finger_m_per_unit: ClassVar[float] = JAW_RADIUS_M / 2.0
+    grip_touch_speed_mps: ClassVar[float | None] = 0.01
+    """[m/s] per side over the jaw's last 4 mm before the cube: the jaw meets the cube first
+    and pushes it over to the fixed jaw (`TCP_FROM_FIXED_JAW_M`). At the full 0.05 m/s, on a
+    cube or table of friction 2.3-10 (within the validated 10), the cube stuck and tipped
+    against the jaw, the wrist gave way and, as the cube slipped and the jaw struck it against
+    the fixed one, the arm sprang back: joints 1-4 at 1.01-1.28x their acceleration limit in
+    CLOSE (explore, pick_place_so101, `scene.objects.cube.friction=2.287887` seed 1841569580)."""
     gains: Gains = Gains(
         kp=np.array([150.0, 150.0, 150.0, 60.0, 30.0]),
         kd=np.array([2.4, 2.4, 2.4, 1.0, 0.5]),
