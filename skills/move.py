@@ -155,6 +155,14 @@ class MoveParams(SkillParams):
         "stretch's top, its hand's deceleration 2.6-2.8 N at the wrist), and speeding up again "
         "below it reads ~3 N; with the lead a watch over the stretch feels only a touch.",
     )
+    guarded_lead_below_m: float | None = Field(
+        default=None,
+        ge=0.0,
+        le=0.1,
+        description="The slow speed's lead below the guarded stretch [m] (None: "
+        "`guarded_lead_m`): speeding up again starts once the arm, trailing its reference by "
+        "~1 mm at the slow speed, is past the stretch, so a watch over it does not feel it.",
+    )
     guarded_speed_mps: PositiveFloat = Field(
         default=0.05,
         le=0.5,
@@ -340,7 +348,8 @@ class Move(Skill):
             if guarded:
                 z = float(self.pos1[2])
                 lead = p.guarded_lead_m
-                low, high = z + p.guarded_to_m - lead, z + p.guarded_from_m + lead
+                below = lead if p.guarded_lead_below_m is None else p.guarded_lead_below_m
+                low, high = z + p.guarded_to_m - below, z + p.guarded_from_m + lead
                 path.slow_between(low, high, p.guarded_speed_mps)
             return path
         return CartesianLine(
