@@ -187,8 +187,9 @@ def slow_where_exceeded(
             v[i] = ik.reference_step(pos, rot, dt)
         ik.reset(q0)
         acc = np.diff(v, axis=0, prepend=np.zeros((1, ik.n))) / dt
-        k_v = np.max(np.abs(v) / v_lim, axis=1)
-        k_a = np.max(np.abs(acc) / a_lim, axis=1)
+        # the excess over what `feasible_time_scale` tolerates (the limiter absorbs it)
+        k_v = np.max(np.abs(v) / v_lim, axis=1) / _FEASIBLE
+        k_a = np.max(np.abs(acc) / a_lim, axis=1) / _FEASIBLE**2
         if max(float(np.max(k_v)), float(np.max(k_a))) <= 1.0:
             break
         sdot = np.diff(s) / dt
