@@ -111,6 +111,34 @@ class BlendedPath:
         self._a_lim = np.minimum(self._a_lim, np.interp(self._s, s, a_cap))
         self._retime()
 
+    @property
+    def arc_lengths(self) -> np.ndarray:
+        """The arc lengths of the grid the timing law is computed on [m] (a copy)."""
+        return self._s.copy()
+
+    @property
+    def accel_limits(self) -> np.ndarray:
+        """The acceleration limit along the path at each grid point [m/s^2] (a copy)."""
+        return self._a_lim.copy()
+
+    @property
+    def limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """The speed [m/s] and acceleration [m/s^2] limits at each grid point (copies):
+        `set_limits` retimes the path with them again."""
+        return self._v_lim.copy(), self._a_lim.copy()
+
+    def set_limits(self, limits: tuple[np.ndarray, np.ndarray]) -> None:
+        """Retime with the speed and acceleration limits `limits` gave."""
+        self._v_lim, self._a_lim = limits[0].copy(), limits[1].copy()
+        self._retime()
+
+    def cap(self, v_cap: np.ndarray, a_cap: np.ndarray) -> None:
+        """Retime with the speed [m/s] and acceleration [m/s^2] at each grid point
+        (`arc_lengths`) no higher than `v_cap` and `a_cap` (inf: unchanged)."""
+        self._v_lim = np.minimum(self._v_lim, v_cap)
+        self._a_lim = np.minimum(self._a_lim, a_cap)
+        self._retime()
+
     def slow_between(self, z_low: float, z_high: float, v_max: float) -> float:
         """Retime with the speed capped at `v_max` [m/s] over the part of the path's last
         descent whose height lies in [`z_low`, `z_high`] [m] (a guarded approach's

@@ -116,6 +116,33 @@ class GraspPoseParams(SkillParams):
         description="The scene object to grasp, by name (`*` or none: not known): its "
         "declared size must fit the open hand and stand below the palm at the grasp.",
     )
+    guarded_into: list[str] | None = Field(
+        default=None,
+        min_length=2,
+        max_length=2,
+        description="Blackboard keys `[top, bottom]` of the approach's guarded stretch "
+        "(`move`'s `guarded_from_m`, `guarded_to_m`: above the grasp pose [m]), written with "
+        "the stretch the geometry needs: where a fingertip comes down on the object's top "
+        "(its declared height above the seen centre, the fingers' depth below the TCP), "
+        "`guarded_above_m` above it to `guarded_below_m` below it. The search's noise (1 cm, "
+        "5 deg at its bound) moves the object in x, y and yaw, never its top's height: it "
+        "decides whether a finger lands on the top, not where. Left as they are when the "
+        "top key is 0 (no guarded stretch) or not above the bottom key (`move` refuses "
+        "that), the object's size is not declared, or the fingers are not all boxes.",
+    )
+    guarded_above_m: NonNegativeFloat = Field(
+        default=0.002,
+        le=0.05,
+        description="How far above a fingertip's contact height the guarded stretch starts "
+        "[m]: the hand's tilt within the approach's tolerance over a finger's footprint, and "
+        "the rounding of a declared size.",
+    )
+    guarded_below_m: PositiveFloat = Field(
+        default=0.004,
+        le=0.05,
+        description="How far below the contact height it ends [m]: the press that builds "
+        "the touch force (2 N within 1-3 mm at 0.05 m/s on the Panda's finger).",
+    )
 
 
 class GraspPose(Skill):
@@ -192,6 +219,7 @@ class GraspPose(Skill):
                     misses.append(miss[0])
                     continue
                 ctx.blackboard[p.into] = Pose(pos=goal.pos, quat=_yaw_quat(yaw))
+                self._guarded_stretch(ctx, known, centre[2] - tcp[2], fingers.depth_m)
                 ctx.log(
                     "skill",
                     f"grasp_pose: heading {math.degrees(yaw):.1f} deg (turned {turn:g} deg), "
@@ -210,6 +238,28 @@ class GraspPose(Skill):
             outcome = "blocked"
         ctx.log("skill", f"grasp_pose: {self.why}", level="WARN")
         return outcome
+
+    def _guarded_stretch(self, ctx: Context, known: Any, centre_m: float, depth_m: float) -> None:
+        """Write the guarded stretch the geometry needs to `guarded_into` (see there):
+        `centre_m` is the object's seen centre above the grasp pose [m], `depth_m` how far
+        the fingertips reach below the TCP [m]."""
+        p = self.params
+        if p.guarded_into is None or known is None or not _box_fingers(ctx):
+            return
+        top_key, bottom_key = p.guarded_into
+        asked = float(ctx.blackboard.get(top_key) or 0.0)
+        if not asked > float(ctx.blackboard.get(bottom_key) or 0.0) or not asked > 0.0:
+            return  # none asked for (0), or one upside down: `move` refuses it, naming both
+        contact = centre_m + float(known.half_size[2]) + depth_m
+        top, bottom = contact + p.guarded_above_m, max(contact - p.guarded_below_m, 0.0)
+        if top <= bottom:
+            return  # the fingertips reach the top at the grasp pose or below it: none
+        ctx.blackboard[top_key], ctx.blackboard[bottom_key] = round(top, 4), round(bottom, 4)
+        ctx.log(
+            "skill",
+            f"grasp_pose: a fingertip meets the object's top {contact * 1000:.1f} mm above "
+            f"the grasp: guarded from {top * 1000:.1f} to {bottom * 1000:.1f} mm",
+        )
 
     def stop(self, ctx: Context) -> None:
         """Nothing to leave behind: choosing a grasp moves nothing."""
@@ -275,6 +325,16 @@ def finger_boxes(ctx: Context, opening_m: float) -> FingerBoxes:
     if not math.isfinite(inner):  # no box fingers: a point gripper at the opening
         inner = outer = 0.0
     return FingerBoxes(half_x, opening_m + max(inner, 0.0), opening_m + outer, depth)
+
+
+def _box_fingers(ctx: Context) -> bool:
+    """Every finger geom that collides is a box (`finger_boxes` measures those only: a
+    mesh jaw, the SO-101's, reaches lower than its boxes)."""
+    import mujoco
+
+    m = ctx.model
+    colliding = [g for g in ctx.world.finger_geoms if m.geom_contype[g] or m.geom_conaffinity[g]]
+    return bool(colliding) and all(m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX for g in colliding)
 
 
 def _across(size_m: list[float] | None, turn_deg: float) -> float | None:

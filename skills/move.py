@@ -14,10 +14,11 @@ from orchestrator.world.pose import Pose
 from .base import SCENE_TARGET, Skill, SkillParams
 from .blended_path import BlendedPath
 from .dry_run import DryRun, dry_run
+from .move_state import PATHS, dry_from, path_from, path_state
 from .plain_state import plain_state, restore_plain
 from .targets import resolve_target, rot_down, yaw_of_rot
-from .time_scaling import feasible_time_scale, fit_path_to_joints
-from .trajectory import CartesianLine, Profile
+from .time_scaling import feasible_time_scale, fit_path_to_joints, slow_where_exceeded
+from .trajectory import CartesianLine
 
 if TYPE_CHECKING:
     import mink
@@ -154,12 +155,26 @@ class MoveParams(SkillParams):
         "stretch's top, its hand's deceleration 2.6-2.8 N at the wrist), and speeding up again "
         "below it reads ~3 N; with the lead a watch over the stretch feels only a touch.",
     )
+    guarded_lead_below_m: float | None = Field(
+        default=None,
+        ge=0.0,
+        le=0.1,
+        description="The slow speed's lead below the guarded stretch [m] (None: "
+        "`guarded_lead_m`): speeding up again starts once the arm, trailing its reference by "
+        "~1 mm at the slow speed, is past the stretch, so a watch over it does not feel it.",
+    )
     guarded_speed_mps: PositiveFloat = Field(
         default=0.05,
         le=0.5,
         description="Top speed over the guarded stretch [m/s]: a Panda fingertip landing on a "
         "cube at 0.05 m/s peaks joint 2 at 0.8-0.9 of its datasheet acceleration (0.07: up to "
         "1.06, 0.1: 1.2).",
+    )
+    time_optimal: bool = Field(
+        default=False,
+        description="Time the motion as a path (a straight one without `via`) slowed only "
+        "where a joint needs it, from the IK's dry run along it, instead of slowing the whole "
+        "motion by its worst point; nothing the joints may not do either way.",
     )
     gripper_m: float | None = Field(
         default=None,
@@ -214,7 +229,7 @@ class Move(Skill):
         state: dict[str, Any] = plain_state(self)
         line = getattr(self, "line", None)
         if line is not None:
-            state["$line"] = {"kind": type(line).__name__, "data": _path_state(line)}
+            state["$line"] = {"kind": type(line).__name__, "data": path_state(line)}
         state["$dry"] = None if getattr(self, "dry", None) is None else asdict(self.dry)
         state["$tried"] = [asdict(d) for d in getattr(self, "tried", [])]
         return state
@@ -226,12 +241,12 @@ class Move(Skill):
         line, dry, tried = data.pop("$line", None), data.pop("$dry", None), data.pop("$tried", [])
         restore_plain(self, data)
         if line is not None:
-            cls = _PATHS.get(line["kind"])
+            cls = PATHS.get(line["kind"])
             if cls is None:
                 raise ValueError(f"move: no kind of path {str(line['kind'])[:40]!r}")
-            self.line = _path_from(cls, line["data"])
-        self.dry = None if dry is None else _dry_from(dry)
-        self.tried = [_dry_from(d) for d in tried]
+            self.line = path_from(cls, line["data"])
+        self.dry = None if dry is None else dry_from(dry)
+        self.tried = [dry_from(d) for d in tried]
 
     def start(self, ctx: Context) -> None:
         p = self.params
@@ -270,7 +285,10 @@ class Move(Skill):
             line = self._line(ctx, vias, rot0, rot1)
             if isinstance(line, BlendedPath):
                 fit_path_to_joints(ctx.ik, line, ctx.q)
-            stretch = feasible_time_scale(ctx.ik, line, ctx.q)
+            if isinstance(line, BlendedPath) and p.time_optimal:
+                stretch = slow_where_exceeded(ctx.ik, line, ctx.q)
+            else:
+                stretch = feasible_time_scale(ctx.ik, line, ctx.q)
             command = (ctx.controller.q_d, ctx.controller.qd_d)
             tol_rad = math.radians(p.tolerance_deg)
             limit = ctx.world.arm_effort_limit
@@ -316,7 +334,7 @@ class Move(Skill):
         """The motion from the TCP to `pos1` with orientation `rot1` (through `vias`)."""
         p = self.params
         guarded = p.guarded_from_m > p.guarded_to_m
-        if vias or guarded:
+        if vias or guarded or p.time_optimal:
             path = BlendedPath(
                 np.array([ctx.tcp_pos, *vias, self.pos1]),
                 rot0,
@@ -330,7 +348,8 @@ class Move(Skill):
             if guarded:
                 z = float(self.pos1[2])
                 lead = p.guarded_lead_m
-                low, high = z + p.guarded_to_m - lead, z + p.guarded_from_m + lead
+                below = lead if p.guarded_lead_below_m is None else p.guarded_lead_below_m
+                low, high = z + p.guarded_to_m - below, z + p.guarded_from_m + lead
                 path.slow_between(low, high, p.guarded_speed_mps)
             return path
         return CartesianLine(
@@ -557,37 +576,3 @@ def _rot_to_quat(rot: np.ndarray) -> np.ndarray:
     out = np.zeros(4)
     mujoco.mju_mat2Quat(out, rot.reshape(9))
     return out
-
-
-_PATHS: dict[str, type] = {"CartesianLine": CartesianLine, "BlendedPath": BlendedPath}
-"""The paths a move follows, by their name in its snapshot state."""
-
-
-def _path_state(path: Any) -> dict[str, Any]:
-    """A path's data: its plain attributes, its start orientation (a quaternion) and the
-    arguments of its timing profile (made again from them)."""
-    state: dict[str, Any] = plain_state(path)
-    state["$rot0"] = path.rot0.wxyz.copy()
-    profile = getattr(path, "profile", None)
-    if profile is not None:
-        state["$profile"] = [None if a is None else float(a) for a in profile._args]
-    return state
-
-
-def _path_from(cls: type, state: dict[str, Any]) -> Any:
-    import mink
-
-    state = dict(state)
-    path = cls.__new__(cls)
-    rot0, profile = state.pop("$rot0"), state.pop("$profile", None)
-    restore_plain(path, state)
-    path.rot0 = mink.SO3(wxyz=np.array(rot0, dtype=float))
-    if profile is not None:
-        path.profile = Profile(*profile)
-    return path
-
-
-def _dry_from(fields: dict[str, Any]) -> DryRun:
-    fields = dict(fields)
-    fields["torque_ratio"] = tuple(fields["torque_ratio"])
-    return DryRun(**fields)

@@ -191,8 +191,8 @@ def test_a_place_is_checked_with_the_offsets_the_machine_adds(session):
     reply = _run(session, "pick_place", "place_at=[0.5, 0.2, 1.15]")
     assert not reply.accepted
     assert reply.reason.startswith(
-        "goal rejected: place_at = [0.5, 0.2, 1.15]: TRANSPORT.via[0]: $place_at + $hover = "
-        "[0.5, 0.2, 1.25]: outside the workspace"
+        "goal rejected: place_at = [0.5, 0.2, 1.15]: TRANSPORT.via[0]: $place_at + $place_hover "
+        "= [0.5, 0.2, 1.22]: outside the workspace"
     ), reply.reason
 
 

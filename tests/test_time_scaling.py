@@ -59,3 +59,56 @@ def test_early_stopping_gives_the_same_factor_with_fewer_ik_steps(robot_name, mo
     assert factors["early"] == factors["whole"]
     assert factors["early"][0] == 1.0 and max(factors["early"]) > 1.2  # both kinds tested
     assert counts["early"] < counts["whole"], (factors, counts)
+
+
+def test_a_path_slowed_where_it_exceeds_is_within_the_limits_and_faster_than_slowed_whole():
+    # a pick-like motion from home: through a hover point, down to a grasp 10 cm below it
+    from orchestrator.skills.blended_path import BlendedPath
+    from orchestrator.skills.time_scaling import fit_path_to_joints, slow_where_exceeded
+
+    robot = get_robot("panda")
+    ik = IKSolver(robot, robot_only_model(robot), 0.01, np.zeros(3))
+    q0 = np.array(robot.home)
+    ik.reset(q0)
+    p0, rot = ik.tcp_pose()
+    grasp = np.array([0.45, -0.05, 0.225])
+    durations = {}
+    for mode in ("whole", "where", "where, turning"):
+        turn = 0.6 if mode == "where, turning" else 0.0  # the wrist's turn limits it there
+        path = BlendedPath(
+            np.array([p0, grasp + [0.0, 0.0, 0.1], grasp]),
+            rot,
+            rot_down(turn),
+            1.0,
+            6.0,
+            2.0,
+            8.0,
+            0.04,
+        )
+        fit_path_to_joints(ik, path, q0)
+        if mode.startswith("where"):
+            stretch = slow_where_exceeded(ik, path, q0)
+            # never slower than the path slowed as a whole
+            whole = path.duration * stretch
+            fitted = BlendedPath(
+                np.array([p0, grasp + [0.0, 0.0, 0.1], grasp]),
+                rot,
+                rot_down(turn),
+                1.0,
+                6.0,
+                2.0,
+                8.0,
+                0.04,
+            )
+            fit_path_to_joints(ik, fitted, q0)
+            assert whole <= fitted.duration * feasible_time_scale(ik, fitted, q0) + 1e-9
+            np.testing.assert_array_equal(ik.q, q0)  # the dry runs leave the IK where it was
+        else:
+            stretch = feasible_time_scale(ik, path, q0)
+        durations[mode] = path.duration * stretch
+        # the reference at that timing, every joint within the limiter's limits (with the
+        # excess the limiter absorbs)
+        excess = time_scaling._excess(ik, path, q0, durations[mode] / path.duration)
+        assert excess <= time_scaling._FEASIBLE, mode
+    # straight down to the hover's height, the path slowed where it exceeds is 10 % faster
+    assert durations["where"] < 0.9 * durations["whole"], durations
