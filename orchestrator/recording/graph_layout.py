@@ -15,6 +15,7 @@ pixel at zoom 1 (the view fits the whole graph in its panel, and never zooms in 
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -446,6 +447,37 @@ def _extent(
     )
 
 
+def _feedback_edges(part: graph_core, roots: list[Vertex]) -> list[Edge]:
+    """The edges that close a loop, found as grandalf's `get_scs_with_feedback` finds them (a
+    depth-first walk from `roots`, then from each vertex not yet reached, each vertex's edges
+    in their order; an edge to a vertex on the walk's path closes a loop), on an explicit
+    stack: grandalf's walk recurses once per vertex, and a 1,500-state chain overflowed it."""
+    seen: set[int] = set()
+    on_path: set[int] = set()
+    out: list[Edge] = []
+    for start in [*roots, *part.sV]:
+        if id(start) in seen:
+            continue
+        seen.add(id(start))
+        on_path.add(id(start))
+        stack = [(start, iter(start.e_out()))]
+        while stack:
+            v, ahead = stack[-1]
+            for e in ahead:
+                w = e.v[1]
+                if id(w) not in seen:
+                    seen.add(id(w))
+                    on_path.add(id(w))
+                    stack.append((w, iter(w.e_out())))
+                    break
+                if id(w) in on_path:
+                    out.append(e)
+            else:
+                on_path.discard(id(v))
+                stack.pop()
+    return out
+
+
 def _part_layout(
     part: graph_core,
     level: Level,
@@ -468,7 +500,7 @@ def _part_layout(
     roots = [v for v in part.sV if v.data == level.initial]
     if not roots:
         roots = [v for v in part.sV if not v.e_in()] or [part.sV[0]]
-    layout.init_all(roots=roots)
+    layout.init_all(roots=roots, inverted_edges=_feedback_edges(part, roots))
     layout.draw(3)
     vs = list(part.sV)
     ys = {v.data: v.view.xy[1] for v in vs}
@@ -553,14 +585,22 @@ def _crossings(
     groups: set[str],
 ) -> int:
     """How many (segment, label) pairs overlap: a straight line through a label it does not
-    join (each segment names the nodes it joins)."""
+    join (each segment names the nodes it joins). Only the labels within a segment's height
+    are looked at (the labels sorted by their tops): a long chain is not a square's work."""
+    rects = sorted(
+        (cy - h / 2, cy + h / 2, cx - w / 2, cx + w / 2, node)
+        for node, (cx, cy) in pos.items()
+        if node not in groups
+        for w, h in [box[node]]
+    )
+    tops = [r[0] for r in rects]
+    tallest = max((r[1] - r[0] for r in rects), default=0.0)
     n = 0
     for (ax, ay), (bx, by), ends in segments:
-        for node, (cx, cy) in pos.items():
-            if node in ends or node in groups:
-                continue
-            w, h = box[node]
-            if _segment_hits(ax, ay, bx, by, cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2):
+        lo = bisect.bisect_left(tops, min(ay, by) - tallest)
+        hi = bisect.bisect_right(tops, max(ay, by))
+        for y0, y1, x0, x1, node in rects[lo:hi]:
+            if node not in ends and _segment_hits(ax, ay, bx, by, x0, y0, x1, y1):
                 n += 1
     return n
 
