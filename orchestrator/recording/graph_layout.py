@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 from grandalf.graphs import Edge, Vertex, graph_core
 from grandalf.layouts import SugiyamaLayout
 
+from .graph_loops import feedback_edges
+
 __all__ = ["CAPTION_H", "FONT_PX", "GraphLayout", "Level", "label_size", "layered_layout"]
 
 FONT_PX = 12.0
@@ -447,37 +449,6 @@ def _extent(
     )
 
 
-def _feedback_edges(part: graph_core, roots: list[Vertex]) -> list[Edge]:
-    """The edges that close a loop, found as grandalf's `get_scs_with_feedback` finds them (a
-    depth-first walk from `roots`, then from each vertex not yet reached, each vertex's edges
-    in their order; an edge to a vertex on the walk's path closes a loop), on an explicit
-    stack: grandalf's walk recurses once per vertex, and a 1,500-state chain overflowed it."""
-    seen: set[int] = set()
-    on_path: set[int] = set()
-    out: list[Edge] = []
-    for start in [*roots, *part.sV]:
-        if id(start) in seen:
-            continue
-        seen.add(id(start))
-        on_path.add(id(start))
-        stack = [(start, iter(start.e_out()))]
-        while stack:
-            v, ahead = stack[-1]
-            for e in ahead:
-                w = e.v[1]
-                if id(w) not in seen:
-                    seen.add(id(w))
-                    on_path.add(id(w))
-                    stack.append((w, iter(w.e_out())))
-                    break
-                if id(w) in on_path:
-                    out.append(e)
-            else:
-                on_path.discard(id(v))
-                stack.pop()
-    return out
-
-
 def _part_layout(
     part: graph_core,
     level: Level,
@@ -500,7 +471,7 @@ def _part_layout(
     roots = [v for v in part.sV if v.data == level.initial]
     if not roots:
         roots = [v for v in part.sV if not v.e_in()] or [part.sV[0]]
-    layout.init_all(roots=roots, inverted_edges=_feedback_edges(part, roots))
+    layout.init_all(roots=roots, inverted_edges=feedback_edges(part, roots))
     layout.draw(3)
     vs = list(part.sV)
     ys = {v.data: v.view.xy[1] for v in vs}
