@@ -1,7 +1,7 @@
 """A user's machine as long as validation allows a chain to be is drawn like any other: the
-graph's layout walks it without recursing once per state (a 1,500-state chain raised
-RecursionError in the dot layout's main-path search). The built-in layout used without
-Graphviz (grandalf's) still recurses per state: not covered here."""
+graph's layouts walk it without recursing once per state (a 1,500-state chain raised
+RecursionError in the dot layout's main-path search, and in grandalf's search for the edges
+closing a loop in the built-in layout used without Graphviz)."""
 
 from __future__ import annotations
 
@@ -34,3 +34,12 @@ def test_a_chain_of_1500_states_is_laid_out_by_dot(tmp_path):
     graph = build_graph(load_machine(str(_chain(tmp_path))), use_dot=True)
     (view,) = graph.views.values()
     assert {f"S{i}" for i in range(STATES)} | {"DONE"} <= set(view.layout.positions)
+
+
+def test_a_chain_of_1500_states_is_laid_out_without_dot(tmp_path):
+    graph = build_graph(load_machine(str(_chain(tmp_path))), use_dot=False)
+    (view,) = graph.views.values()
+    pos = view.layout.positions
+    assert {f"S{i}" for i in range(STATES)} | {"DONE"} <= set(pos)
+    # top to bottom in flow order
+    assert all(pos[f"S{i + 1}"][1] > pos[f"S{i}"][1] for i in range(STATES - 1))

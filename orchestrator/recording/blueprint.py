@@ -26,7 +26,6 @@ from .paths import (
 from .signals import GRIPPER_WIDTH, JOINT_TORQUE, TCP_ERROR, WRIST_FORCE, WRIST_FORCE_XYZ
 
 __all__ = [
-    "DOT_LEAST_ZOOM",
     "LEGIBLE_ZOOM",
     "WINDOWS",
     "default_blueprint",
@@ -51,13 +50,8 @@ _CHROME_PX = 100.0
 panel and the view's title bar [px] (measured in Rerun 0.41's web viewer: an 800 px panel in
 a 900 px window)."""
 LEGIBLE_ZOOM = 0.75
-"""The least zoom at which the graph's 12 px labels are legible (9 px text)."""
-DOT_LEAST_ZOOM = 0.62
-"""The least zoom a bundled machine's graph laid out by Graphviz's `dot` is shown at in the
-smaller window (its 12 px labels at 7.4 px or more: zoom in with the mouse wheel). Its edge
-labels take room of their own, so its layouts are larger than graph_layout.py's: at 1280x720
-pick_place is shown at 0.76, sorting and surgical above 0.8, mobile_search, stack and
-pick_place_vision at ~0.7, sorting_conveyor at 0.63 (its STARVED expansion 1029 px wide)."""
+"""The least zoom at which the graph's 12 px labels are legible (9 px text): every bundled
+machine's graph is shown at it or more in both `WINDOWS`, laid out by `dot` or without it."""
 _MARGIN_PX = (16.0, 30.0)
 """Room kept around the graph: sides and bottom, top [px]. Rerun outlines the graph 10 px
 outside its nodes and writes the entity path above the outline; its own fit leaves that out."""

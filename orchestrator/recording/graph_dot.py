@@ -10,13 +10,19 @@ states; each parallel branch is a cluster inside it. `dot -Tjson` gives the posi
 points with y up: one point is one pixel of Rerun's graph view at zoom 1, y flipped.
 
 The title of an open nested machine shares its rank with the machine's initial state (a rank
-less per open machine: ~55 px of height). Each expansion is laid out four ways and the one
-shown at the largest zoom in the 1280x720 graph panel (blueprint.py `panel_zoom`) is kept:
+less per open machine: ~55 px of height). Each expansion is laid out twelve ways (one `dot`
+run) and the one shown at the largest zoom in the 1280x720 graph panel (blueprint.py
+`panel_zoom`) is kept:
 * edge labels as `dot`'s labels (each edge then spans two ranks, a label's or an empty one),
   or as nodes on their edges in the innermost frame holding both ends (an edge without a
   label spans one rank: shorter, and the labels sit elsewhere);
 * as is, or with the top level's main path (`_spine`) in one column (`group`): narrower
-  where labels would push each next state aside, wider elsewhere.
+  where labels would push each next state aside, wider elsewhere;
+* a nested machine's exits (`_EXITS`) at least a rank long, or free to stay on the rank of
+  the final state they leave (the flow after the machine starts beside its last states, not
+  below them), or not ranking at all (the flow after it ranked on its own, beside it).
+The guard node and the abort state, joined to nothing else, are laid out apart and put in
+room the rest leaves free (graph_apart.py).
 
 Without `dot` on the PATH (or when it fails) `dot_layout` returns None and the caller falls
 back to the layout of graph_layout.py.
@@ -25,26 +31,29 @@ back to the layout of graph_layout.py.
 from __future__ import annotations
 
 import functools
+import itertools
 import json
 import shutil
 import subprocess
 from dataclasses import dataclass
 
 from .blueprint import panel_zoom
+from .graph_apart import PAIR_GAP, apart_pairs, caption_box, free_spot, without
 from .graph_layout import CAPTION_H, GraphLayout, Level, label_size
 from .graph_routes import bezier_points
 
 __all__ = ["DotLayout", "dot_available", "dot_layout"]
 
-_NODESEP_IN = 0.15
-"""Least gap between neighbours in a rank [in] (11 px)."""
+_NODESEP_IN = 0.1
+"""Least gap between neighbours in a rank [in] (7 px; 11 px made the widest bundled
+expansions 3-5 % wider)."""
 _RANKSEP_IN = 0.15
 """Least gap between ranks [in] with `dot`'s edge labels: `dot` halves it (6 px) and gives
 each edge two ranks, the middle one its label's (or empty)."""
 _LABEL_NODE_RANKSEP_IN = 0.1
 """Least gap between ranks [in] (7 px) with edge labels as nodes: the arrow between two
 states with no label between them (a straight chain, a machine's exit) is this long."""
-_CLUSTER_MARGIN = 8.0
+_CLUSTER_MARGIN = 6.0
 """Room inside a frame around its states [pt = px]."""
 _OUTLINE_PAD = 10.0
 """Rerun outlines each graph entity this far outside its nodes, its path written above [px]."""
@@ -54,6 +63,10 @@ _LABEL_ROOM = 3.0
 state as close; with the room, the drawn arrows (graph_routes.py) pass clear of it."""
 _IN, _OUT = " #in", " #out"
 """The two halves of a labelled edge (source -> label node -> target), by their comments."""
+_EXITS = ("below", "level", "loose")
+"""How a nested machine's exit (an arrow from its final state out of its frame) is ranked:
+at least a rank below the final state (`dot`'s default), on its rank or below (`minlen=0`),
+or not at all (`constraint=false`)."""
 _TIMEOUT_S = 30.0
 """A `dot` run taking longer is taken as failed (the bundled graphs take ~10 ms)."""
 
@@ -99,6 +112,8 @@ def dot_source(
     captions: dict[str, tuple[float, float]],
     straight: bool = False,
     label_nodes: bool = True,
+    exits: str = "below",
+    ordered: bool = False,
 ) -> tuple[str, dict[str, str]]:
     """The DOT text of a machine tree and the dot id of each node.
 
@@ -109,6 +124,9 @@ def dot_source(
         captions: Open nested machine's owner -> its caption's size (w, h) [px].
         straight: Keep the top level's main path (`_spine`) in one column.
         label_nodes: Each edge label a node on its edge (else a label of `dot`'s).
+        exits: How a nested machine's exits without a label are ranked (`_EXITS`).
+        ordered: Keep each node's arrows in their order (`ordering=out`) where `dot` would
+            reorder them to cross fewer.
     """
     ids: dict[str, str] = {}
     columns = _spines(top) if straight else {}
@@ -130,6 +148,7 @@ def dot_source(
     lines = [
         "digraph machine {",
         f"  graph [rankdir=TB, nodesep={_NODESEP_IN}, ranksep={ranksep}, newrank=true, "
+        f"{'ordering=out, ' if ordered else ''}"
         f"margin=0, pad=0, labeljust=l, labelloc=t, fontsize=12];",
         '  node [shape=box, fixedsize=true, label="", margin=0, penwidth=0];',
         "  edge [arrowhead=none, penwidth=1];",
@@ -191,6 +210,8 @@ def dot_source(
         name = src + " -> " + dst
         if label is None or not label_nodes:
             attrs = f", label={_box(*label)}" if label is not None else ""
+            if label is None and exits != "below" and _leaves(chains[src], chains[dst]):
+                attrs += ", minlen=0" if exits == "level" else ", constraint=false"
             lines.append(f"  {ids[src]} -> {ids[dst]} [comment={_quote(name)}{attrs}];")
             continue
         # the label is a node on its edge, where Rerun draws it (source -> label -> target)
@@ -207,6 +228,12 @@ def dot_source(
             lines.append(f"  {ids[top.initial]} -> {ids[node]} [style=invis, minlen=0];")
     lines.append("}")
     return "\n".join(lines) + "\n", ids
+
+
+def _leaves(src: list[int], dst: list[int]) -> bool:
+    """True if an arrow from a node in the frames `src` to one in `dst` leaves a frame for
+    one holding it (a nested machine's exit)."""
+    return len(src) > len(dst) and src[: len(dst)] == dst
 
 
 def _cluster_chains(top: Level) -> dict[str, list[int]]:
@@ -293,8 +320,22 @@ def _spines(top: Level) -> dict[str, int]:
 def run_dot(source: str) -> dict | None:
     """`dot -Tjson` of `source`, parsed (a fresh object each call); None if `dot` is missing
     or fails."""
+    out = run_dots([source])
+    return out[0] if out else None
+
+
+def run_dots(sources: list[str]) -> list[dict] | None:
+    """`dot -Tjson` of each of `sources` (one graph each), in one `dot` run, parsed (fresh
+    objects each call); None if `dot` is missing or fails."""
     try:
-        return json.loads(_dot_json(source))
+        text = _dot_json("".join(sources))
+        decoder, out, at = json.JSONDecoder(), [], 0
+        while len(out) < len(sources):
+            while at < len(text) and text[at].isspace():
+                at += 1
+            graph, at = decoder.raw_decode(text, at)
+            out.append(graph)
+        return out
     except (_DotFailed, json.JSONDecodeError):
         return None
 
@@ -357,17 +398,59 @@ def dot_layout(
         for e, t in edges.items()
     }  # fmt: skip
     caption_boxes = {o: (label_size(t)[0], CAPTION_H) for o, t in captions.items()}
-    best: tuple[float, dict, dict[str, str]] | None = None
-    for label_nodes, straight in ((a, b) for a in (False, True) for b in (False, True)):
-        source, ids = dot_source(top, boxes, label_boxes, caption_boxes, straight, label_nodes)
-        out = run_dot(source)
-        if out is None:
-            return None
-        _, _, w, h = _floats(out["bb"])
-        zoom = panel_zoom((0.0, 0.0, w, h))
-        if best is None or zoom > best[0]:
-            best = (zoom, out, ids)
-    _, out, ids = best
+    pairs = apart_pairs(top, edges)
+    apart = {n for pair in pairs for n in pair}
+    rest = without(top, apart)
+    rest_edges = {e: t for e, t in edges.items() if not apart & set(e)}
+    rest_boxes = {e: label_boxes[e] for e in rest_edges}
+    variants = itertools.product((False, True), (False, True), _EXITS, (False, True))
+    made = [
+        dot_source(rest, boxes, rest_boxes, caption_boxes, straight, label_nodes, exits, ordered)
+        for label_nodes, straight, exits, ordered in variants
+    ]
+    outs = run_dots([source for source, _ in made])
+    if outs is None:
+        return None
+    chains = _cluster_chains(rest)
+    exiting = [e for e, t in rest_edges.items() if t is None and _leaves(*map(chains.get, e))]
+
+    def score(laid: DotLayout) -> tuple[int, float, float]:
+        """The fewest exits upwards (a loose exit may rank the flow after a machine above it:
+        read backwards), the largest zoom; of equal ones (shown at 1), the smallest drawing."""
+        x0, y0, x1, y1 = laid.layout.bounds
+        pos = laid.layout.positions
+        upward = sum(pos[b][1] < pos[a][1] for a, b in exiting)
+        return -upward, panel_zoom((x0, y0, x1, y1)), -(x1 - x0) * (y1 - y0)
+
+    # the pairs put aside only shrink a layout's zoom and grow its drawing: the layouts are
+    # tried best first without them, until none left can beat the best with them
+    read = [
+        (score(_read(out, ids, rest_edges, captions, sizes, caption_boxes, False)), i)
+        for i, ((_, ids), out) in enumerate(zip(made, outs, strict=True))
+    ]
+    best: tuple[tuple[int, float, float], DotLayout] | None = None
+    for bound, i in sorted(read, key=lambda r: (r[0], -r[1]), reverse=True):
+        if best is not None and best[0] >= bound:
+            break
+        laid = _read(outs[i], made[i][1], rest_edges, captions, sizes, caption_boxes)
+        _put_apart(laid, pairs, sizes, boxes, label_boxes)
+        _clear_the_outline_caption(top, laid.layout.positions, boxes, laid.layout.groups)
+        if best is None or score(laid) > best[0]:
+            best = (score(laid), laid)
+    return best[1]
+
+
+def _read(
+    out: dict,
+    ids: dict[str, str],
+    edges: dict[tuple[str, str], str | None],
+    captions: dict[str, str],
+    sizes: dict[str, tuple[float, float]],
+    caption_boxes: dict[str, tuple[float, float]],
+    routed: bool = True,
+) -> DotLayout:
+    """The layout in `dot`'s output `out` of a source whose node ids are `ids` (the edges'
+    splines only if `routed`)."""
     height = _floats(out["bb"])[3]
 
     def flip(x: float, y: float) -> tuple[float, float]:
@@ -401,7 +484,7 @@ def dot_layout(
             placed[tuple(comment.partition(" -> ")[::2])] = flip(*_floats(spot))
         half = next((h for h in (_IN, _OUT) if comment.endswith(h)), "")
         src, _, dst = comment.removesuffix(half).partition(" -> ")
-        if (src, dst) not in edges:
+        if (src, dst) not in edges or not routed:
             continue
         # `pos`: the spline's points ("e,x,y" / "s,x,y" would be arrow ends: none are drawn)
         controls = [flip(*_floats(p)) for p in edge.get("pos", "").split() if p[:2] not in
@@ -413,9 +496,41 @@ def dot_layout(
             splines[key] = parts[""]
         elif _IN in parts and _OUT in parts:
             splines[key] = parts[_IN] + parts[_OUT]
-    _clear_the_outline_caption(top, positions, boxes, groups)
     widths = {o: w for o, (w, _) in caption_boxes.items()}
-    return DotLayout(GraphLayout(positions, groups, sizes, widths), placed, splines)
+    shown = {n: sizes[n] for n in positions}
+    return DotLayout(GraphLayout(positions, groups, shown, widths), placed, splines)
+
+
+def _put_apart(
+    laid: DotLayout,
+    pairs: list[tuple[str, str]],
+    sizes: dict[str, tuple[float, float]],
+    boxes: dict[str, tuple[float, float]],
+    label_boxes: dict[tuple[str, str], tuple[float, float] | None],
+) -> None:
+    """Put each pair laid out apart (graph_apart.py) in room the layout leaves free, the
+    first state above the second (`sizes`: as drawn unlit, `boxes`: the room taken lit)."""
+    lay = laid.layout
+    for a, b in pairs:
+        taken = [_rect(lay.positions[n], boxes[n]) for n in lay.positions]
+        taken += [_rect(at, label_boxes[e] or (0.0, 0.0)) for e, at in laid.edge_labels.items()]
+        taken += [caption_box(f, lay.captions.get(o, 0.0)) for o, f in lay.groups.items()]
+        lines = list(laid.splines.values())
+        for src, dst in label_boxes:
+            if src in lay.positions and dst in lay.positions:
+                via = [laid.edge_labels[(src, dst)]] if (src, dst) in laid.edge_labels else []
+                lines.append([lay.positions[src], *via, lay.positions[dst]])
+        (wa, ha), (wb, hb) = boxes[a], boxes[b]
+        x, y = free_spot((boxes[a], boxes[b]), taken, lines, panel_zoom, bool(lay.groups))
+        w = max(wa, wb)
+        lay.positions[a] = (x + w / 2, y + ha / 2)
+        lay.positions[b] = (x + w / 2, y + ha + PAIR_GAP + hb / 2)
+        lay.sizes[a], lay.sizes[b] = sizes[a], sizes[b]
+
+
+def _rect(center: tuple[float, float], size: tuple[float, float]) -> tuple[float, ...]:
+    (x, y), (w, h) = center, size
+    return (x - w / 2, y - h / 2, x + w / 2, y + h / 2)
 
 
 def _clear_the_outline_caption(

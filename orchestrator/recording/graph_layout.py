@@ -15,12 +15,15 @@ pixel at zoom 1 (the view fits the whole graph in its panel, and never zooms in 
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from grandalf.graphs import Edge, Vertex, graph_core
 from grandalf.layouts import SugiyamaLayout
+
+from .graph_loops import feedback_edges
 
 __all__ = ["CAPTION_H", "FONT_PX", "GraphLayout", "Level", "label_size", "layered_layout"]
 
@@ -468,7 +471,7 @@ def _part_layout(
     roots = [v for v in part.sV if v.data == level.initial]
     if not roots:
         roots = [v for v in part.sV if not v.e_in()] or [part.sV[0]]
-    layout.init_all(roots=roots)
+    layout.init_all(roots=roots, inverted_edges=feedback_edges(part, roots))
     layout.draw(3)
     vs = list(part.sV)
     ys = {v.data: v.view.xy[1] for v in vs}
@@ -553,14 +556,22 @@ def _crossings(
     groups: set[str],
 ) -> int:
     """How many (segment, label) pairs overlap: a straight line through a label it does not
-    join (each segment names the nodes it joins)."""
+    join (each segment names the nodes it joins). Only the labels within a segment's height
+    are looked at (the labels sorted by their tops): a long chain is not a square's work."""
+    rects = sorted(
+        (cy - h / 2, cy + h / 2, cx - w / 2, cx + w / 2, node)
+        for node, (cx, cy) in pos.items()
+        if node not in groups
+        for w, h in [box[node]]
+    )
+    tops = [r[0] for r in rects]
+    tallest = max((r[1] - r[0] for r in rects), default=0.0)
     n = 0
     for (ax, ay), (bx, by), ends in segments:
-        for node, (cx, cy) in pos.items():
-            if node in ends or node in groups:
-                continue
-            w, h = box[node]
-            if _segment_hits(ax, ay, bx, by, cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2):
+        lo = bisect.bisect_left(tops, min(ay, by) - tallest)
+        hi = bisect.bisect_right(tops, max(ay, by))
+        for y0, y1, x0, x1, node in rects[lo:hi]:
+            if node not in ends and _segment_hits(ax, ay, bx, by, x0, y0, x1, y1):
                 n += 1
     return n
 

@@ -10,8 +10,9 @@ the recording switches between them as the run enters states in other nested mac
 Where a state branches (its arrows lead to more than one state), each arrow carries the
 outcomes that take it (merged when several lead to the same state; past two, counted), as a
 small label on or beside the arrow; a chain of single arrows needs none. A state with
-`retry: N` has a loop labelled `retry N`; guards declared on a state are a second line of its
-label. Nothing here knows about Rerun.
+`retry: N` has a loop labelled `retry N`; guards declared on a state follow its name on its
+label's line (a second line made each guarded state of a chain a rank 16 px taller, and the
+graphs are shown at the zoom their height allows). Nothing here knows about Rerun.
 """
 
 from __future__ import annotations
@@ -149,7 +150,7 @@ def expansion_view(
     for node in shown:
         text = names[node] + (COLLAPSED if node in composites and node not in open_ else "")
         if guards.get(node):
-            text += "\nguards: " + ", ".join(guards[node])
+            text += "  guards: " + ", ".join(guards[node])
         labels[node] = text
     merged: dict[tuple[str, str], list[str]] = {}
     for (src, dst), outs in outcomes.items():
