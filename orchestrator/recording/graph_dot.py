@@ -69,6 +69,11 @@ at least a rank below the final state (`dot`'s default), on its rank or below (`
 or not at all (`constraint=false`)."""
 _TIMEOUT_S = 30.0
 """A `dot` run taking longer is taken as failed (the bundled graphs take ~10 ms)."""
+_MANY_WAYS_NODES = 150
+"""Above this many boxes an expansion is laid out one way only: the ways are tried for a
+graph that fits a panel readably (a bundled machine has 10-40); 24 ways of a 1,500-state
+chain took 15 s of `dot` on a quiet host and ran past `_TIMEOUT_S` under load, falling back
+to the built-in layout."""
 
 
 @dataclass(frozen=True)
@@ -403,7 +408,9 @@ def dot_layout(
     rest = without(top, apart)
     rest_edges = {e: t for e, t in edges.items() if not apart & set(e)}
     rest_boxes = {e: label_boxes[e] for e in rest_edges}
-    variants = itertools.product((False, True), (False, True), _EXITS, (False, True))
+    variants = list(itertools.product((False, True), (False, True), _EXITS, (False, True)))
+    if len(labels) > _MANY_WAYS_NODES:  # too large to read at any zoom: one way, not 24
+        variants = variants[:1]
     made = [
         dot_source(rest, boxes, rest_boxes, caption_boxes, straight, label_nodes, exits, ordered)
         for label_nodes, straight, exits, ordered in variants
