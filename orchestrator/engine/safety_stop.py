@@ -20,6 +20,8 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from ..robots.controller import ControlMode
+
 if TYPE_CHECKING:
     from ..language.scenario import SafeStop
     from .context import Context
@@ -28,6 +30,9 @@ __all__ = ["BRAKE_TRACKING_RAD", "REST_STEPS", "SafetyStop", "profile_distance_m
 
 BRAKE_TRACKING_RAD = 0.05
 """A held joint this far from where it is held gets its holding brake [rad]."""
+HELD_STOP_RAD = 0.01
+"""A normal stop of an arm held (HOLD) within this of its setpoint on every joint keeps it held
+there rather than braking from the measured state [rad]."""
 REST_STEPS = 5
 """Physics steps in a row every arm joint must stay below the rest speed for the stop to be
 over (10 ms): a push still acting when the stop began slipped a wrist brake for one step at
@@ -108,8 +113,17 @@ class SafetyStop:
             ctx.cell.encoders.failover()
         q, qd = ctx.cell.encoders.safety_channel()
         n = ctx.robot.n_arm
-        if gentle and float(np.max(np.abs(qd[:n]))) < self.config.rest_speed_rad_s:
-            ctx.controller.hold_setpoint()  # already still: keep its setpoint (brought to rest)
+        ctrl = ctx.controller
+        held = ctrl.mode is ControlMode.HOLD and bool(
+            np.all(np.abs(ctrl.q_d - q[:n]) < HELD_STOP_RAD)
+        )
+        if gentle and (held or float(np.max(np.abs(qd[:n]))) < self.config.rest_speed_rad_s):
+            # still, or held where it is by the joint impedance: it stays held, with what the
+            # spring carried. Braked from the measured state instead (a velocity servo with
+            # no spring), a wrist held against the SO-101's jaw pushing a cube that stuck
+            # lost the spring's torque in one step: joint 3 at 1.13x its datasheet
+            # acceleration in a time-limit stop during CLOSE
+            ctrl.hold_setpoint()
         else:
             # a normal stop within the limits the commands keep to (the arm overshoots a
             # profile at the datasheet limit by ~20 %); an abort at the safety stop's own
