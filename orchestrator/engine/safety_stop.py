@@ -31,8 +31,12 @@ __all__ = ["BRAKE_TRACKING_RAD", "REST_STEPS", "SafetyStop", "profile_distance_m
 BRAKE_TRACKING_RAD = 0.05
 """A held joint this far from where it is held gets its holding brake [rad]."""
 HELD_STOP_RAD = 0.01
-"""A normal stop of an arm held (HOLD) within this of its setpoint on every joint keeps it held
-there rather than braking from the measured state [rad]."""
+"""A normal stop of an arm held (HOLD) within this of its setpoint on every joint, and slower
+than `HELD_STOP_RAD_S`, keeps it held there rather than braking from the measured state [rad]
+(a skill that ended mid-motion leaves HOLD at the measured angles with the arm still moving:
+that one is braked)."""
+HELD_STOP_RAD_S = 0.05
+"""See `HELD_STOP_RAD` [rad/s] (the SO-101's wrist, held against its jaw: 0.018)."""
 REST_STEPS = 5
 """Physics steps in a row every arm joint must stay below the rest speed for the stop to be
 over (10 ms): a push still acting when the stop began slipped a wrist brake for one step at
@@ -114,8 +118,10 @@ class SafetyStop:
         q, qd = ctx.cell.encoders.safety_channel()
         n = ctx.robot.n_arm
         ctrl = ctx.controller
-        held = ctrl.mode is ControlMode.HOLD and bool(
-            np.all(np.abs(ctrl.q_d - q[:n]) < HELD_STOP_RAD)
+        held = (
+            ctrl.mode is ControlMode.HOLD
+            and bool(np.all(np.abs(ctrl.q_d - q[:n]) < HELD_STOP_RAD))
+            and float(np.max(np.abs(qd[:n]))) < HELD_STOP_RAD_S
         )
         if gentle and (held or float(np.max(np.abs(qd[:n]))) < self.config.rest_speed_rad_s):
             # still, or held where it is by the joint impedance: it stays held, with what the
