@@ -122,17 +122,7 @@ def fit_path_to_joints(ik: IKSolver, path: BlendedPath, q0: np.ndarray, passes: 
     v_max = MARGIN * ik.limiter.v_max
     a_max = MARGIN * ik.limiter.a_max
     for _ in range(passes):
-        steps = max(3, math.ceil(path.duration / dt) + 1)
-        ik.reset(q0)
-        s = np.empty(steps + 1)
-        s[0] = 0.0
-        v = np.empty((steps, ik.n))
-        for i in range(steps):
-            t = (i + 1) * dt
-            s[i + 1] = path.progress(t)
-            pos, rot = path.sample_so3(t)
-            v[i] = ik.reference_step(pos, rot, dt)
-        ik.reset(q0)
+        s, v = _reference_along(ik, path, q0, dt)
         sdot = np.diff(s) / dt
         moving = sdot > 0.02  # dq/ds is noise where the path barely moves
         if np.count_nonzero(moving) < 3:
@@ -175,17 +165,7 @@ def slow_where_exceeded(
     v_lim = MARGIN * ik.limiter.v_max
     a_lim = MARGIN * ik.limiter.a_max
     for _ in range(passes):
-        steps = max(3, math.ceil(path.duration / dt) + 1)
-        ik.reset(q0)
-        s = np.empty(steps + 1)
-        s[0] = 0.0
-        v = np.empty((steps, ik.n))
-        for i in range(steps):
-            t = (i + 1) * dt
-            s[i + 1] = path.progress(t)
-            pos, rot = path.sample_so3(t)
-            v[i] = ik.reference_step(pos, rot, dt)
-        ik.reset(q0)
+        s, v = _reference_along(ik, path, q0, dt)
         acc = np.diff(v, axis=0, prepend=np.zeros((1, ik.n))) / dt
         # the excess over what `feasible_time_scale` tolerates (the limiter absorbs it)
         k_v = np.max(np.abs(v) / v_lim, axis=1) / _FEASIBLE
@@ -210,3 +190,23 @@ def slow_where_exceeded(
         return stretch
     path.set_limits(before)
     return whole / path.duration
+
+
+def _reference_along(
+    ik: IKSolver, path: BlendedPath, q0: np.ndarray, dt: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The IK's reference run along `path` from `q0` every `dt` [s]: the path's progress at
+    each sample (from 0, one more than the samples) and the reference's joint velocity over
+    each [rad/s]. The IK is reset to `q0` before and after."""
+    steps = max(3, math.ceil(path.duration / dt) + 1)
+    ik.reset(q0)
+    s = np.empty(steps + 1)
+    s[0] = 0.0
+    v = np.empty((steps, ik.n))
+    for i in range(steps):
+        t = (i + 1) * dt
+        s[i + 1] = path.progress(t)
+        pos, rot = path.sample_so3(t)
+        v[i] = ik.reference_step(pos, rot, dt)
+    ik.reset(q0)
+    return s, v
