@@ -75,31 +75,20 @@ def test_a_path_slowed_where_it_exceeds_is_within_the_limits_and_faster_than_slo
     durations = {}
     for mode in ("whole", "where", "where, turning"):
         turn = 0.6 if mode == "where, turning" else 0.0  # the wrist's turn limits it there
-        path = BlendedPath(
-            np.array([p0, grasp + [0.0, 0.0, 0.1], grasp]),
-            rot,
-            rot_down(turn),
-            1.0,
-            6.0,
-            2.0,
-            8.0,
-            0.04,
-        )
+
+        def approach(turn: float = turn) -> BlendedPath:
+            return BlendedPath(
+                np.array([p0, grasp + [0.0, 0.0, 0.1], grasp]),
+                rot, rot_down(turn), 1.0, 6.0, 2.0, 8.0, 0.04,
+            )  # fmt: skip
+
+        path = approach()
         fit_path_to_joints(ik, path, q0)
         if mode.startswith("where"):
             stretch = slow_where_exceeded(ik, path, q0)
             # never slower than the path slowed as a whole
             whole = path.duration * stretch
-            fitted = BlendedPath(
-                np.array([p0, grasp + [0.0, 0.0, 0.1], grasp]),
-                rot,
-                rot_down(turn),
-                1.0,
-                6.0,
-                2.0,
-                8.0,
-                0.04,
-            )
+            fitted = approach()
             fit_path_to_joints(ik, fitted, q0)
             assert whole <= fitted.duration * feasible_time_scale(ik, fitted, q0) + 1e-9
             np.testing.assert_array_equal(ik.q, q0)  # the dry runs leave the IK where it was
